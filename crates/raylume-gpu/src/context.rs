@@ -1,0 +1,383 @@
+use std::sync::{Arc, Mutex};
+
+use wgpu::util::DeviceExt;
+
+use crate::GpuError;
+
+/// Which adapters [`GpuContext::new`] may pick.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum AdapterChoice {
+    /// Hardware adapters only (discrete, integrated or virtual GPUs). This is what the
+    /// `Auto` backend uses: on a machine whose only adapter is a software rasteriser such as
+    /// lavapipe, raylume's own CPU path is the faster choice.
+    HardwareOnly,
+    /// Any adapter, software ones (lavapipe, `DeviceType::Cpu`) included, still ranked
+    /// hardware first. What an explicit `--backend gpu` and the tests use.
+    #[default]
+    Any,
+}
+
+/// Options for [`GpuContext::new`]. `Copy`-free because of the name filter; cheap to clone.
+#[derive(Clone, Debug, Default)]
+pub struct ContextOptions {
+    /// Which adapters qualify.
+    pub choice: AdapterChoice,
+    /// Keep only adapters whose name contains this text (case-insensitive). `None` reads the
+    /// environment variable `RAYLUME_ADAPTER`, if set.
+    pub adapter_name: Option<String>,
+}
+
+/// What was picked, for logs and the `--stats` JSON.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GpuInfo {
+    /// Adapter name as the driver reports it, e.g. `NVIDIA H100 80GB HBM3` or `llvmpipe (...)`.
+    pub name: String,
+    /// `Vulkan`, `Gl`, ...
+    pub backend: String,
+    /// `DiscreteGpu`, `Cpu`, ...
+    pub device_type: String,
+    /// Driver name and version.
+    pub driver: String,
+    /// True for software adapters (lavapipe and the like).
+    pub is_software: bool,
+}
+
+/// A wgpu device and queue with the adapter's limits, the optional features raylume uses, and
+/// typed error capture. Cheap to share by reference; all methods take `&self`.
+pub struct GpuContext {
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: GpuInfo,
+    /// The limits the device was created with: the adapter's own, not wgpu's defaults.
+    pub limits: wgpu::Limits,
+    /// The features the device was created with (a subset of [`GpuContext::WANTED_FEATURES`]).
+    pub features: wgpu::Features,
+    lost: Arc<Mutex<Option<String>>>,
+    uncaptured: Arc<Mutex<Option<wgpu::Error>>>,
+}
+
+impl std::fmt::Debug for GpuContext {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuContext")
+            .field("info", &self.info)
+            .finish()
+    }
+}
+
+fn type_rank(t: wgpu::DeviceType) -> u32 {
+    match t {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Other => 3,
+        wgpu::DeviceType::Cpu => 4,
+    }
+}
+
+fn backend_rank(b: wgpu::Backend) -> u32 {
+    match b {
+        wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
+        _ => 1,
+    }
+}
+
+impl GpuContext {
+    /// Optional features raylume uses when the adapter has them.
+    pub const WANTED_FEATURES: wgpu::Features = wgpu::Features::TIMESTAMP_QUERY
+        .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS)
+        .union(wgpu::Features::SUBGROUP);
+
+    /// Picks the best adapter allowed by `opts` (discrete GPU first, then integrated, virtual,
+    /// other, software; Vulkan/Metal/DX12 before GL) and creates a device with the adapter's
+    /// full limits.
+    pub fn new(opts: &ContextOptions) -> Result<Self, GpuError> {
+        // Vulkan/Metal/DX12 first; GL only when they offer nothing (initialising EGL prints
+        // noise on headless machines and is never the better choice).
+        let mut adapters = Vec::new();
+        for backends in backend_order() {
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+            desc.backends = backends;
+            let instance = wgpu::Instance::new(desc);
+            adapters = pollster::block_on(instance.enumerate_adapters(backends));
+            if !adapters.is_empty() {
+                break;
+            }
+        }
+        let name_filter = opts
+            .adapter_name
+            .clone()
+            .or_else(|| std::env::var("RAYLUME_ADAPTER").ok())
+            .map(|s| s.to_lowercase());
+        let seen: Vec<String> = adapters
+            .iter()
+            .map(|a| {
+                let i = a.get_info();
+                format!("{} [{:?}, {:?}]", i.name, i.backend, i.device_type)
+            })
+            .collect();
+        let mut candidates: Vec<wgpu::Adapter> = adapters
+            .into_iter()
+            .filter(|a| {
+                let i = a.get_info();
+                let type_ok =
+                    opts.choice == AdapterChoice::Any || i.device_type != wgpu::DeviceType::Cpu;
+                let name_ok = name_filter
+                    .as_ref()
+                    .is_none_or(|f| i.name.to_lowercase().contains(f.as_str()));
+                type_ok && name_ok
+            })
+            .collect();
+        candidates.sort_by_key(|a| {
+            let i = a.get_info();
+            (type_rank(i.device_type), backend_rank(i.backend))
+        });
+        let Some(adapter) = candidates.into_iter().next() else {
+            let tried = if seen.is_empty() {
+                "wgpu saw no adapter at all".to_string()
+            } else {
+                format!("seen but not allowed: {}", seen.join("; "))
+            };
+            return Err(GpuError::NoAdapter { tried });
+        };
+        Self::from_adapter(adapter)
+    }
+
+    /// Creates the device on a given adapter.
+    pub fn from_adapter(adapter: wgpu::Adapter) -> Result<Self, GpuError> {
+        let ai = adapter.get_info();
+        let limits = adapter.limits();
+        let features = adapter.features() & Self::WANTED_FEATURES;
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("raylume"),
+            required_features: features,
+            required_limits: limits.clone(),
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| GpuError::RequestDevice {
+            adapter: ai.name.clone(),
+            reason: e.to_string(),
+        })?;
+        let lost = Arc::new(Mutex::new(None));
+        let lost_cb = lost.clone();
+        device.set_device_lost_callback(move |reason, msg| {
+            if let Ok(mut l) = lost_cb.lock() {
+                *l = Some(format!("{reason:?}: {msg}"));
+            }
+        });
+        let uncaptured = Arc::new(Mutex::new(None));
+        let uncaptured_cb = uncaptured.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            if let Ok(mut u) = uncaptured_cb.lock() {
+                u.get_or_insert(e);
+            }
+        }));
+        let info = GpuInfo {
+            name: ai.name.clone(),
+            backend: format!("{:?}", ai.backend),
+            device_type: format!("{:?}", ai.device_type),
+            driver: format!("{} {}", ai.driver, ai.driver_info)
+                .trim()
+                .to_string(),
+            is_software: ai.device_type == wgpu::DeviceType::Cpu,
+        };
+        Ok(Self {
+            adapter,
+            device,
+            queue,
+            info,
+            limits,
+            features,
+            lost,
+            uncaptured,
+        })
+    }
+
+    /// One line naming the adapter, for logs: `NVIDIA H100 80GB HBM3 (Vulkan, DiscreteGpu)`.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({}, {})",
+            self.info.name, self.info.backend, self.info.device_type
+        )
+    }
+
+    /// True when pass-boundary timestamps can be written.
+    pub fn has_timestamps(&self) -> bool {
+        self.features.contains(wgpu::Features::TIMESTAMP_QUERY)
+    }
+
+    /// True when WGSL subgroup builtins may be used.
+    pub fn has_subgroups(&self) -> bool {
+        self.features.contains(wgpu::Features::SUBGROUP)
+    }
+
+    /// The largest storage buffer binding, in bytes.
+    pub fn max_binding_bytes(&self) -> u64 {
+        u64::from(self.limits.max_storage_buffer_binding_size).min(self.limits.max_buffer_size)
+    }
+
+    /// Fails with [`GpuError::TooLarge`] when `bytes` exceed one storage binding.
+    pub fn check_fits(&self, what: &str, bytes: u64) -> Result<(), GpuError> {
+        let limit = self.max_binding_bytes();
+        if bytes > limit {
+            return Err(GpuError::TooLarge {
+                what: what.to_string(),
+                bytes,
+                limit,
+                adapter: self.info.name.clone(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Runs `f` (which records and submits GPU work) under out-of-memory, validation and
+    /// internal error scopes, and turns whatever they caught, a device loss, or an error that
+    /// escaped to the uncaptured handler, into a [`GpuError`] naming `during`.
+    pub fn scoped<T>(&self, during: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+        let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
+        let val = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let internal = self.device.push_error_scope(wgpu::ErrorFilter::Internal);
+        let out = f();
+        let e_internal = pollster::block_on(internal.pop());
+        let e_val = pollster::block_on(val.pop());
+        let e_oom = pollster::block_on(oom.pop());
+        self.check_health(during)?;
+        if let Some(e) = e_oom.or(e_val).or(e_internal) {
+            return Err(GpuError::from_wgpu(during, e));
+        }
+        Ok(out)
+    }
+
+    /// Fails if the device was lost or an error escaped the error scopes.
+    pub fn check_health(&self, during: &str) -> Result<(), GpuError> {
+        if let Some(msg) = self.lost.lock().ok().and_then(|l| l.clone()) {
+            return Err(GpuError::DeviceLost {
+                during: during.to_string(),
+                detail: msg,
+            });
+        }
+        if let Some(e) = self.uncaptured.lock().ok().and_then(|mut u| u.take()) {
+            return Err(GpuError::from_wgpu(during, e));
+        }
+        Ok(())
+    }
+
+    /// Blocks until all submitted work is done.
+    pub fn wait(&self, during: &str) -> Result<(), GpuError> {
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: None,
+                timeout: None,
+            })
+            .map_err(|e| GpuError::Poll {
+                during: during.to_string(),
+                detail: e.to_string(),
+            })?;
+        self.check_health(during)
+    }
+
+    /// A storage buffer initialised from `data` (at least 4 bytes: empty slices get one zero
+    /// word so that bindings stay valid). Checks the binding limit first.
+    pub fn storage_buffer<T: bytemuck::Pod>(
+        &self,
+        label: &str,
+        data: &[T],
+        extra_usage: wgpu::BufferUsages,
+    ) -> Result<wgpu::Buffer, GpuError> {
+        let bytes: &[u8] = bytemuck::cast_slice(data);
+        self.check_fits(label, bytes.len() as u64)?;
+        let zero = [0u8; 16];
+        let contents = if bytes.is_empty() { &zero[..] } else { bytes };
+        self.scoped(label, || {
+            self.device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(label),
+                    contents,
+                    usage: wgpu::BufferUsages::STORAGE | extra_usage,
+                })
+        })
+    }
+
+    /// An uninitialised (zeroed) storage buffer of `bytes` bytes (rounded up to 16).
+    pub fn storage_buffer_zeroed(
+        &self,
+        label: &str,
+        bytes: u64,
+        extra_usage: wgpu::BufferUsages,
+    ) -> Result<wgpu::Buffer, GpuError> {
+        self.check_fits(label, bytes)?;
+        let size = bytes.max(16).div_ceil(16) * 16;
+        self.scoped(label, || {
+            self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::STORAGE | extra_usage,
+                mapped_at_creation: false,
+            })
+        })
+    }
+
+    /// Copies the first `count` elements of `buffer` (which needs `COPY_SRC`) back to the CPU.
+    pub fn read_buffer<T: bytemuck::Pod>(
+        &self,
+        buffer: &wgpu::Buffer,
+        count: usize,
+    ) -> Result<Vec<T>, GpuError> {
+        let bytes = (count * std::mem::size_of::<T>()) as u64;
+        if bytes == 0 {
+            return Ok(Vec::new());
+        }
+        let padded = bytes.div_ceil(wgpu::COPY_BUFFER_ALIGNMENT) * wgpu::COPY_BUFFER_ALIGNMENT;
+        let label = "read-back".to_string();
+        let staging = self.scoped(&label, || {
+            let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("raylume read-back"),
+                size: padded,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let mut enc = self.device.create_command_encoder(&Default::default());
+            enc.copy_buffer_to_buffer(buffer, 0, &staging, 0, padded);
+            self.queue.submit([enc.finish()]);
+            staging
+        })?;
+        let (tx, rx) = std::sync::mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        self.wait(&label)?;
+        match rx.recv() {
+            Ok(Ok(())) => {}
+            Ok(Err(e)) => {
+                return Err(GpuError::Map {
+                    during: label,
+                    detail: e.to_string(),
+                });
+            }
+            Err(_) => {
+                return Err(GpuError::Map {
+                    during: label,
+                    detail: "the map callback never ran".into(),
+                });
+            }
+        }
+        let view = staging.get_mapped_range(..).map_err(|e| GpuError::Map {
+            during: label.clone(),
+            detail: e.to_string(),
+        })?;
+        let out = bytemuck::cast_slice::<u8, T>(&view[..bytes as usize]).to_vec();
+        drop(view);
+        staging.unmap();
+        Ok(out)
+    }
+}
+
+/// The backend sets to try in order: `WGPU_BACKEND` if set, else the primary ones, then GL.
+fn backend_order() -> Vec<wgpu::Backends> {
+    match wgpu::Backends::from_env() {
+        Some(b) => vec![b],
+        None => vec![wgpu::Backends::PRIMARY, wgpu::Backends::GL],
+    }
+}

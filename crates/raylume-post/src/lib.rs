@@ -1,0 +1,1 @@
+//! raylume-post: bloom and tone mapping on GPU (WGSL) and CPU (rayon), and image metrics.

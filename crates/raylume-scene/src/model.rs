@@ -1,0 +1,304 @@
+//! The scene model every loader produces and every backend consumes.
+//!
+//! Plain data: world-space triangles and spheres, a material table, textures, a camera,
+//! render settings, an environment and post effects. Loaders (`toml`, `obj`, `gltf`,
+//! `tungsten`) fill it; [`Scene::validate`] checks it; [`Scene::features`] says what it uses.
+
+use glam::{Vec2, Vec3};
+
+/// A pinhole camera.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    pub look_at: Vec3,
+    /// Up hint; need not be orthogonal to the view direction, must not be parallel to it.
+    pub up: Vec3,
+    /// Vertical field of view in degrees, in (0, 180).
+    pub vfov: f32,
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Self {
+            position: Vec3::new(0.0, 0.0, 5.0),
+            look_at: Vec3::ZERO,
+            up: Vec3::Y,
+            vfov: 45.0,
+        }
+    }
+}
+
+/// Image size and sampling. Command-line flags override the scene's values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Samples (camera rays) per pixel.
+    pub spp: u32,
+    /// Bounces after the camera ray: 10 means a path has at most 11 segments.
+    pub max_bounces: u32,
+    pub seed: u32,
+}
+
+impl RenderSettings {
+    /// The paper's setting: 1000x1000, 10 bounces (spp varies: 1, 10, 100).
+    pub const fn paper(spp: u32) -> Self {
+        Self {
+            width: 1000,
+            height: 1000,
+            spp,
+            max_bounces: 10,
+            seed: 0,
+        }
+    }
+
+    /// A small, fast preview (tests, lavapipe).
+    pub const fn preview() -> Self {
+        Self {
+            width: 64,
+            height: 64,
+            spp: 4,
+            max_bounces: 4,
+            seed: 0,
+        }
+    }
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            width: 512,
+            height: 512,
+            spp: 16,
+            max_bounces: 10,
+            seed: 0,
+        }
+    }
+}
+
+/// How a surface scatters light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MaterialKind {
+    /// Lambertian, cosine-weighted sampling.
+    Diffuse,
+    /// Conductor: perfect mirror at roughness 0, GGX microfacets above.
+    Metal,
+    /// Smooth dielectric: Fresnel reflection and refraction, tinted transmission.
+    Glass,
+}
+
+/// One entry of the material table. Every material may emit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Name from the scene file (for error messages and warnings).
+    pub name: String,
+    pub kind: MaterialKind,
+    /// Reflectance (diffuse, metal). Linear RGB in [0, 1].
+    pub albedo: Vec3,
+    /// Emitted radiance, linear RGB, >= 0.
+    pub emission: Vec3,
+    /// Metal roughness in [0, 1] (GGX alpha = roughness^2). 0 is a perfect mirror.
+    pub roughness: f32,
+    /// Glass index of refraction, > 0.
+    pub ior: f32,
+    /// Glass transmission tint, linear RGB in [0, 1].
+    pub tint: Vec3,
+    /// Albedo texture (index into [`Scene::textures`]), multiplied with `albedo`.
+    pub albedo_texture: Option<u32>,
+}
+
+impl Material {
+    pub fn diffuse(name: &str, albedo: Vec3) -> Self {
+        Self {
+            name: name.to_string(),
+            kind: MaterialKind::Diffuse,
+            albedo,
+            emission: Vec3::ZERO,
+            roughness: 1.0,
+            ior: 1.5,
+            tint: Vec3::ONE,
+            albedo_texture: None,
+        }
+    }
+
+    pub fn metal(name: &str, albedo: Vec3, roughness: f32) -> Self {
+        Self {
+            kind: MaterialKind::Metal,
+            roughness,
+            ..Self::diffuse(name, albedo)
+        }
+    }
+
+    pub fn glass(name: &str, ior: f32, tint: Vec3) -> Self {
+        Self {
+            kind: MaterialKind::Glass,
+            ior,
+            tint,
+            ..Self::diffuse(name, Vec3::ONE)
+        }
+    }
+
+    pub fn emissive(name: &str, emission: Vec3) -> Self {
+        Self {
+            emission,
+            ..Self::diffuse(name, Vec3::ZERO)
+        }
+    }
+
+    pub fn is_emissive(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+}
+
+/// An RGBA texture, stored as linear RGB floats (sRGB-decoded on load) for bit-identical
+/// lookups on CPU and GPU.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    /// Source file, for messages.
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    /// Row-major, top row first, `width * height` texels, linear RGB.
+    pub texels: Vec<[f32; 3]>,
+}
+
+/// One world-space triangle.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    pub positions: [Vec3; 3],
+    /// Per-vertex shading normals (unit length), if the source had them.
+    pub normals: Option<[Vec3; 3]>,
+    /// Per-vertex texture coordinates, if the source had them.
+    pub uvs: Option<[Vec2; 3]>,
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+}
+
+impl Triangle {
+    /// A triangle with no shading normals and no uvs.
+    pub fn flat(positions: [Vec3; 3], material: u32) -> Self {
+        Self {
+            positions,
+            normals: None,
+            uvs: None,
+            material,
+        }
+    }
+
+    /// Twice the area (length of the geometric normal before normalising).
+    pub fn double_area(&self) -> f32 {
+        let [a, b, c] = self.positions;
+        (b - a).cross(c - a).length()
+    }
+}
+
+/// An analytic sphere.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    pub center: Vec3,
+    pub radius: f32,
+    pub material: u32,
+}
+
+/// Light from infinitely far away.
+#[derive(Clone, Debug, PartialEq, Default)]
+pub enum Environment {
+    /// Nothing: escaping rays carry no light.
+    #[default]
+    Black,
+    /// The same radiance in every direction.
+    Constant(Vec3),
+    /// An equirectangular map (longitude along x, +y up at the top row).
+    Map {
+        image: Texture,
+        /// Multiplier on the map's radiance.
+        strength: f32,
+        /// Rotation about +y, degrees.
+        rotation: f32,
+    },
+}
+
+/// Bloom, the paper's post effect: pixels above `threshold` are blurred by two box passes of
+/// half-width `radius` and added back times `strength`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bloom {
+    pub threshold: f32,
+    pub radius: u32,
+    pub strength: f32,
+}
+
+/// Post effects. Absent effects run no pass at all.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct PostSettings {
+    pub bloom: Option<Bloom>,
+}
+
+/// A loaded, validated scene.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    pub camera: Camera,
+    pub render: RenderSettings,
+    pub environment: Environment,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub triangles: Vec<Triangle>,
+    pub spheres: Vec<Sphere>,
+    pub post: PostSettings,
+    /// What the loaders had to approximate or drop (unknown material types mapped to the
+    /// nearest one, degenerate triangles dropped, ...). Never silent: the `render` command
+    /// prints them.
+    pub warnings: Vec<String>,
+}
+
+/// Axis-aligned bounds of the scene's geometry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Bounds {
+    pub const EMPTY: Bounds = Bounds {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    pub fn grow(&mut self, p: Vec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.min.cmpgt(self.max).any()
+    }
+
+    pub fn extent(&self) -> Vec3 {
+        if self.is_empty() {
+            Vec3::ZERO
+        } else {
+            self.max - self.min
+        }
+    }
+}
+
+impl Scene {
+    /// Bounds of all triangles and spheres.
+    pub fn bounds(&self) -> Bounds {
+        let mut b = Bounds::EMPTY;
+        for t in &self.triangles {
+            for p in t.positions {
+                b.grow(p);
+            }
+        }
+        for s in &self.spheres {
+            b.grow(s.center - Vec3::splat(s.radius));
+            b.grow(s.center + Vec3::splat(s.radius));
+        }
+        b
+    }
+
+    /// Number of primitives (triangles + spheres).
+    pub fn primitive_count(&self) -> usize {
+        self.triangles.len() + self.spheres.len()
+    }
+}
