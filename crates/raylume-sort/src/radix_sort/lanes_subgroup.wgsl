@@ -1,0 +1,120 @@
+// raylume-sort radix sort: thread numbering and workgroup scans WITH subgroup operations.
+// Variant of lanes_shared.wgsl (same function names). No assumption on the subgroup size
+// (ballots are vec4<u32>, up to 128 lanes) nor on how the driver maps invocations to subgroups:
+// threads are numbered by (subgroup id, rank among the active lanes of their subgroup).
+
+struct LaneIds {
+    @builtin(local_invocation_index) local_index: u32,
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(subgroup_invocation_id) sg_invocation: u32,
+    @builtin(subgroup_id) sg_id: u32,
+    @builtin(num_subgroups) num_sg: u32,
+}
+
+/// This thread's rank in the workgroup, 0..WG, in subgroup order.
+var<private> lin: u32;
+var<private> sg_id: u32;
+var<private> num_sg: u32;
+/// Rank among the active lanes of this subgroup, and their count.
+var<private> sg_rank: u32;
+var<private> sg_lanes: u32;
+/// Lanes in the subgroups before this one.
+var<private> sg_base: u32;
+/// Ballot mask of the lanes with a smaller invocation id.
+var<private> lt_mask: vec4<u32>;
+
+var<workgroup> s_sg_sum: array<u32, MAX_SG>;
+
+fn lanes_below_mask(id: u32) -> vec4<u32> {
+    var m = vec4<u32>(0u);
+    for (var w = 0u; w < 4u; w++) {
+        let lo = 32u * w;
+        if (id >= lo + 32u) {
+            m[w] = 0xFFFFFFFFu;
+        } else if (id > lo) {
+            m[w] = (1u << (id - lo)) - 1u;
+        }
+    }
+    return m;
+}
+
+/// Call first, in uniform control flow, from every stage that uses `lin` or the scans.
+fn lanes_init(ids: LaneIds) {
+    sg_id = ids.sg_id;
+    num_sg = ids.num_sg;
+    sg_rank = subgroupExclusiveAdd(1u);
+    sg_lanes = subgroupAdd(1u);
+    lt_mask = lanes_below_mask(ids.sg_invocation);
+    if (sg_rank == 0u) {
+        s_sg_sum[sg_id] = sg_lanes;
+    }
+    workgroupBarrier();
+    var base = 0u;
+    for (var s = 0u; s < sg_id; s++) {
+        base += s_sg_sum[s];
+    }
+    workgroupBarrier();
+    sg_base = base;
+    lin = base + sg_rank;
+}
+
+/// Exclusive prefix sum of `x` over the workgroup in `lin` order: (sum before me, total).
+/// Uniform control flow only (barriers).
+fn wg_exclusive_scan(x: u32) -> vec2<u32> {
+    let incl = subgroupInclusiveAdd(x);
+    if (sg_rank == sg_lanes - 1u) {
+        s_sg_sum[sg_id] = incl;
+    }
+    workgroupBarrier();
+    var before = 0u;
+    var total = 0u;
+    for (var s = 0u; s < num_sg; s++) {
+        let v = s_sg_sum[s];
+        before += select(0u, v, s < sg_id);
+        total += v;
+    }
+    workgroupBarrier();
+    return vec2<u32>(before + incl - x, total);
+}
+
+fn popcount4(m: vec4<u32>) -> u32 {
+    let c = countOneBits(m);
+    return c.x + c.y + c.z + c.w;
+}
+
+/// Invocation id of the lowest lane set in `m` (m must not be empty).
+fn first_lane(m: vec4<u32>) -> u32 {
+    if (m.x != 0u) {
+        return countTrailingZeros(m.x);
+    }
+    if (m.y != 0u) {
+        return 32u + countTrailingZeros(m.y);
+    }
+    if (m.z != 0u) {
+        return 64u + countTrailingZeros(m.z);
+    }
+    return 96u + countTrailingZeros(m.w);
+}
+
+/// The lanes of this subgroup whose `v` agrees with mine in the low `bits` bits (one ballot
+/// per bit: the "warp-level multi-split" of Onesweep). Uniform control flow only.
+fn match_peers(v: u32, bits: u32) -> vec4<u32> {
+    var peers = subgroupBallot(true);
+    for (var b = 0u; b < bits; b++) {
+        let bit = ((v >> b) & 1u) == 1u;
+        let bal = subgroupBallot(bit);
+        peers &= select(~bal, bal, bit);
+    }
+    return peers;
+}
+
+/// In the upsweep: how many lanes of my subgroup share my digit `d` (0..=RADIX, RADIX meaning
+/// "no key") if I am the lowest of them, else 0. Uniform control flow only.
+fn digit_leader_count(d: u32) -> u32 {
+    let peers = match_peers(d, RADIX_BITS + 1u);
+    if (popcount4(peers & lt_mask) == 0u) {
+        return popcount4(peers);
+    }
+    return 0u;
+}
