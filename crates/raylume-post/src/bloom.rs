@@ -102,14 +102,25 @@ pub fn bloom_threshold(src: &[[f32; 3]], dst: &mut [[f32; 3]], threshold: f32) {
 
 /// Horizontal box blur: the mean over the in-image part of each pixel's `2r + 1` window, summed
 /// left to right.
+///
+/// Pixels whose window lies inside the row are summed together, tap by tap (`acc[x] +=
+/// row[x - r + k]` for k = 0..=2r over all of them at once), which vectorises and still adds
+/// each pixel's taps in ascending order, as the GPU does; the few pixels near the ends are
+/// summed one by one.
 pub fn bloom_h(src: &[[f32; 3]], dst: &mut [[f32; 3]], width: u32, height: u32, radius: u32) {
-    debug_assert_eq!(src.len(), (width * height) as usize);
+    debug_assert_eq!(src.len(), (width as usize) * (height as usize));
     debug_assert_eq!(dst.len(), src.len());
     let w = width as usize;
+    // Interior pixels x in [a, b): their whole window is inside the row.
+    let (a, b) = if 2 * u64::from(radius) < u64::from(width) {
+        (radius as usize, w - radius as usize)
+    } else {
+        (w, w)
+    };
     dst.par_chunks_mut(w)
         .zip(src.par_chunks(w))
         .for_each(|(out, row)| {
-            for (x, o) in out.iter_mut().enumerate() {
+            for x in (0..a.min(w)).chain(b.max(a)..w) {
                 let (lo, hi) = box_window(x as u32, radius, width);
                 let mut sum = [0.0f32; 3];
                 for s in &row[lo as usize..=hi as usize] {
@@ -118,31 +129,47 @@ pub fn bloom_h(src: &[[f32; 3]], dst: &mut [[f32; 3]], width: u32, height: u32, 
                     }
                 }
                 let n = (hi - lo + 1) as f32;
-                *o = sum.map(|v| v / n);
+                out[x] = sum.map(|v| v / n);
+            }
+            if a < b {
+                let r = radius as usize;
+                let acc: &mut [f32] = bytemuck::cast_slice_mut(&mut out[a..b]);
+                let flat: &[f32] = bytemuck::cast_slice(row);
+                acc.fill(0.0);
+                for k in 0..=2 * r {
+                    let taps = &flat[3 * (a - r + k)..3 * (b - r + k)];
+                    for (o, t) in acc.iter_mut().zip(taps) {
+                        *o += t;
+                    }
+                }
+                let n = (2 * r + 1) as f32;
+                for o in acc.iter_mut() {
+                    *o /= n;
+                }
             }
         });
 }
 
 /// Vertical box blur: the mean over the in-image part of each pixel's `2r + 1` window, summed
-/// top to bottom. Accumulates whole rows so that memory is read row by row; each pixel still
-/// sums its own column in ascending order, as the GPU does.
+/// top to bottom. Accumulates whole rows so that memory is read row by row and the adds
+/// vectorise; each pixel still sums its own column in ascending order, as the GPU does.
 pub fn bloom_v(src: &[[f32; 3]], dst: &mut [[f32; 3]], width: u32, height: u32, radius: u32) {
-    debug_assert_eq!(src.len(), (width * height) as usize);
+    debug_assert_eq!(src.len(), (width as usize) * (height as usize));
     debug_assert_eq!(dst.len(), src.len());
     let w = width as usize;
+    let flat: &[f32] = bytemuck::cast_slice(src);
     dst.par_chunks_mut(w).enumerate().for_each(|(y, out)| {
         let (lo, hi) = box_window(y as u32, radius, height);
-        out.fill([0.0; 3]);
+        let acc: &mut [f32] = bytemuck::cast_slice_mut(out);
+        acc.fill(0.0);
         for yy in lo as usize..=hi as usize {
-            for (o, s) in out.iter_mut().zip(&src[yy * w..(yy + 1) * w]) {
-                for c in 0..3 {
-                    o[c] += s[c];
-                }
+            for (o, s) in acc.iter_mut().zip(&flat[3 * yy * w..3 * (yy + 1) * w]) {
+                *o += s;
             }
         }
         let n = (hi - lo + 1) as f32;
-        for o in out.iter_mut() {
-            *o = o.map(|v| v / n);
+        for o in acc.iter_mut() {
+            *o /= n;
         }
     });
 }
@@ -349,5 +376,46 @@ mod tests {
         let mut img = orig.clone();
         bloom_cpu(&mut img, 4, 3, params(0.0, 3, 0.0)).unwrap();
         assert_eq!(img, orig);
+    }
+
+    /// The definition, one pixel at a time: what the vectorised passes must reproduce bit for
+    /// bit (same taps, same order).
+    fn naive_blur(src: &[[f32; 3]], w: u32, h: u32, r: u32, horizontal: bool) -> Vec<[f32; 3]> {
+        let mut out = vec![[0.0f32; 3]; src.len()];
+        for y in 0..h {
+            for x in 0..w {
+                let (i, len) = if horizontal { (x, w) } else { (y, h) };
+                let (lo, hi) = box_window(i, r, len);
+                let mut sum = [0.0f32; 3];
+                for t in lo..=hi {
+                    let (tx, ty) = if horizontal { (t, y) } else { (x, t) };
+                    let p = src[(ty * w + tx) as usize];
+                    for c in 0..3 {
+                        sum[c] += p[c];
+                    }
+                }
+                out[(y * w + x) as usize] = sum.map(|v| v / (hi - lo + 1) as f32);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn fast_passes_equal_the_definition_bitwise() {
+        for (w, h) in [(1u32, 1u32), (2, 5), (7, 3), (16, 9), (33, 4)] {
+            let src: Vec<[f32; 3]> = (0..w * h)
+                .map(|i| {
+                    let v = ((i.wrapping_mul(2_654_435_761) >> 8) % 1000) as f32 * 0.137;
+                    [v, v * 0.3 + 1.0, (i % 7) as f32 * 11.1]
+                })
+                .collect();
+            for r in [0, 1, 2, 3, 7, 8, 16, 17, 40] {
+                let mut out = vec![[0.0f32; 3]; src.len()];
+                bloom_h(&src, &mut out, w, h, r);
+                assert_eq!(out, naive_blur(&src, w, h, r, true), "h {w}x{h} r={r}");
+                bloom_v(&src, &mut out, w, h, r);
+                assert_eq!(out, naive_blur(&src, w, h, r, false), "v {w}x{h} r={r}");
+            }
+        }
     }
 }

@@ -201,8 +201,9 @@ impl GpuBloom {
         }
 
         let mut scratch = self.scratch.lock().unwrap_or_else(|e| e.into_inner());
-        if scratch.as_ref().is_none_or(|s| s.bytes < bytes) {
-            *scratch = Some(Scratch {
+        let s: &Scratch = match &mut *scratch {
+            Some(s) if s.bytes >= bytes => s,
+            slot => slot.insert(Scratch {
                 bright: ctx.storage_buffer_zeroed(
                     "bloom bright",
                     bytes,
@@ -210,10 +211,7 @@ impl GpuBloom {
                 )?,
                 tmp: ctx.storage_buffer_zeroed("bloom tmp", bytes, wgpu::BufferUsages::empty())?,
                 bytes,
-            });
-        }
-        let Some(s) = scratch.as_ref() else {
-            unreachable!("scratch was just filled")
+            }),
         };
 
         let uniforms = BloomUniforms {
