@@ -1,10 +1,86 @@
-//! raylume-bvh: BVHs built with obvhs, flattened into the layout the WGSL kernels read, and
-//! traversed on the CPU in that same layout.
+//! raylume-bvh: bounding volume hierarchies built with [obvhs](https://docs.rs/obvhs),
+//! flattened into the layout the WGSL kernels read, and traversed on the CPU in that same
+//! layout.
 //!
-//! **Architecture invariant:** this crate knows nothing about wgpu.
+//! - [`GpuBvh::build`] / [`GpuBvh::from_scene`]: one BVH over a scene's triangles and spheres.
+//!   Both [`BvhQuality`] presets build bottom-up with PLOC (Meister & Bittner, *Parallel
+//!   Locally-Ordered Clustering for Bounding Volume Hierarchy Construction*, IEEE TVCG 2018)
+//!   and improve the tree by SAH-driven parallel reinsertion (Meister & Bittner, *Parallel
+//!   Reinsertion for Bounding Volume Hierarchy Optimization*, Eurographics 2018);
+//!   [`BvhQuality::Quality`] adds spatial pre-splits of large triangles. The tree is then
+//!   flattened to 64-byte [`BvhNode`]s that hold both children's boxes (Aila & Laine,
+//!   *Understanding the Efficiency of Ray Traversal on GPUs*, HPG 2009), leaves folded into
+//!   their parents, and the primitives copied out in leaf order as 48-byte [`Primitive`]s.
+//! - [`GpuBvh::validate`]: every invariant the traversal relies on; tests call it after every
+//!   build.
+//! - [`traverse`]: the CPU traversal of that layout ([`trace_closest`], [`trace_any`],
+//!   [`intersect_aabb`], [`intersect_triangle`], [`intersect_sphere`]), the reference for
+//!   [`TRAVERSE_WGSL`], the same functions in WGSL.
+//!
+//! ```
+//! use glam::Vec3;
+//! use raylume_bvh::{BvhQuality, GpuBvh, Ray};
+//! use raylume_scene::{Sphere, Triangle};
+//!
+//! let floor = [
+//!     Triangle::flat([Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0)], 0),
+//!     Triangle::flat([Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(-1.0, 0.0, 1.0)], 0),
+//! ];
+//! let ball = [Sphere { center: Vec3::new(0.0, 0.5, 0.0), radius: 0.5, material: 0 }];
+//! let bvh = GpuBvh::build(&floor, &ball, BvhQuality::Quality)?;
+//! bvh.validate().unwrap();
+//!
+//! let down = Ray::new(Vec3::new(0.0, 2.0, 0.0), -Vec3::Y);
+//! let hit = bvh.trace_closest(&down, 0.0, f32::INFINITY).expect("the ball is below");
+//! assert_eq!(hit.t, 1.0);
+//! assert_eq!(bvh.primitives[hit.prim as usize].kind(), raylume_bvh::PRIM_SPHERE);
+//! let beside = Ray::new(Vec3::new(0.9, 2.0, 0.0), -Vec3::Y);
+//! assert_eq!(bvh.trace_closest(&beside, 0.0, f32::INFINITY).unwrap().t, 2.0); // the floor
+//! # Ok::<(), raylume_bvh::BvhError>(())
+//! ```
+//!
+//! **Architecture invariant:** this crate knows nothing about wgpu. The WGSL it ships is a
+//! string; the crates that run it own the bindings.
+
+mod bounds;
+mod builder;
+mod error;
+mod flatten;
+mod gpu_bvh;
+mod median;
+mod quality;
+mod stats;
+mod validate;
 
 pub mod gpu_types;
+pub mod traverse;
 
+pub use error::BvhError;
+pub use gpu_bvh::GpuBvh;
 pub use gpu_types::{
     BvhNode, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE, PRIM_TRIANGLE, Primitive,
 };
+pub use quality::BvhQuality;
+pub use stats::{BvhStats, SAH_NODE_COST, SAH_PRIMITIVE_COST};
+pub use traverse::{
+    AABB_T_FAR_SCALE, Hit, Ray, T_MAX_LIMIT, T_MISS, intersect_aabb, intersect_primitive,
+    intersect_sphere, intersect_triangle, trace_any, trace_closest,
+};
+
+/// The WGSL of [`traverse`]: the structs [`BvhNode`], [`Primitive`], `Hit`, `Ray`, the
+/// constants (`INVALID_INDEX`, `MAX_STACK_DEPTH`, `PRIM_TRIANGLE`, `PRIM_SPHERE`, `T_MISS`,
+/// `T_MAX_LIMIT`, `AABB_T_FAR_SCALE`) and the functions `intersect_aabb`,
+/// `intersect_triangle`, `intersect_sphere`, `intersect_primitive`, `trace_closest`,
+/// `trace_any` (plus helpers `bvh_dot`, `bvh_cross`, `intersect_leaf_closest`,
+/// `intersect_leaf_any`).
+///
+/// It declares no bindings. Concatenate it with a shader that declares, at module scope,
+///
+/// ```wgsl
+/// @group(0) @binding(0) var<storage, read> bvh_nodes: array<BvhNode>;
+/// @group(0) @binding(1) var<storage, read> bvh_primitives: array<Primitive>;
+/// ```
+///
+/// (any group and binding numbers), filled with [`GpuBvh::nodes`] and [`GpuBvh::primitives`].
+/// `trace_closest(ray, t_min, t_max) -> Hit` reports a miss as `prim == INVALID_INDEX`.
+pub const TRAVERSE_WGSL: &str = include_str!("traverse.wgsl");

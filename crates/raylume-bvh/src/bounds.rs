@@ -1,0 +1,34 @@
+//! Bounding boxes of [`Primitive`]s, shared by the builder, the flattener and `validate`.
+
+use glam::Vec3A;
+use obvhs::aabb::Aabb;
+
+use crate::{PRIM_SPHERE, Primitive};
+
+/// The box the BVH must enclose for `p`: the exact vertex bounds of a triangle; for a sphere,
+/// centre ± radius widened by 2 ulp of the largest magnitude involved, so that rounding in
+/// `centre - radius` never cuts the sphere (a box a hair too large costs nothing; one a hair
+/// too small loses grazing hits).
+pub(crate) fn primitive_aabb(p: &Primitive) -> Aabb {
+    let a = Vec3A::new(p.a[0], p.a[1], p.a[2]);
+    if p.kind() == PRIM_SPHERE {
+        let r = p.a[3];
+        let slack = (a.abs() + Vec3A::splat(r)) * (2.0 * f32::EPSILON);
+        Aabb::new(a - Vec3A::splat(r) - slack, a + Vec3A::splat(r) + slack)
+    } else {
+        let b = Vec3A::new(p.b[0], p.b[1], p.b[2]);
+        let c = Vec3A::new(p.c[0], p.c[1], p.c[2]);
+        Aabb::new(a.min(b).min(c), a.max(b).max(c))
+    }
+}
+
+/// True when `outer` contains `inner` (boundaries inclusive).
+pub(crate) fn contains(outer: &Aabb, inner: &Aabb) -> bool {
+    outer.min.cmple(inner.min).all() && outer.max.cmpge(inner.max).all()
+}
+
+/// Half the surface area, 0 for an empty (inverted) box.
+pub(crate) fn half_area(b: &Aabb) -> f32 {
+    let d = (b.max - b.min).max(Vec3A::ZERO);
+    d.x * d.y + d.y * d.z + d.z * d.x
+}

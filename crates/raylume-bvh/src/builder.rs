@@ -1,0 +1,228 @@
+//! [`GpuBvh::build`]: input checks, obvhs' PLOC build (with spatial pre-splits of triangles
+//! for [`BvhQuality::Quality`]), SAH reinsertion and leaf collapse, flattening, and the depth
+//! fallback.
+
+use std::time::Instant;
+
+use glam::Vec3A;
+use obvhs::{
+    BvhBuildParams,
+    aabb::Aabb,
+    bvh2::{Bvh2, leaf_collapser::collapse, reinsertion::ReinsertionOptimizer},
+    ploc::PlocBuilder,
+    splits::split_aabbs_preset,
+    triangle::Triangle as ObvhsTriangle,
+};
+use raylume_scene::{Scene, Sphere, Triangle};
+
+use crate::bounds::primitive_aabb;
+use crate::flatten::{Flat, flatten};
+use crate::median::build_median;
+use crate::stats::BvhStats;
+use crate::{BvhError, BvhQuality, GpuBvh, INVALID_INDEX, MAX_STACK_DEPTH, Primitive};
+
+/// The largest count a `u32` index may address: `u32::MAX` is [`INVALID_INDEX`].
+const MAX_U32_COUNT: usize = INVALID_INDEX as usize;
+
+impl GpuBvh {
+    /// Builds one BVH over a scene's triangles and spheres.
+    pub fn from_scene(scene: &Scene, quality: BvhQuality) -> Result<GpuBvh, BvhError> {
+        GpuBvh::build(&scene.triangles, &scene.spheres, quality)
+    }
+
+    /// Builds one BVH over `triangles` and `spheres` together and flattens it into the GPU
+    /// layout.
+    ///
+    /// Primitive `i` of the result is a copy of `triangles[k]` or `spheres[k]` (its kind and
+    /// `k` are stored in it); with [`BvhQuality::Quality`] a large triangle may be copied into
+    /// several leaves. Zero primitives give a root with two empty slots; one primitive, a root
+    /// whose left slot is a one-primitive leaf.
+    ///
+    /// Should the preset's tree be deeper than [`MAX_STACK_DEPTH`] (it takes thousands of
+    /// coincident primitives), the builder falls back to balanced object-median splits and
+    /// records the fact in [`BvhStats::fallback_from_depth`].
+    pub fn build(
+        triangles: &[Triangle],
+        spheres: &[Sphere],
+        quality: BvhQuality,
+    ) -> Result<GpuBvh, BvhError> {
+        let start = Instant::now();
+        check_input(triangles, spheres)?;
+        let source: Vec<Primitive> = triangles
+            .iter()
+            .enumerate()
+            .map(|(i, t)| Primitive::triangle(t.positions.map(|p| p.to_array()), i as u32))
+            .chain(
+                spheres
+                    .iter()
+                    .enumerate()
+                    .map(|(i, s)| Primitive::sphere(s.center.to_array(), s.radius, i as u32)),
+            )
+            .collect();
+        let aabbs: Vec<Aabb> = source.iter().map(primitive_aabb).collect();
+        for (i, b) in aabbs.iter().enumerate().skip(triangles.len()) {
+            if !(b.min.is_finite() && b.max.is_finite()) {
+                let k = i - triangles.len();
+                return Err(BvhError::NonFinite {
+                    kind: "sphere",
+                    index: k,
+                    detail: format!("its bounds {:?}..{:?} overflow f32", b.min, b.max),
+                });
+            }
+        }
+
+        let bvh2 = build_obvhs(triangles, &aabbs, quality.params())?;
+        let mut flat = flatten(&bvh2, &source);
+        let mut fallback_from_depth = None;
+        if flat.max_depth > MAX_STACK_DEPTH {
+            fallback_from_depth = Some(flat.max_depth);
+            flat = flatten(&build_median(&aabbs), &source);
+            BvhError::check_depth(flat.max_depth)?;
+        }
+        check_output(&flat)?;
+
+        let Flat {
+            nodes,
+            primitives,
+            max_depth,
+        } = flat;
+        let mut bvh = GpuBvh {
+            nodes,
+            primitives,
+            triangle_count: triangles.len() as u32,
+            sphere_count: spheres.len() as u32,
+            stats: BvhStats::default(),
+        };
+        bvh.stats = BvhStats::measure(&bvh, quality, max_depth, fallback_from_depth, start);
+        Ok(bvh)
+    }
+}
+
+/// Counts that fit `u32` indices, finite coordinates, positive radii.
+fn check_input(triangles: &[Triangle], spheres: &[Sphere]) -> Result<(), BvhError> {
+    for (what, count) in [("triangles", triangles.len()), ("spheres", spheres.len())] {
+        if count > MAX_U32_COUNT {
+            return Err(BvhError::TooManyPrimitives {
+                what,
+                count,
+                limit: MAX_U32_COUNT,
+            });
+        }
+    }
+    let total = triangles.len() + spheres.len();
+    if total > MAX_U32_COUNT {
+        return Err(BvhError::TooManyPrimitives {
+            what: "primitives",
+            count: total,
+            limit: MAX_U32_COUNT,
+        });
+    }
+    for (index, t) in triangles.iter().enumerate() {
+        if let Some(v) = t.positions.iter().position(|p| !p.is_finite()) {
+            return Err(BvhError::NonFinite {
+                kind: "triangle",
+                index,
+                detail: format!("vertex {v} is {}", t.positions[v]),
+            });
+        }
+    }
+    for (index, s) in spheres.iter().enumerate() {
+        if !(s.center.is_finite() && s.radius.is_finite()) {
+            return Err(BvhError::NonFinite {
+                kind: "sphere",
+                index,
+                detail: format!("centre {}, radius {}", s.center, s.radius),
+            });
+        }
+        if s.radius <= 0.0 {
+            return Err(BvhError::BadRadius {
+                index,
+                radius: s.radius,
+            });
+        }
+    }
+    Ok(())
+}
+
+/// Primitive copies and nodes must stay addressable by `u32`.
+fn check_output(flat: &Flat) -> Result<(), BvhError> {
+    if flat.primitives.len() > MAX_U32_COUNT {
+        return Err(BvhError::TooManyPrimitives {
+            what: "primitives (after spatial splits)",
+            count: flat.primitives.len(),
+            limit: MAX_U32_COUNT,
+        });
+    }
+    if flat.nodes.len() > MAX_U32_COUNT {
+        return Err(BvhError::TooManyPrimitives {
+            what: "nodes",
+            count: flat.nodes.len(),
+            limit: MAX_U32_COUNT,
+        });
+    }
+    Ok(())
+}
+
+/// obvhs' `build_bvh2_from_tris`, generalised to triangles followed by spheres: `aabbs[i]`
+/// bounds primitive `i`, the first `triangles.len()` of them triangles. Only triangles are
+/// pre-split (the splitter clips a triangle's polygon; a sphere has none). Calls the stages
+/// directly rather than through `build_bvh2`, whose debug-build self-check panics where this
+/// crate wants typed errors and its own `validate`.
+fn build_obvhs(
+    triangles: &[Triangle],
+    aabbs: &[Aabb],
+    params: BvhBuildParams,
+) -> Result<Bvh2, BvhError> {
+    let n_tri = triangles.len();
+    let mut boxes: Vec<Aabb> = aabbs[..n_tri].to_vec();
+    let mut indices: Vec<u32> = (0..n_tri as u32).collect();
+    if params.pre_split && n_tri > 0 {
+        let tris: Vec<ObvhsTriangle> = triangles
+            .iter()
+            .map(|t| ObvhsTriangle {
+                v0: Vec3A::from(t.positions[0]),
+                v1: Vec3A::from(t.positions[1]),
+                v2: Vec3A::from(t.positions[2]),
+            })
+            .collect();
+        let (mut largest, mut sum) = (0.0f32, 0.0f64);
+        for b in &boxes {
+            let a = b.half_area();
+            largest = largest.max(a);
+            sum += f64::from(a);
+        }
+        let average = (sum / n_tri as f64) as f32;
+        split_aabbs_preset(&mut boxes, &mut indices, &tris, average, largest);
+    }
+    boxes.extend_from_slice(&aabbs[n_tri..]);
+    indices.extend(n_tri as u32..aabbs.len() as u32);
+    if boxes.len() > MAX_U32_COUNT {
+        return Err(BvhError::TooManyPrimitives {
+            what: "primitives (after spatial splits)",
+            count: boxes.len(),
+            limit: MAX_U32_COUNT,
+        });
+    }
+
+    let mut bvh2 = PlocBuilder::with_capacity(boxes.len()).build(
+        params.ploc_search_distance,
+        &boxes,
+        indices,
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
+    bvh2.uses_spatial_splits = params.pre_split;
+    let mut reinsertion = ReinsertionOptimizer::default();
+    reinsertion.run(&mut bvh2, params.reinsertion_batch_ratio, None);
+    collapse(
+        &mut bvh2,
+        params.max_prims_per_leaf.clamp(1, 255),
+        params.collapse_traversal_cost,
+    );
+    reinsertion.run(
+        &mut bvh2,
+        params.reinsertion_batch_ratio * params.post_collapse_reinsertion_batch_ratio_multiplier,
+        None,
+    );
+    Ok(bvh2)
+}

@@ -1,0 +1,641 @@
+//! CPU traversal of the GPU layout: the reference that `traverse.wgsl` mirrors function for
+//! function, with the same names, constants and operation order.
+//!
+//! - [`intersect_aabb`]: slab test against a precomputed inverse direction, written so that
+//!   direction components of `+0.0`/`-0.0` (inverse `±inf`) and origins lying exactly on a
+//!   slab plane (`0 * inf = NaN`) are handled, and conservative under rounding.
+//! - [`intersect_triangle`]: Möller & Trumbore (JGT 1997), edges and vertices included.
+//! - [`intersect_sphere`]: the nearest root past `t_min`, computed without the cancellations
+//!   of the textbook quadratic.
+//! - [`trace_closest`], [`trace_any`]: iterative, with a fixed `[u32; MAX_STACK_DEPTH]`
+//!   stack, near child first, leaves intersected in place (Aila & Laine, *Understanding the
+//!   Efficiency of Ray Traversal on GPUs*, HPG 2009).
+//!
+//! Arithmetic is spelled out (`bvh_dot`, `bvh_cross`, no `mul_add`) so that the WGSL evaluates the
+//! same expressions in the same order; a GPU compiler may still contract `a * b + c` into a
+//! fused multiply-add, which is the one source of CPU/GPU difference.
+
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+use crate::{BvhNode, GpuBvh, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE, Primitive};
+
+/// What the `intersect_*` functions return for "no hit": `f32::MAX`. WGSL: `T_MISS`.
+pub const T_MISS: f32 = f32::MAX;
+
+/// Traversal clamps `t_max` to this (2^127) so that `t_max * AABB_T_FAR_SCALE` stays finite
+/// and below [`T_MISS`]. WGSL: `T_MAX_LIMIT`.
+pub const T_MAX_LIMIT: f32 = f32::from_bits(0x7f00_0000);
+
+/// The slab test accepts a box when `t_near <= t_far * AABB_T_FAR_SCALE`: 1 + 2^-20, i.e.
+/// 16 units of roundoff. Each slab distance `(b - o) * inv_dir` carries one rounding from the
+/// subtraction, one from the product and that of `inv_dir` (exact to 1/2 ulp on the CPU, to
+/// 2.5 ulp on Vulkan GPUs), at most 7 units in all; scaling `t_far` by `1 + 2 * 7` units makes
+/// the test conservative (Ize, *Robust BVH Ray Traversal*, JCGT 2013, with the GPU's division
+/// error added). WGSL: `AABB_T_FAR_SCALE`.
+pub const AABB_T_FAR_SCALE: f32 = 1.0 + 1.0 / 1_048_576.0;
+
+/// A ray `origin + t * dir`. `dir` need not be normalised but must not be zero; `t` is in
+/// units of `dir`. WGSL: `Ray` (a value type, not a buffer layout).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+}
+
+impl Ray {
+    pub fn new(origin: Vec3, dir: Vec3) -> Ray {
+        Ray { origin, dir }
+    }
+}
+
+/// The closest (or any) hit of a ray.
+///
+/// `repr(C)`, `Pod`, 16 bytes. WGSL: `Hit`.
+///
+/// `prim` indexes [`GpuBvh::primitives`] (leaf order; the scene index is in the primitive);
+/// `u`, `v` are the barycentric weights of a triangle's v1 and v2 (the hit point is
+/// `(1 - u - v) v0 + u v1 + v v2`), 0 for spheres. From the free functions a miss is
+/// `prim == INVALID_INDEX` with `t == min(t_max, T_MAX_LIMIT)`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct Hit {
+    pub t: f32,
+    pub prim: u32,
+    pub u: f32,
+    pub v: f32,
+}
+
+const _: () = assert!(size_of::<Hit>() == 16);
+const _: () = assert!(std::mem::offset_of!(Hit, prim) == 4);
+const _: () = assert!(std::mem::offset_of!(Hit, v) == 12);
+
+#[inline(always)]
+fn bvh_dot(a: Vec3, b: Vec3) -> f32 {
+    a.x * b.x + a.y * b.y + a.z * b.z
+}
+
+#[inline(always)]
+fn bvh_cross(a: Vec3, b: Vec3) -> Vec3 {
+    Vec3::new(
+        a.y * b.z - a.z * b.y,
+        a.z * b.x - a.x * b.z,
+        a.x * b.y - a.y * b.x,
+    )
+}
+
+/// `max(a, b)` that returns `b` when `a` is NaN (a NaN compares false). WGSL:
+/// `select(b, a, a > b)`.
+#[inline(always)]
+fn max_or_second(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+/// `min(a, b)` that returns `b` when `a` is NaN. WGSL: `select(b, a, a < b)`.
+#[inline(always)]
+fn min_or_second(a: f32, b: f32) -> f32 {
+    if a < b { a } else { b }
+}
+
+/// Slab test of the box `[bmin, bmax]` against the ray segment `[t_min, t_max]`: the entry
+/// distance (at least `t_min`) when they overlap, else [`T_MISS`]. `inv_dir = 1 / dir` per
+/// component, `±inf` for `±0` components. Requires `t_max <= T_MAX_LIMIT` and `t_min < T_MISS`.
+///
+/// Per axis, with `t0 = (bmin - o) * inv`, `t1 = (bmax - o) * inv`:
+/// `near = min(max'(t0, t_min), max'(t1, t_min))` and
+/// `far = max(min'(t0, t_max), min'(t1, t_max))`, where `max'`/`min'` return their second
+/// operand when the first is NaN (T. Barnes, *Fast, Branchless Ray/Bounding Box
+/// Intersections, Part 3: Boundaries*, 2022). Without NaNs this is the usual
+/// `near = max(t_min, min(t0, t1))`. A NaN arises only as `0 * inf`: the direction component
+/// is zero and the origin lies exactly on that slab's plane, so the ray runs inside the
+/// (closed) slab; the NaN then drops out and the axis does not constrain the interval, which is
+/// the right answer for a boundary-inclusive box (a flat box, `bmin == bmax`, included).
+///
+/// The box is hit when `max(near) <= min(far) * AABB_T_FAR_SCALE` (see there).
+#[inline(always)]
+pub fn intersect_aabb(
+    bmin: Vec3,
+    bmax: Vec3,
+    origin: Vec3,
+    inv_dir: Vec3,
+    t_min: f32,
+    t_max: f32,
+) -> f32 {
+    let t0 = (bmin - origin) * inv_dir;
+    let t1 = (bmax - origin) * inv_dir;
+    let near_x = max_or_second(t0.x, t_min).min(max_or_second(t1.x, t_min));
+    let near_y = max_or_second(t0.y, t_min).min(max_or_second(t1.y, t_min));
+    let near_z = max_or_second(t0.z, t_min).min(max_or_second(t1.z, t_min));
+    let far_x = min_or_second(t0.x, t_max).max(min_or_second(t1.x, t_max));
+    let far_y = min_or_second(t0.y, t_max).max(min_or_second(t1.y, t_max));
+    let far_z = min_or_second(t0.z, t_max).max(min_or_second(t1.z, t_max));
+    let t_near = near_x.max(near_y.max(near_z));
+    let t_far = far_x.min(far_y.min(far_z));
+    if t_near <= t_far * AABB_T_FAR_SCALE {
+        t_near
+    } else {
+        T_MISS
+    }
+}
+
+/// Möller–Trumbore ray/triangle test: `(t, u, v)` for a hit with `t_min < t < t_max`, else
+/// `(T_MISS, 0, 0)`. Both faces count.
+///
+/// Edge-inclusive: `u >= 0`, `v >= 0`, `u + v <= 1`, so a ray through a vertex or an edge
+/// counts as a hit. A ray through an edge shared by two triangles computes the edge's
+/// barycentric from different vertices in each, so in floating point one triangle may call it
+/// `-1e-8` and the other `1 + 1e-8`: the inclusive test hits at least one of them whenever the
+/// two roundings fall on the same side, which the shared-edge test in `tests/` measures.
+///
+/// Near-zero determinant: only `det == 0` is rejected (a ray in the triangle's plane, or a
+/// degenerate triangle whose edges are exactly parallel). An absolute threshold such as
+/// `|det| < 1e-8` would wrongly reject small or distant triangles, since `det` scales with
+/// the square of the triangle's size times `|dir|`; a relative threshold costs a square root
+/// or a cross product. A tiny non-zero `det` gives huge, noisy `u`, `v`, `t` that the range
+/// checks reject except within rounding of the exact answer, and NaNs (from `inf * 0`) fail
+/// every comparison.
+#[inline(always)]
+pub fn intersect_triangle(
+    origin: Vec3,
+    dir: Vec3,
+    v0: Vec3,
+    v1: Vec3,
+    v2: Vec3,
+    t_min: f32,
+    t_max: f32,
+) -> Vec3 {
+    let miss = Vec3::new(T_MISS, 0.0, 0.0);
+    let e1 = v1 - v0;
+    let e2 = v2 - v0;
+    let p = bvh_cross(dir, e2);
+    let det = bvh_dot(e1, p);
+    if det == 0.0 {
+        return miss;
+    }
+    let inv_det = 1.0 / det;
+    let s = origin - v0;
+    let u = bvh_dot(s, p) * inv_det;
+    let q = bvh_cross(s, e1);
+    let v = bvh_dot(dir, q) * inv_det;
+    let t = bvh_dot(e2, q) * inv_det;
+    if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > t_min && t < t_max {
+        Vec3::new(t, u, v)
+    } else {
+        miss
+    }
+}
+
+/// Ray/sphere test: the smallest root `t` with `t_min < t < t_max`, else [`T_MISS`]. A ray
+/// starting inside the sphere (or on its surface, `t_min` past the root at its origin) hits
+/// the far side, which is what refraction through glass needs.
+///
+/// With `oc = center - origin`, `a = dir.dir`, `b = oc.dir`, `c = oc.oc - r^2`, the roots of
+/// `a t^2 - 2 b t + c = 0` are `q / a` and `c / q` with `q = b + sign(b) sqrt(h)`, and
+/// `h = b^2 - a c` is computed as `a (r^2 - |oc - (b / a) dir|^2)`, the squared distance from
+/// the centre to the line, which does not cancel for small, distant spheres (Haines et al.,
+/// *Precision Improvements for Ray/Sphere Intersection*, Ray Tracing Gems, 2019). `q` has the
+/// sign of `b`, so neither root formula subtracts nearly equal numbers.
+#[inline(always)]
+pub fn intersect_sphere(
+    origin: Vec3,
+    dir: Vec3,
+    center: Vec3,
+    radius: f32,
+    t_min: f32,
+    t_max: f32,
+) -> f32 {
+    let oc = center - origin;
+    let a = bvh_dot(dir, dir);
+    let b = bvh_dot(oc, dir);
+    let r2 = radius * radius;
+    let c = bvh_dot(oc, oc) - r2;
+    let l = oc - dir * (b / a);
+    let h = a * (r2 - bvh_dot(l, l));
+    if h < 0.0 {
+        return T_MISS;
+    }
+    let sq = h.sqrt();
+    let q = if b >= 0.0 { b + sq } else { b - sq };
+    if q == 0.0 {
+        // b == 0 and h == 0: a ray tangent to the sphere at its own origin.
+        return T_MISS;
+    }
+    let ta = c / q;
+    let tb = q / a;
+    let t_lo = ta.min(tb);
+    let t_hi = ta.max(tb);
+    let t = if t_lo > t_min { t_lo } else { t_hi };
+    if t > t_min && t < t_max { t } else { T_MISS }
+}
+
+/// One primitive of either kind: `(t, u, v)` as [`intersect_triangle`] returns it.
+#[inline(always)]
+pub fn intersect_primitive(p: &Primitive, origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> Vec3 {
+    let a = Vec3::new(p.a[0], p.a[1], p.a[2]);
+    if p.b[3].to_bits() == PRIM_SPHERE {
+        Vec3::new(
+            intersect_sphere(origin, dir, a, p.a[3], t_min, t_max),
+            0.0,
+            0.0,
+        )
+    } else {
+        let b = Vec3::new(p.b[0], p.b[1], p.b[2]);
+        let c = Vec3::new(p.c[0], p.c[1], p.c[2]);
+        intersect_triangle(origin, dir, a, b, c, t_min, t_max)
+    }
+}
+
+/// Intersects `primitives[first .. first + count]`, keeping the closest hit in `hit`.
+#[inline(always)]
+fn intersect_leaf_closest(
+    primitives: &[Primitive],
+    ray: &Ray,
+    first: u32,
+    count: u32,
+    t_min: f32,
+    hit: &mut Hit,
+) {
+    for i in first..first + count {
+        let r = intersect_primitive(&primitives[i as usize], ray.origin, ray.dir, t_min, hit.t);
+        if r.x < hit.t {
+            *hit = Hit {
+                t: r.x,
+                prim: i,
+                u: r.y,
+                v: r.z,
+            };
+        }
+    }
+}
+
+/// True if any of `primitives[first .. first + count]` is hit within `(t_min, t_max)`.
+#[inline(always)]
+fn intersect_leaf_any(
+    primitives: &[Primitive],
+    ray: &Ray,
+    first: u32,
+    count: u32,
+    t_min: f32,
+    t_max: f32,
+) -> bool {
+    for i in first..first + count {
+        let r = intersect_primitive(&primitives[i as usize], ray.origin, ray.dir, t_min, t_max);
+        if r.x < t_max {
+            return true;
+        }
+    }
+    false
+}
+
+/// Both child slots of `node` tested against the ray: `(t_near, near index, near count,
+/// t_far, far index, far count)`, nearer first; a missed or empty slot has `t == T_MISS`.
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+fn order_children(
+    node: &BvhNode,
+    origin: Vec3,
+    inv_dir: Vec3,
+    t_min: f32,
+    t_max: f32,
+) -> (f32, u32, u32, f32, u32, u32) {
+    let mut t_left = intersect_aabb(
+        node.left_min.into(),
+        node.left_max.into(),
+        origin,
+        inv_dir,
+        t_min,
+        t_max,
+    );
+    let mut t_right = intersect_aabb(
+        node.right_min.into(),
+        node.right_max.into(),
+        origin,
+        inv_dir,
+        t_min,
+        t_max,
+    );
+    if node.left_index == INVALID_INDEX {
+        t_left = T_MISS;
+    }
+    if node.right_index == INVALID_INDEX {
+        t_right = T_MISS;
+    }
+    if t_right < t_left {
+        (
+            t_right,
+            node.right_index,
+            node.right_count,
+            t_left,
+            node.left_index,
+            node.left_count,
+        )
+    } else {
+        (
+            t_left,
+            node.left_index,
+            node.left_count,
+            t_right,
+            node.right_index,
+            node.right_count,
+        )
+    }
+}
+
+/// The closest hit with `t_min < t < t_max` in the tree `nodes` over `primitives`, or a miss
+/// (`prim == INVALID_INDEX`).
+///
+/// At each node both child boxes are tested with the current closest `t`; hit leaves are
+/// intersected at once (nearer first), and of the hit inner children the nearer is entered and
+/// the farther pushed, each only if its entry distance is still within the (possibly shrunken)
+/// closest `t`. The stack never holds more than `depth - 1` entries, which `validate` bounds by
+/// `MAX_STACK_DEPTH`.
+pub fn trace_closest(
+    nodes: &[BvhNode],
+    primitives: &[Primitive],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Hit {
+    let inv_dir = Vec3::ONE / ray.dir;
+    let mut hit = Hit {
+        t: t_max.min(T_MAX_LIMIT),
+        prim: INVALID_INDEX,
+        u: 0.0,
+        v: 0.0,
+    };
+    let mut stack = [0u32; MAX_STACK_DEPTH];
+    let mut sp = 0usize;
+    let mut node_index = 0u32;
+    loop {
+        let node = &nodes[node_index as usize];
+        let (t_near, near_index, near_count, t_far, far_index, far_count) =
+            order_children(node, ray.origin, inv_dir, t_min, hit.t);
+        if near_count > 0 && t_near <= hit.t * AABB_T_FAR_SCALE {
+            intersect_leaf_closest(primitives, ray, near_index, near_count, t_min, &mut hit);
+        }
+        if far_count > 0 && t_far <= hit.t * AABB_T_FAR_SCALE {
+            intersect_leaf_closest(primitives, ray, far_index, far_count, t_min, &mut hit);
+        }
+        let go_near = near_count == 0 && t_near <= hit.t * AABB_T_FAR_SCALE;
+        let go_far = far_count == 0 && t_far <= hit.t * AABB_T_FAR_SCALE;
+        if go_near {
+            if go_far {
+                debug_assert!(sp < MAX_STACK_DEPTH);
+                stack[sp] = far_index;
+                sp += 1;
+            }
+            node_index = near_index;
+        } else if go_far {
+            node_index = far_index;
+        } else if sp > 0 {
+            sp -= 1;
+            node_index = stack[sp];
+        } else {
+            break;
+        }
+    }
+    hit
+}
+
+/// True if anything is hit with `t_min < t < t_max`: [`trace_closest`]'s walk, returning at
+/// the first primitive hit (a shadow ray).
+pub fn trace_any(
+    nodes: &[BvhNode],
+    primitives: &[Primitive],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> bool {
+    let inv_dir = Vec3::ONE / ray.dir;
+    let t_max = t_max.min(T_MAX_LIMIT);
+    let mut stack = [0u32; MAX_STACK_DEPTH];
+    let mut sp = 0usize;
+    let mut node_index = 0u32;
+    loop {
+        let node = &nodes[node_index as usize];
+        let (t_near, near_index, near_count, t_far, far_index, far_count) =
+            order_children(node, ray.origin, inv_dir, t_min, t_max);
+        if near_count > 0
+            && t_near < T_MISS
+            && intersect_leaf_any(primitives, ray, near_index, near_count, t_min, t_max)
+        {
+            return true;
+        }
+        if far_count > 0
+            && t_far < T_MISS
+            && intersect_leaf_any(primitives, ray, far_index, far_count, t_min, t_max)
+        {
+            return true;
+        }
+        let go_near = near_count == 0 && t_near < T_MISS;
+        let go_far = far_count == 0 && t_far < T_MISS;
+        if go_near {
+            if go_far {
+                debug_assert!(sp < MAX_STACK_DEPTH);
+                stack[sp] = far_index;
+                sp += 1;
+            }
+            node_index = near_index;
+        } else if go_far {
+            node_index = far_index;
+        } else if sp > 0 {
+            sp -= 1;
+            node_index = stack[sp];
+        } else {
+            break;
+        }
+    }
+    false
+}
+
+impl GpuBvh {
+    /// The closest hit with `t_min < t < t_max`, if any. See [`trace_closest`].
+    pub fn trace_closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        let hit = trace_closest(&self.nodes, &self.primitives, ray, t_min, t_max);
+        (hit.prim != INVALID_INDEX).then_some(hit)
+    }
+
+    /// True if anything is hit with `t_min < t < t_max`. See [`trace_any`].
+    pub fn trace_any(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        trace_any(&self.nodes, &self.primitives, ray, t_min, t_max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const INF: f32 = f32::INFINITY;
+
+    fn unit_box() -> (Vec3, Vec3) {
+        (Vec3::ZERO, Vec3::ONE)
+    }
+
+    fn aabb(origin: Vec3, dir: Vec3) -> f32 {
+        let (lo, hi) = unit_box();
+        intersect_aabb(lo, hi, origin, Vec3::ONE / dir, 0.0, T_MAX_LIMIT)
+    }
+
+    #[test]
+    fn aabb_entry_distance_and_misses() {
+        assert_eq!(aabb(Vec3::new(-1.0, 0.5, 0.5), Vec3::X), 1.0);
+        assert_eq!(
+            aabb(Vec3::new(0.5, 0.5, 0.5), Vec3::X),
+            0.0,
+            "inside: t_min"
+        );
+        assert_eq!(aabb(Vec3::new(2.0, 0.5, 0.5), Vec3::X), T_MISS, "behind");
+        assert_eq!(aabb(Vec3::new(-1.0, 2.0, 0.5), Vec3::X), T_MISS, "beside");
+        let (lo, hi) = unit_box();
+        let inv = Vec3::ONE / Vec3::X;
+        assert_eq!(
+            intersect_aabb(lo, hi, Vec3::new(-5.0, 0.5, 0.5), inv, 0.0, 4.0),
+            T_MISS
+        );
+    }
+
+    #[test]
+    fn aabb_zero_direction_components_of_both_signs() {
+        for zero in [0.0f32, -0.0] {
+            let dir = Vec3::new(1.0, zero, zero);
+            assert_eq!(
+                (Vec3::ONE / dir).y,
+                if zero.is_sign_positive() { INF } else { -INF }
+            );
+            // Inside the y and z slabs, outside them, and exactly on each of their planes
+            // (where (b - o) * inv = 0 * inf = NaN): boundary-inclusive.
+            assert_eq!(aabb(Vec3::new(-1.0, 0.5, 0.5), dir), 1.0);
+            assert_eq!(aabb(Vec3::new(-1.0, 1.5, 0.5), dir), T_MISS);
+            assert_eq!(aabb(Vec3::new(-1.0, -0.5, 0.5), dir), T_MISS);
+            for y in [0.0, 1.0] {
+                for z in [0.0, 0.5, 1.0] {
+                    assert_eq!(
+                        aabb(Vec3::new(-1.0, y, z), dir),
+                        1.0,
+                        "on plane y={y} z={z}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn aabb_flat_box_is_hit_on_and_across_its_plane() {
+        let (lo, hi) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 1.0));
+        let inv = Vec3::ONE / Vec3::new(0.0, -1.0, 0.0);
+        let t = intersect_aabb(lo, hi, Vec3::new(0.5, 2.0, 0.5), inv, 0.0, 10.0);
+        assert_eq!(t, 2.0);
+        // A ray lying in the box's plane, direction exactly parallel: NaN on y, still a hit.
+        let inv = Vec3::ONE / Vec3::new(1.0, 0.0, 0.0);
+        let t = intersect_aabb(lo, hi, Vec3::new(-1.0, 0.0, 0.5), inv, 0.0, 10.0);
+        assert_eq!(t, 1.0);
+    }
+
+    #[test]
+    fn triangle_barycentrics_edges_and_faces() {
+        let (v0, v1, v2) = (Vec3::ZERO, Vec3::X, Vec3::Y);
+        let r = intersect_triangle(Vec3::new(0.25, 0.5, 1.0), -Vec3::Z, v0, v1, v2, 0.0, INF);
+        assert_eq!(r, Vec3::new(1.0, 0.25, 0.5));
+        // Back face counts too.
+        let r = intersect_triangle(Vec3::new(0.25, 0.5, -2.0), Vec3::Z, v0, v1, v2, 0.0, INF);
+        assert_eq!(r, Vec3::new(2.0, 0.25, 0.5));
+        // Vertices and edge points are included.
+        for p in [
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (0.0, 1.0),
+            (0.5, 0.5),
+            (0.5, 0.0),
+            (0.0, 0.5),
+        ] {
+            let r = intersect_triangle(Vec3::new(p.0, p.1, 1.0), -Vec3::Z, v0, v1, v2, 0.0, INF);
+            assert_eq!(r.x, 1.0, "point {p:?}");
+        }
+        // Outside, behind t_min, beyond t_max, in-plane.
+        let o = Vec3::new(0.6, 0.6, 1.0);
+        assert_eq!(
+            intersect_triangle(o, -Vec3::Z, v0, v1, v2, 0.0, INF).x,
+            T_MISS
+        );
+        let o = Vec3::new(0.2, 0.2, 1.0);
+        assert_eq!(
+            intersect_triangle(o, -Vec3::Z, v0, v1, v2, 1.0, INF).x,
+            T_MISS
+        );
+        assert_eq!(
+            intersect_triangle(o, -Vec3::Z, v0, v1, v2, 0.0, 1.0).x,
+            T_MISS
+        );
+        let o = Vec3::new(-1.0, 0.2, 0.0);
+        assert_eq!(
+            intersect_triangle(o, Vec3::X, v0, v1, v2, 0.0, INF).x,
+            T_MISS
+        );
+    }
+
+    #[test]
+    fn triangle_scale_invariance_of_the_determinant_guard() {
+        // A triangle of size 1e-6 seen from 1e-6 away: det ~ 1e-12, still a hit.
+        let s = 1e-6;
+        let r = intersect_triangle(
+            Vec3::new(0.25 * s, 0.25 * s, s),
+            -Vec3::Z,
+            Vec3::ZERO,
+            Vec3::X * s,
+            Vec3::Y * s,
+            0.0,
+            INF,
+        );
+        assert!((r.x - s).abs() <= s * 1e-6, "{r}");
+    }
+
+    #[test]
+    fn sphere_near_far_inside_tangent() {
+        let c = Vec3::new(0.0, 0.0, -5.0);
+        // From outside: the near root.
+        assert_eq!(
+            intersect_sphere(Vec3::ZERO, -Vec3::Z, c, 1.0, 0.0, INF),
+            4.0
+        );
+        // Non-normalised direction: t in units of dir.
+        assert_eq!(
+            intersect_sphere(Vec3::ZERO, -Vec3::Z * 2.0, c, 1.0, 0.0, INF),
+            2.0
+        );
+        // From the centre (inside): the far side.
+        assert_eq!(intersect_sphere(c, Vec3::X, c, 1.0, 0.0, INF), 1.0);
+        // From the surface going in, t_min past the root at the origin: the far side.
+        let on = Vec3::new(0.0, 0.0, -4.0);
+        let t = intersect_sphere(on, -Vec3::Z, c, 1.0, 1e-4, INF);
+        assert_eq!(t, 2.0);
+        // From the surface going out: nothing.
+        assert_eq!(intersect_sphere(on, Vec3::Z, c, 1.0, 1e-4, INF), T_MISS);
+        // Behind, beside, beyond t_max.
+        assert_eq!(
+            intersect_sphere(Vec3::ZERO, Vec3::Z, c, 1.0, 0.0, INF),
+            T_MISS
+        );
+        assert_eq!(
+            intersect_sphere(Vec3::new(2.0, 0.0, 0.0), -Vec3::Z, c, 1.0, 0.0, INF),
+            T_MISS
+        );
+        assert_eq!(
+            intersect_sphere(Vec3::ZERO, -Vec3::Z, c, 1.0, 0.0, 3.0),
+            T_MISS
+        );
+    }
+
+    #[test]
+    fn sphere_small_and_far_does_not_cancel() {
+        // r = 1e-3 at distance 1e4: the textbook b^2 - ac loses every digit here (b^2 ~ 1e8,
+        // the difference ~ 1e-6 * a).
+        let c = Vec3::new(0.0, 0.0, -1e4);
+        let o = Vec3::new(0.0, 0.5e-3, 0.0);
+        let t = intersect_sphere(o, -Vec3::Z, c, 1e-3, 0.0, INF);
+        let exact = 1e4 - (1e-6f64 - 0.25e-6).sqrt();
+        assert!(
+            (f64::from(t) - exact).abs() <= exact * 1e-6,
+            "{t} vs {exact}"
+        );
+    }
+}

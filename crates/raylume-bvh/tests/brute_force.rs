@@ -1,0 +1,70 @@
+//! BVH traversal against brute force (every primitive tested) on fixture scenes, 100,000
+//! queries each, with both build presets; any-hit against closest-hit's existence.
+
+mod support;
+
+use raylume_bvh::{BvhQuality, GpuBvh};
+use rayon::prelude::*;
+use support::{Fixture, SceneHit, brute_force, check_against_brute_force, queries};
+
+const QUERIES: usize = 100_000;
+
+/// Builds `f` with both presets, validates, and compares 100,000 queries with brute force.
+fn check_fixture(f: Fixture, seed: u64) {
+    let qs = queries(&f, QUERIES, seed);
+    let reference: Vec<Option<SceneHit>> = qs.par_iter().map(|q| brute_force(&f, q)).collect();
+    // The ray set is not vacuous: rays of kind 4 (pointing away from the scene) all miss,
+    // and the others hit often.
+    for (i, r) in reference.iter().enumerate() {
+        if i % 5 == 3 {
+            assert!(
+                r.is_none(),
+                "{}: ray {i} points away yet hits {r:?}",
+                f.name
+            );
+        }
+    }
+    let hits = reference.iter().filter(|r| r.is_some()).count();
+    assert!(
+        hits > QUERIES / 5,
+        "{}: only {hits} of {QUERIES} queries hit",
+        f.name
+    );
+    for quality in [BvhQuality::Fast, BvhQuality::Quality] {
+        let bvh = GpuBvh::build(&f.triangles, &f.spheres, quality).unwrap();
+        bvh.validate()
+            .unwrap_or_else(|e| panic!("{} {quality:?}: {e}", f.name));
+        let got = check_against_brute_force(&f, &bvh, &qs, &reference);
+        assert_eq!(got, hits);
+        eprintln!(
+            "{} {quality:?}: {} primitives -> {} refs, {} nodes, depth {}, SAH {:.1}; \
+             {hits}/{QUERIES} queries hit",
+            f.name,
+            f.primitive_count(),
+            bvh.stats.primitive_refs,
+            bvh.stats.node_count,
+            bvh.stats.max_depth,
+            bvh.stats.sah_cost
+        );
+    }
+}
+
+#[test]
+fn triangle_soup_matches_brute_force() {
+    check_fixture(support::triangle_soup(), 1);
+}
+
+#[test]
+fn icosphere_on_plane_matches_brute_force() {
+    check_fixture(support::icosphere_on_plane(), 2);
+}
+
+#[test]
+fn cornell_box_matches_brute_force() {
+    check_fixture(support::cornell_box(), 3);
+}
+
+#[test]
+fn spheres_and_triangles_match_brute_force() {
+    check_fixture(support::spheres_and_triangles(), 4);
+}
