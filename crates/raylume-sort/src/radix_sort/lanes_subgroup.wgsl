@@ -2,6 +2,9 @@
 // Variant of lanes_shared.wgsl (same function names). No assumption on the subgroup size
 // (ballots are vec4<u32>, up to 128 lanes) nor on how the driver maps invocations to subgroups:
 // threads are numbered by (subgroup id, rank among the active lanes of their subgroup).
+// The `num_subgroups` builtin is not used: lavapipe reports floor(WG / 8) for a workgroup whose
+// last subgroup is partial (1 for 12 threads in subgroups of 8 and 4); the count is taken as
+// 1 + the largest subgroup id instead.
 
 struct LaneIds {
     @builtin(local_invocation_index) local_index: u32,
@@ -9,7 +12,6 @@ struct LaneIds {
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(subgroup_invocation_id) sg_invocation: u32,
     @builtin(subgroup_id) sg_id: u32,
-    @builtin(num_subgroups) num_sg: u32,
 }
 
 /// This thread's rank in the workgroup, 0..WG, in subgroup order.
@@ -25,6 +27,7 @@ var<private> sg_base: u32;
 var<private> lt_mask: vec4<u32>;
 
 var<workgroup> s_sg_sum: array<u32, MAX_SG>;
+var<workgroup> s_num_sg: atomic<u32>;
 
 fn lanes_below_mask(id: u32) -> vec4<u32> {
     var m = vec4<u32>(0u);
@@ -42,14 +45,19 @@ fn lanes_below_mask(id: u32) -> vec4<u32> {
 /// Call first, in uniform control flow, from every stage that uses `lin` or the scans.
 fn lanes_init(ids: LaneIds) {
     sg_id = ids.sg_id;
-    num_sg = ids.num_sg;
     sg_rank = subgroupExclusiveAdd(1u);
     sg_lanes = subgroupAdd(1u);
     lt_mask = lanes_below_mask(ids.sg_invocation);
-    if (sg_rank == 0u) {
-        s_sg_sum[sg_id] = sg_lanes;
+    if (ids.local_index == 0u) {
+        atomicStore(&s_num_sg, 0u);
     }
     workgroupBarrier();
+    if (sg_rank == 0u) {
+        s_sg_sum[sg_id] = sg_lanes;
+        atomicMax(&s_num_sg, sg_id + 1u);
+    }
+    workgroupBarrier();
+    num_sg = atomicLoad(&s_num_sg);
     var base = 0u;
     for (var s = 0u; s < sg_id; s++) {
         base += s_sg_sum[s];

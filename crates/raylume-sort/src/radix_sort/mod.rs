@@ -136,7 +136,12 @@ impl RadixSorter {
                     layout: None,
                     module: &module,
                     entry_point: Some(stage.entry_point()),
-                    compilation_options: Default::default(),
+                    // Every stage initialises the workgroup memory it reads; wgpu's zeroing
+                    // would write the whole ~26 KiB per workgroup at every dispatch.
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        zero_initialize_workgroup_memory: false,
+                        ..Default::default()
+                    },
                     cache: None,
                 })
             });
