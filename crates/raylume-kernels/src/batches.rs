@@ -1,0 +1,121 @@
+//! Splitting a render into batches: `batch_spp` samples of every pixel at a time (the paper's
+//! 20), fewer when the per-ray buffers would not fit one storage binding, and a range of the
+//! pixels at a time when even one sample of every pixel does not fit.
+
+/// One batch: samples `sample_begin .. sample_begin + sample_count` of pixels
+/// `pixel_begin .. pixel_begin + pixel_count`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Batch {
+    pub pixel_begin: u32,
+    pub pixel_count: u32,
+    pub sample_begin: u32,
+    pub sample_count: u32,
+    /// True when this batch holds the last samples of its pixels (`resolve` then divides).
+    pub last_for_pixels: bool,
+}
+
+impl Batch {
+    /// Rays (pixel samples) in the batch.
+    pub fn rays(&self) -> u32 {
+        self.pixel_count * self.sample_count
+    }
+}
+
+/// The batches of a `pixels`-pixel, `spp`-sample render with at most `batch_spp` samples per
+/// batch and at most `max_rays` rays per batch (both at least 1), pixel ranges outermost.
+pub fn plan_batches(pixels: u32, spp: u32, batch_spp: u32, max_rays: u64) -> Vec<Batch> {
+    let max_rays = max_rays.clamp(1, u64::from(u32::MAX));
+    let batch_spp = batch_spp.clamp(1, spp.max(1));
+    let (pixels_per_batch, samples_per_batch) =
+        if u64::from(pixels) * u64::from(batch_spp) <= max_rays {
+            (pixels, batch_spp)
+        } else if u64::from(pixels) <= max_rays {
+            (pixels, (max_rays / u64::from(pixels)) as u32)
+        } else {
+            (max_rays as u32, 1)
+        };
+    let mut out = Vec::new();
+    let mut p = 0;
+    while p < pixels {
+        let pc = pixels_per_batch.min(pixels - p);
+        let mut s = 0;
+        while s < spp {
+            let sc = samples_per_batch.min(spp - s);
+            out.push(Batch {
+                pixel_begin: p,
+                pixel_count: pc,
+                sample_begin: s,
+                sample_count: sc,
+                last_for_pixels: s + sc == spp,
+            });
+            s += sc;
+        }
+        p += pc;
+    }
+    out
+}
+
+/// Workgroup counts `(x, y)` covering `threads` threads with `x` at most `max_per_dim`.
+pub fn dispatch_size(threads: u32, workgroup_size: u32, max_per_dim: u32) -> (u32, u32) {
+    let groups = threads.div_ceil(workgroup_size);
+    if groups == 0 {
+        return (0, 1);
+    }
+    let x = groups.min(max_per_dim);
+    (x, groups.div_ceil(x))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(pixels: u32, spp: u32, batch_spp: u32, max_rays: u64) {
+        let batches = plan_batches(pixels, spp, batch_spp, max_rays);
+        // Every (pixel, sample) exactly once, each batch within the limit.
+        let mut seen = vec![0u8; (pixels * spp) as usize];
+        for b in &batches {
+            assert!(u64::from(b.rays()) <= max_rays.max(1), "{b:?}");
+            assert!(b.sample_count <= batch_spp.max(1), "{b:?}");
+            for p in b.pixel_begin..b.pixel_begin + b.pixel_count {
+                for s in b.sample_begin..b.sample_begin + b.sample_count {
+                    seen[(p * spp + s) as usize] += 1;
+                }
+            }
+            assert_eq!(b.last_for_pixels, b.sample_begin + b.sample_count == spp);
+        }
+        assert!(
+            seen.iter().all(|&c| c == 1),
+            "{pixels} {spp} {batch_spp} {max_rays}"
+        );
+    }
+
+    #[test]
+    fn batches_cover_every_sample_once_within_the_limit() {
+        check(100, 7, 3, 1_000_000); // batch_spp rules
+        check(100, 45, 20, 1_000); // reduced to 10 spp per batch
+        check(100, 5, 20, 30); // pixel ranges of 30, one sample each
+        check(1, 1, 1, 1);
+        check(64 * 64, 4, 20, 64 * 64 * 4);
+    }
+
+    #[test]
+    fn the_paper_setting_fits_an_h100_in_batches_of_20() {
+        // 1000x1000 pixels, 64-byte ray states, 2 GiB bindings: 33 M rays per batch.
+        let max_rays = 2_147_483_644 / 64;
+        let b = plan_batches(1_000_000, 100, 20, max_rays);
+        assert_eq!(b.len(), 5);
+        assert!(
+            b.iter()
+                .all(|b| b.sample_count == 20 && b.pixel_count == 1_000_000)
+        );
+    }
+
+    #[test]
+    fn dispatches_stay_within_the_per_dimension_limit() {
+        assert_eq!(dispatch_size(0, 64, 65535), (0, 1));
+        assert_eq!(dispatch_size(1, 64, 65535), (1, 1));
+        assert_eq!(dispatch_size(64 * 65535, 64, 65535), (65535, 1));
+        let (x, y) = dispatch_size(20_000_000, 64, 65535);
+        assert!(x <= 65535 && u64::from(x) * u64::from(y) * 64 >= 20_000_000);
+    }
+}

@@ -1,0 +1,174 @@
+//! The CPU mirror: the same functions as the WGSL kernels, run with rayon. It traces the same
+//! paths as the GPU (same random-number keys, same arithmetic), so images agree closely, and
+//! it is the reference the GPU tests compare against. Like the paper's CPU path, it never
+//! sorts rays.
+
+pub mod stages;
+
+use std::time::Instant;
+
+use raylume_bvh::GpuBvh;
+use raylume_scene::Scene;
+use rayon::prelude::*;
+
+use crate::batches::plan_batches;
+use crate::gpu_types::{RayState, SceneUniforms};
+use crate::scene_data::SceneData;
+use crate::surface::Globals;
+use crate::{KernelError, Schedule, TraceOutput, TraceSettings};
+
+/// Rays per batch on the CPU: bounds the wavefront's ray states to 256 MiB.
+pub const CPU_MAX_RAYS_PER_BATCH: u64 = 1 << 22;
+
+/// Renders a scene on the CPU with rayon, through the same stage functions as the GPU.
+pub struct CpuTracer {
+    bvh: GpuBvh,
+    data: SceneData,
+    prepare_seconds: f64,
+}
+
+impl CpuTracer {
+    /// Flattens `scene` for the primitives of `bvh` (built from this scene).
+    pub fn new(scene: &Scene, bvh: &GpuBvh) -> Result<Self, KernelError> {
+        let t = Instant::now();
+        let data = SceneData::new(scene, bvh)?;
+        Ok(Self {
+            bvh: bvh.clone(),
+            data,
+            prepare_seconds: t.elapsed().as_secs_f64(),
+        })
+    }
+
+    fn globals<'a>(&'a self, scene: &'a SceneUniforms) -> Globals<'a> {
+        Globals {
+            scene,
+            primitives: &self.bvh.primitives,
+            materials: &self.data.materials,
+            prim_materials: &self.data.prim_materials,
+            triangle_shading: &self.data.triangle_shading,
+            texture_headers: &self.data.texture_headers,
+            texels: &self.data.texels,
+        }
+    }
+
+    /// Renders with `settings`, calling `progress(spp_done, spp_total)` after each batch.
+    /// Timings are wall-clock: "upload" (flattening the scene in [`CpuTracer::new`]), the
+    /// stages of the chosen schedule, and "trace", the whole batch loop.
+    pub fn render(
+        &mut self,
+        settings: &TraceSettings,
+        progress: &mut dyn FnMut(u32, u32),
+    ) -> Result<TraceOutput, KernelError> {
+        settings.validate()?;
+        let pixels = settings.width * settings.height;
+        let batches = plan_batches(
+            pixels,
+            settings.spp,
+            settings.batch_spp,
+            CPU_MAX_RAYS_PER_BATCH,
+        );
+        let base = self.data.uniforms(settings);
+        let mut image = vec![[0.0f32; 3]; pixels as usize];
+        let mut slots: Vec<[f32; 3]> = Vec::new();
+        let mut states: Vec<RayState> = Vec::new();
+        let (mut rays_traced, mut dropped) = (0u64, 0u64);
+        let (mut t_raygen, mut t_propagate, mut t_paths, mut t_resolve) = (0.0, 0.0, 0.0, 0.0);
+        let mut samples_done = 0u64;
+        let start = Instant::now();
+        for (bi, b) in batches.iter().enumerate() {
+            let scene = SceneUniforms {
+                sample_begin: b.sample_begin,
+                sample_count: b.sample_count,
+                pixel_begin: b.pixel_begin,
+                pixel_count: b.pixel_count,
+                batch_index: bi as u32,
+                resolve_scale: if b.last_for_pixels {
+                    1.0 / settings.spp as f32
+                } else {
+                    1.0
+                },
+                rays_in_batch: b.rays(),
+                queue_capacity: b.rays(),
+                ..base
+            };
+            let g = self.globals(&scene);
+            let bvh = &self.bvh;
+            let n = b.rays() as usize;
+            slots.clear();
+            slots.resize(n, [0.0; 3]);
+            match settings.schedule {
+                Schedule::Megakernel => {
+                    let t = Instant::now();
+                    let (traced, drops) = slots
+                        .par_iter_mut()
+                        .enumerate()
+                        .map(|(r, slot)| {
+                            let (v, d, traced) = stages::trace_paths(&g, bvh, r as u32);
+                            *slot = v;
+                            (u64::from(traced), u64::from(d))
+                        })
+                        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+                    rays_traced += traced;
+                    dropped += drops;
+                    t_paths += t.elapsed().as_secs_f64();
+                }
+                Schedule::Wavefront => {
+                    let t = Instant::now();
+                    states.clear();
+                    (0..b.rays())
+                        .into_par_iter()
+                        .map(|r| stages::raygen(&scene, r))
+                        .collect_into_vec(&mut states);
+                    t_raygen += t.elapsed().as_secs_f64();
+                    let t = Instant::now();
+                    for depth in 0..=settings.max_bounces {
+                        let (traced, drops) = states
+                            .par_iter_mut()
+                            .zip(slots.par_iter_mut())
+                            .filter(|(ray, _)| ray.alive != 0)
+                            .map(|(ray, slot)| match stages::propagate(&g, bvh, ray, depth) {
+                                Some((v, d)) => {
+                                    *slot = v;
+                                    (1u64, u64::from(d))
+                                }
+                                None => (1, 0),
+                            })
+                            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+                        rays_traced += traced;
+                        dropped += drops;
+                        if traced == 0 {
+                            break;
+                        }
+                    }
+                    t_propagate += t.elapsed().as_secs_f64();
+                }
+            }
+            let t = Instant::now();
+            let pixel_range = b.pixel_begin as usize..(b.pixel_begin + b.pixel_count) as usize;
+            image[pixel_range]
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(i, acc)| *acc = stages::resolve(&scene, *acc, &slots, i as u32));
+            t_resolve += t.elapsed().as_secs_f64();
+            samples_done += u64::from(b.rays());
+            progress((samples_done / u64::from(pixels)) as u32, settings.spp);
+        }
+        let trace = start.elapsed().as_secs_f64();
+        let mut timings = vec![("upload", self.prepare_seconds)];
+        match settings.schedule {
+            Schedule::Megakernel => timings.push(("trace_paths", t_paths)),
+            Schedule::Wavefront => {
+                timings.push(("raygen", t_raygen));
+                timings.push(("propagate", t_propagate));
+            }
+        }
+        timings.push(("resolve", t_resolve));
+        timings.push(("trace", trace));
+        Ok(TraceOutput {
+            radiance: image,
+            rays_traced,
+            dropped_samples: dropped,
+            timings,
+        })
+    }
+}

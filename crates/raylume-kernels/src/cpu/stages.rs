@@ -1,0 +1,104 @@
+//! The kernels' entry points in Rust, one function per WGSL entry point (same names), each
+//! the body of one GPU thread. [`super::CpuTracer`] runs them with rayon.
+
+use glam::{Vec2, Vec3};
+use raylume_bvh::GpuBvh;
+
+use crate::camera::generate_camera_ray;
+use crate::gpu_types::{DIM_CAMERA, RayState, SceneUniforms};
+use crate::math::is_finite3;
+use crate::rng::rand4;
+use crate::shade::{PathState, trace_ray};
+use crate::surface::Globals;
+
+/// (pixel, sample) of ray `r` of the batch; consecutive rays are consecutive pixels.
+#[inline]
+pub fn batch_ray(scene: &SceneUniforms, r: u32) -> (u32, u32) {
+    (
+        scene.pixel_begin + r % scene.pixel_count,
+        scene.sample_begin + r / scene.pixel_count,
+    )
+}
+
+/// The camera path of a pixel sample.
+#[inline]
+pub fn camera_path(scene: &SceneUniforms, pixel: u32, sample: u32) -> PathState {
+    let j = rand4(scene.seed, pixel, sample, 0, DIM_CAMERA);
+    let dir = generate_camera_ray(scene, pixel, Vec2::new(j.x, j.y));
+    PathState::new(Vec3::from(scene.camera_origin), dir)
+}
+
+/// The value a finished sample writes to its slot: its radiance, or zero when it is not
+/// finite (then `true`: the sample is dropped and counted).
+#[inline]
+pub fn write_sample(radiance: Vec3) -> ([f32; 3], bool) {
+    if is_finite3(radiance) {
+        (radiance.into(), false)
+    } else {
+        ([0.0; 3], true)
+    }
+}
+
+/// `raygen`: the stored camera ray of ray `r` of the batch.
+#[inline]
+pub fn raygen(scene: &SceneUniforms, r: u32) -> RayState {
+    let (pixel, sample) = batch_ray(scene, r);
+    let path = camera_path(scene, pixel, sample);
+    let mut ray = RayState {
+        pixel,
+        sample,
+        ..Default::default()
+    };
+    path.store(&mut ray, 0);
+    ray
+}
+
+/// `propagate` at segment `depth`: advances a live stored ray by one segment. Returns the
+/// sample to write when the path ended (`Some((value, dropped))`).
+#[inline]
+pub fn propagate(
+    g: &Globals,
+    bvh: &GpuBvh,
+    ray: &mut RayState,
+    depth: u32,
+) -> Option<([f32; 3], bool)> {
+    let mut path = PathState::load(ray);
+    path.alive = true;
+    trace_ray(g, bvh, &mut path, ray.pixel, ray.sample, depth);
+    path.store(ray, depth + 1);
+    (!path.alive).then(|| write_sample(path.radiance))
+}
+
+/// `trace_paths`: the whole path of ray `r` of the batch; returns its slot value, whether
+/// it was dropped, and the rays traced.
+#[inline]
+pub fn trace_paths(g: &Globals, bvh: &GpuBvh, r: u32) -> ([f32; 3], bool, u32) {
+    let scene = g.scene;
+    let (pixel, sample) = batch_ray(scene, r);
+    let mut path = camera_path(scene, pixel, sample);
+    let mut traced = 0;
+    let mut depth = 0;
+    while depth <= scene.max_bounces && path.alive {
+        trace_ray(g, bvh, &mut path, pixel, sample, depth);
+        traced += 1;
+        depth += 1;
+    }
+    let (value, dropped) = write_sample(path.radiance);
+    (value, dropped, traced)
+}
+
+/// `resolve` for pixel `i` of the batch: its running sum plus this batch's samples in sample
+/// order, times `resolve_scale`.
+#[inline]
+pub fn resolve(
+    scene: &SceneUniforms,
+    accumulated: [f32; 3],
+    sample_radiance: &[[f32; 3]],
+    i: u32,
+) -> [f32; 3] {
+    let mut sum = Vec3::from(accumulated);
+    for s in 0..scene.sample_count {
+        sum += Vec3::from(sample_radiance[(s * scene.pixel_count + i) as usize]);
+    }
+    (sum * scene.resolve_scale).into()
+}

@@ -1,0 +1,46 @@
+// The kernels' global bindings and specialisation constants (gpu/shader.rs assembles them).
+//
+// Group 0, the scene: uploaded once per scene; `scene` is rewritten before every batch.
+// Group 1, the render's work buffers: allocated per render size; `bounce` is read at a
+// dynamic offset, one entry per wavefront bounce. (Binding 5 is unused.)
+
+@group(0) @binding(0) var<uniform> scene: SceneUniforms;
+@group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(2) var<storage, read> bvh_primitives: array<Primitive>;
+@group(0) @binding(3) var<storage, read> materials: array<GpuMaterial>;
+@group(0) @binding(4) var<storage, read> prim_materials: array<u32>;
+@group(0) @binding(5) var<storage, read> triangle_shading: array<TriangleShading>;
+@group(0) @binding(6) var<storage, read> texture_headers: array<TextureHeader>;
+@group(0) @binding(7) var<storage, read> texels: array<f32>;
+
+@group(1) @binding(0) var<storage, read_write> ray_states: array<RayState>;
+// Each sample's radiance, RGB triples, slot = sample_in_batch * pixel_count + pixel_in_batch.
+@group(1) @binding(1) var<storage, read_write> sample_radiance: array<f32>;
+// Two queues of ray indices (depth parity), `scene.queue_capacity` each.
+@group(1) @binding(2) var<storage, read_write> ray_queues: array<u32>;
+// Sort key per queue slot of the current bounce (DEAD_RAY_KEY for rays that ended).
+@group(1) @binding(3) var<storage, read_write> ray_keys: array<u32>;
+// Lengths of the two queues.
+@group(1) @binding(4) var<storage, read_write> queue_counts: array<atomic<u32>, 4>;
+// The image: running sums, then the mean, RGB triples per pixel.
+@group(1) @binding(6) var<storage, read_write> accumulation: array<f32>;
+// Per batch: rays traced (low word, high word), samples dropped, unused.
+@group(1) @binding(7) var<storage, read_write> batch_stats: array<atomic<u32>>;
+@group(1) @binding(8) var<uniform> bounce: BounceUniforms;
+
+// Group 2, only in `prepare_propagate`'s layout: the indirect dispatch size of the next
+// `propagate` (a buffer used for an indirect dispatch must not be bound in that dispatch).
+@group(2) @binding(0) var<storage, read_write> dispatch_args: array<u32, 4>;
+
+// Scene features (raylume_scene::Features): code behind a false one is dead in the
+// specialised pipeline. The defaults describe the unspecialised reference pipeline.
+override HAS_DIFFUSE: bool = true;
+override HAS_METAL: bool = true;
+override HAS_ROUGH_METAL: bool = true;
+override HAS_GLASS: bool = true;
+override HAS_EMISSION: bool = true;
+override HAS_SPHERES: bool = true;
+override HAS_TEXTURES: bool = true;
+override HAS_SHADING_NORMALS: bool = true;
+override HAS_CONSTANT_ENVIRONMENT: bool = true;
+override HAS_ENVIRONMENT_MAP: bool = true;

@@ -1,0 +1,83 @@
+// What both schedules share (stages.rs in cpu/ mirrors it): batch indexing, the camera path,
+// writing a sample, and the per-workgroup statistics.
+
+var<workgroup> wg_traced: atomic<u32>;
+var<workgroup> wg_dropped: atomic<u32>;
+
+// Linear thread index in a 2D dispatch (x at most MAX_WORKGROUPS_PER_DIMENSION).
+fn thread_index(wg: vec3<u32>, nwg: vec3<u32>, local: u32) -> u32 {
+    return (wg.y * nwg.x + wg.x) * WORKGROUP_SIZE + local;
+}
+
+// (pixel, sample) of ray `r` of the batch; consecutive rays are consecutive pixels.
+fn batch_ray(r: u32) -> vec2<u32> {
+    return vec2<u32>(scene.pixel_begin + r % scene.pixel_count, scene.sample_begin + r / scene.pixel_count);
+}
+
+fn camera_path(pixel: u32, sample: u32) -> PathState {
+    let jitter = rand4(scene.seed, pixel, sample, 0u, DIM_CAMERA).xy;
+    let dir = generate_camera_ray(pixel, jitter);
+    return PathState(scene.camera_origin, dir, vec3<f32>(1.0), vec3<f32>(0.0), true);
+}
+
+// Writes ray r's radiance to its slot; a non-finite sample is dropped (written as zero) and
+// counted. Returns 1 when dropped.
+fn write_sample(r: u32, radiance: vec3<f32>) -> u32 {
+    let ok = is_finite3(radiance);
+    let v = select(vec3<f32>(0.0), radiance, ok);
+    sample_radiance[3u * r] = v.x;
+    sample_radiance[3u * r + 1u] = v.y;
+    sample_radiance[3u * r + 2u] = v.z;
+    return select(1u, 0u, ok);
+}
+
+// Adds this thread's counts to the workgroup's, then the workgroup's to the batch's with one
+// atomic each (the ray count as a carry-propagating 64-bit pair). Call from uniform control
+// flow: it contains a barrier.
+fn flush_stats(local: u32, traced: u32, dropped: u32) {
+    if (traced > 0u) {
+        atomicAdd(&wg_traced, traced);
+    }
+    if (dropped > 0u) {
+        atomicAdd(&wg_dropped, dropped);
+    }
+    workgroupBarrier();
+    if (local == 0u) {
+        let i = 4u * scene.batch_index;
+        let t = atomicLoad(&wg_traced);
+        if (t > 0u) {
+            let old = atomicAdd(&batch_stats[i], t);
+            if (old > 0xffffffffu - t) {
+                atomicAdd(&batch_stats[i + 1u], 1u);
+            }
+        }
+        let d = atomicLoad(&wg_dropped);
+        if (d > 0u) {
+            atomicAdd(&batch_stats[i + 2u], d);
+        }
+    }
+}
+
+// Sums each pixel's samples of this batch onto its running sum, in sample order, then
+// scales (1/spp after the pixel's last batch). One thread per pixel of the batch.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn resolve(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    let i = thread_index(wg, nwg, local);
+    if (i >= scene.pixel_count) {
+        return;
+    }
+    let p = 3u * (scene.pixel_begin + i);
+    var sum = vec3<f32>(accumulation[p], accumulation[p + 1u], accumulation[p + 2u]);
+    for (var s = 0u; s < scene.sample_count; s++) {
+        let k = 3u * (s * scene.pixel_count + i);
+        sum += vec3<f32>(sample_radiance[k], sample_radiance[k + 1u], sample_radiance[k + 2u]);
+    }
+    sum = sum * scene.resolve_scale;
+    accumulation[p] = sum.x;
+    accumulation[p + 1u] = sum.y;
+    accumulation[p + 2u] = sum.z;
+}

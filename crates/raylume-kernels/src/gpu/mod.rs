@@ -1,0 +1,559 @@
+//! The GPU tracer: the scene uploaded once into storage buffers, pipelines specialised on the
+//! scene's features, and the two schedules (megakernel, wavefront) run batch by batch.
+
+mod shader;
+pub mod sort_key;
+mod work;
+
+pub use shader::{pipeline_constants, tracer_source};
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use raylume_bvh::{BvhNode, GpuBvh, Primitive};
+use raylume_gpu::{GpuContext, Timestamps, wgpu};
+use raylume_scene::{Feature, Features, Scene};
+
+use crate::batches::{dispatch_size, plan_batches};
+use crate::gpu_types::{GpuMaterial, RayState, SceneUniforms, TextureHeader, TriangleShading};
+use crate::scene_data::SceneData;
+use crate::{KernelError, Schedule, TraceOutput, TraceSettings, WORKGROUP_SIZE};
+use work::WorkBuffers;
+
+/// Statistics of a render whose image stays on the GPU ([`GpuTracer::render_to_buffer`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TraceStats {
+    pub rays_traced: u64,
+    pub dropped_samples: u64,
+    /// As [`TraceOutput::timings`].
+    pub timings: Vec<(&'static str, f64)>,
+}
+
+/// The scene's storage buffers and their bind group (group 0).
+struct SceneBuffers {
+    uniforms: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+}
+
+/// Renders a scene on the GPU. Holds the uploaded scene, the compiled pipelines and the
+/// work buffers of the last render size; `render` may be called many times.
+pub struct GpuTracer<'a> {
+    ctx: &'a GpuContext,
+    data: SceneData,
+    features: Features,
+    scene: SceneBuffers,
+    work_layout: wgpu::BindGroupLayout,
+    args_layout: wgpu::BindGroupLayout,
+    /// Groups 0 and 1: every entry point but `prepare_propagate`.
+    pipeline_layout: wgpu::PipelineLayout,
+    /// Groups 0, 1 and 2: `prepare_propagate`.
+    prepare_layout: wgpu::PipelineLayout,
+    module: wgpu::ShaderModule,
+    pipelines: HashMap<&'static str, wgpu::ComputePipeline>,
+    work: Option<WorkBuffers>,
+    upload_seconds: f64,
+}
+
+fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+fn uniform_entry(binding: u32, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: dynamic,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// A storage buffer holding `data`, or one default element when `data` is empty (a binding
+/// must hold at least one element). A buffer over the adapter's limit is a
+/// [`KernelError::SceneTooLarge`] naming `label`.
+fn upload<T: bytemuck::Pod + Default>(
+    ctx: &GpuContext,
+    label: &str,
+    data: &[T],
+) -> Result<wgpu::Buffer, KernelError> {
+    let one = [T::default()];
+    let data = if data.is_empty() { &one[..] } else { data };
+    ctx.storage_buffer(label, data, wgpu::BufferUsages::empty())
+        .map_err(KernelError::from_upload)
+}
+
+impl<'a> GpuTracer<'a> {
+    /// Uploads `scene` (with its BVH `bvh`) and builds pipelines specialised on
+    /// `scene.features()`.
+    pub fn new(ctx: &'a GpuContext, scene: &Scene, bvh: &GpuBvh) -> Result<Self, KernelError> {
+        Self::with_features(ctx, scene, bvh, scene.features())
+    }
+
+    /// As [`GpuTracer::new`], with pipelines specialised on `features` instead (which must
+    /// include the scene's own; [`Features::all`] gives the unspecialised reference).
+    pub fn with_features(
+        ctx: &'a GpuContext,
+        scene: &Scene,
+        bvh: &GpuBvh,
+        features: Features,
+    ) -> Result<Self, KernelError> {
+        let missing = Features::from_bits(scene.features().bits() & !features.bits());
+        if missing != Features::NONE {
+            return Err(KernelError::InvalidScene(format!(
+                "pipelines specialised without features the scene uses: {missing}"
+            )));
+        }
+        let start = Instant::now();
+        let mut data = SceneData::new(scene, bvh)?;
+        let device = &ctx.device;
+
+        let uniforms = ctx.scoped("creating the scene uniform buffer", || {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("raylume scene uniforms"),
+                size: size_of::<SceneUniforms>() as u64,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        })?;
+        let nodes = upload::<BvhNode>(ctx, "BVH nodes", &bvh.nodes)?;
+        let primitives = upload::<Primitive>(ctx, "BVH primitives", &bvh.primitives)?;
+        let materials = upload::<GpuMaterial>(ctx, "materials", &data.materials)?;
+        let prim_materials =
+            upload::<u32>(ctx, "primitive material indices", &data.prim_materials)?;
+        // A pipeline that may read shading data gets a full-length array even when no triangle
+        // has any, so that its reads stay in bounds.
+        let needs_shading =
+            features.contains(Feature::ShadingNormals) || features.contains(Feature::Textures);
+        let zero_shading;
+        let shading: &[TriangleShading] = if data.triangle_shading.is_empty() && needs_shading {
+            zero_shading = vec![TriangleShading::default(); data.prim_materials.len()];
+            &zero_shading
+        } else {
+            &data.triangle_shading
+        };
+        let shading = upload::<TriangleShading>(ctx, "triangle shading data", shading)?;
+        let headers = upload::<TextureHeader>(ctx, "texture headers", &data.texture_headers)?;
+        let texels = upload::<f32>(ctx, "texels", &data.texels)?;
+
+        let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("raylume scene"),
+            entries: &[
+                uniform_entry(0, false),
+                storage_entry(1, true),
+                storage_entry(2, true),
+                storage_entry(3, true),
+                storage_entry(4, true),
+                storage_entry(5, true),
+                storage_entry(6, true),
+                storage_entry(7, true),
+            ],
+        });
+        let work_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("raylume work"),
+            entries: &[
+                storage_entry(0, false),
+                storage_entry(1, false),
+                storage_entry(2, false),
+                storage_entry(3, false),
+                storage_entry(4, false),
+                storage_entry(6, false),
+                storage_entry(7, false),
+                uniform_entry(8, true),
+            ],
+        });
+        let args_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("raylume propagate dispatch size"),
+            entries: &[storage_entry(0, false)],
+        });
+        let (bind_group, pipeline_layout, prepare_layout, module) =
+            ctx.scoped("building the tracer's shader and layouts", || {
+                let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("raylume scene"),
+                    layout: &scene_layout,
+                    entries: &[
+                        wgpu::BindGroupEntry {
+                            binding: 0,
+                            resource: uniforms.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 1,
+                            resource: nodes.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 2,
+                            resource: primitives.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 3,
+                            resource: materials.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 4,
+                            resource: prim_materials.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 5,
+                            resource: shading.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 6,
+                            resource: headers.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 7,
+                            resource: texels.as_entire_binding(),
+                        },
+                    ],
+                });
+                let pipeline_layout =
+                    device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                        label: Some("raylume tracer"),
+                        bind_group_layouts: &[Some(&scene_layout), Some(&work_layout)],
+                        immediate_size: 0,
+                    });
+                let prepare_layout =
+                    device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                        label: Some("raylume prepare_propagate"),
+                        bind_group_layouts: &[
+                            Some(&scene_layout),
+                            Some(&work_layout),
+                            Some(&args_layout),
+                        ],
+                        immediate_size: 0,
+                    });
+                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some("raylume tracer"),
+                    source: wgpu::ShaderSource::Wgsl(
+                        tracer_source(ctx.limits.max_compute_workgroups_per_dimension).into(),
+                    ),
+                });
+                (bind_group, pipeline_layout, prepare_layout, module)
+            })?;
+        ctx.wait("uploading the scene")?;
+        // Only what the uniforms need stays on the CPU.
+        data.texels = Vec::new();
+        data.triangle_shading = Vec::new();
+        Ok(Self {
+            ctx,
+            data,
+            features,
+            scene: SceneBuffers {
+                uniforms,
+                bind_group,
+            },
+            work_layout,
+            args_layout,
+            pipeline_layout,
+            prepare_layout,
+            module,
+            pipelines: HashMap::new(),
+            work: None,
+            upload_seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// The features the pipelines are specialised on.
+    pub fn features(&self) -> Features {
+        self.features
+    }
+
+    /// The compute pipeline of entry point `entry`, compiled on first use.
+    fn pipeline(&mut self, entry: &'static str) -> Result<wgpu::ComputePipeline, KernelError> {
+        if let Some(p) = self.pipelines.get(entry) {
+            return Ok(p.clone());
+        }
+        let constants = pipeline_constants(self.features);
+        let p = self
+            .ctx
+            .scoped(&format!("compiling the `{entry}` pipeline"), || {
+                self.ctx
+                    .device
+                    .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                        label: Some(entry),
+                        layout: Some(if entry == "prepare_propagate" {
+                            &self.prepare_layout
+                        } else {
+                            &self.pipeline_layout
+                        }),
+                        module: &self.module,
+                        entry_point: Some(entry),
+                        compilation_options: wgpu::PipelineCompilationOptions {
+                            constants: &constants,
+                            zero_initialize_workgroup_memory: true,
+                        },
+                        cache: None,
+                    })
+            })?;
+        self.pipelines.insert(entry, p.clone());
+        Ok(p)
+    }
+
+    /// The image of the last render: mean linear radiance, packed RGB `f32` triples
+    /// (12 bytes per pixel, row-major, top row first; the buffer may be padded at the end),
+    /// usable as a storage buffer or copy source (e.g. by a bloom pass before read-back).
+    pub fn image_buffer(&self) -> Option<&wgpu::Buffer> {
+        self.work.as_ref().map(|w| &w.accumulation)
+    }
+
+    /// Renders and reads the image back.
+    pub fn render(
+        &mut self,
+        settings: &TraceSettings,
+        progress: &mut dyn FnMut(u32, u32),
+    ) -> Result<TraceOutput, KernelError> {
+        let stats = self.render_to_buffer(settings, progress)?;
+        let pixels = (settings.width * settings.height) as usize;
+        let buffer = &self
+            .work
+            .as_ref()
+            .expect("render_to_buffer allocates work")
+            .accumulation;
+        let radiance = self.ctx.read_buffer::<[f32; 3]>(buffer, pixels)?;
+        Ok(TraceOutput {
+            radiance,
+            rays_traced: stats.rays_traced,
+            dropped_samples: stats.dropped_samples,
+            timings: stats.timings,
+        })
+    }
+
+    /// Renders, leaving the image on the GPU in [`GpuTracer::image_buffer`]. Calls
+    /// `progress(spp_done, spp_total)` after each batch.
+    pub fn render_to_buffer(
+        &mut self,
+        settings: &TraceSettings,
+        progress: &mut dyn FnMut(u32, u32),
+    ) -> Result<TraceStats, KernelError> {
+        settings.validate()?;
+        let ctx = self.ctx;
+        let pixels = settings.width * settings.height;
+        let per_ray = match settings.schedule {
+            Schedule::Wavefront => size_of::<RayState>() as u64,
+            Schedule::Megakernel => 12,
+        };
+        let batches = plan_batches(
+            pixels,
+            settings.spp,
+            settings.batch_spp,
+            ctx.max_binding_bytes() / per_ray,
+        );
+        let capacity = batches.iter().map(|b| b.rays()).max().unwrap_or(1);
+        let key = work::WorkKey {
+            schedule: settings.schedule,
+            capacity,
+            pixels,
+            batches: batches.len() as u32,
+            bounces: settings.max_bounces + 1,
+        };
+        if self.work.as_ref().is_none_or(|w| w.key != key) {
+            self.work = None; // free the old buffers first
+            self.work = Some(WorkBuffers::new(
+                ctx,
+                &self.work_layout,
+                &self.args_layout,
+                key,
+            )?);
+        }
+        let stages: &[&'static str] = match settings.schedule {
+            Schedule::Megakernel => &["trace_paths", "resolve"],
+            Schedule::Wavefront => &["raygen", "prepare_propagate", "propagate", "resolve"],
+        };
+        let mut pipes = HashMap::new();
+        for s in stages {
+            pipes.insert(*s, self.pipeline(s)?);
+        }
+        let work = self.work.as_ref().expect("allocated above");
+        work.reset(ctx, settings.max_bounces)?;
+
+        let base = self.data.uniforms(settings);
+        let max_dim = ctx.limits.max_compute_workgroups_per_dimension;
+        let mut clock = StageClock::new(ctx);
+        let mut samples_done = 0u64;
+        let start = Instant::now();
+        for (bi, b) in batches.iter().enumerate() {
+            let u = SceneUniforms {
+                sample_begin: b.sample_begin,
+                sample_count: b.sample_count,
+                pixel_begin: b.pixel_begin,
+                pixel_count: b.pixel_count,
+                batch_index: bi as u32,
+                resolve_scale: if b.last_for_pixels {
+                    1.0 / settings.spp as f32
+                } else {
+                    1.0
+                },
+                rays_in_batch: b.rays(),
+                queue_capacity: capacity,
+                ..base
+            };
+            ctx.queue
+                .write_buffer(&self.scene.uniforms, 0, bytemuck::bytes_of(&u));
+            let ray_groups = dispatch_size(b.rays(), WORKGROUP_SIZE, max_dim);
+            let pixel_groups = dispatch_size(b.pixel_count, WORKGROUP_SIZE, max_dim);
+            let scene_bg = &self.scene.bind_group;
+            let work_bg = &work.bind_group;
+            let bind =
+                |pass: &mut wgpu::ComputePass<'_>, pipe: &wgpu::ComputePipeline, offset: u32| {
+                    pass.set_pipeline(pipe);
+                    pass.set_bind_group(0, scene_bg, &[]);
+                    pass.set_bind_group(1, work_bg, &[offset]);
+                };
+            let resolve = |pass: &mut wgpu::ComputePass<'_>| {
+                bind(pass, &pipes["resolve"], 0);
+                pass.dispatch_workgroups(pixel_groups.0, pixel_groups.1, 1);
+            };
+            let during = format!("rendering batch {} of {}", bi + 1, batches.len());
+            match settings.schedule {
+                Schedule::Megakernel => {
+                    let trace_paths = |pass: &mut wgpu::ComputePass<'_>| {
+                        bind(pass, &pipes["trace_paths"], 0);
+                        pass.dispatch_workgroups(ray_groups.0, ray_groups.1, 1);
+                    };
+                    clock.run(
+                        &during,
+                        &[("trace_paths", &trace_paths), ("resolve", &resolve)],
+                    )?;
+                }
+                Schedule::Wavefront => {
+                    let raygen = |pass: &mut wgpu::ComputePass<'_>| {
+                        bind(pass, &pipes["raygen"], 0);
+                        pass.dispatch_workgroups(ray_groups.0, ray_groups.1, 1);
+                    };
+                    let propagate = |pass: &mut wgpu::ComputePass<'_>| {
+                        for depth in 0..=settings.max_bounces {
+                            let offset = depth * work.bounce_stride;
+                            bind(pass, &pipes["prepare_propagate"], offset);
+                            pass.set_bind_group(2, &work.args_bind_group, &[]);
+                            pass.dispatch_workgroups(1, 1, 1);
+                            bind(pass, &pipes["propagate"], offset);
+                            pass.dispatch_workgroups_indirect(&work.dispatch_args, 0);
+                        }
+                    };
+                    clock.run(
+                        &during,
+                        &[
+                            ("raygen", &raygen),
+                            ("propagate", &propagate),
+                            ("resolve", &resolve),
+                        ],
+                    )?;
+                }
+            }
+            samples_done += u64::from(b.rays());
+            progress((samples_done / u64::from(pixels)) as u32, settings.spp);
+        }
+        let trace = start.elapsed().as_secs_f64();
+        let stats: Vec<u32> = ctx.read_buffer(&work.batch_stats, 4 * batches.len())?;
+        let (mut rays_traced, mut dropped_samples) = (0u64, 0u64);
+        for s in stats.chunks_exact(4) {
+            rays_traced += u64::from(s[0]) | (u64::from(s[1]) << 32);
+            dropped_samples += u64::from(s[2]);
+        }
+        let mut timings = vec![("upload", self.upload_seconds)];
+        for (label, _) in [
+            ("raygen", ()),
+            ("propagate", ()),
+            ("trace_paths", ()),
+            ("resolve", ()),
+        ] {
+            if let Some(t) = clock.total(label) {
+                timings.push((label, t));
+            }
+        }
+        timings.push(("trace", trace));
+        Ok(TraceStats {
+            rays_traced,
+            dropped_samples,
+            timings,
+        })
+    }
+}
+
+/// A stage of a batch: its name and how to record it into a compute pass.
+type Stage<'s> = (&'static str, &'s dyn Fn(&mut wgpu::ComputePass<'_>));
+
+/// Times named stages: with GPU timestamps, all stages of a batch go into one submission, a
+/// pass each; without, each stage is submitted and waited for on its own and timed by the
+/// wall clock.
+struct StageClock<'c> {
+    ctx: &'c GpuContext,
+    timestamps: Option<Timestamps>,
+    totals: Vec<(&'static str, f64)>,
+}
+
+impl<'c> StageClock<'c> {
+    fn new(ctx: &'c GpuContext) -> Self {
+        Self {
+            ctx,
+            timestamps: Timestamps::new(ctx, 4),
+            totals: Vec::new(),
+        }
+    }
+
+    fn add(&mut self, label: &'static str, seconds: f64) {
+        match self.totals.iter_mut().find(|(l, _)| *l == label) {
+            Some((_, t)) => *t += seconds,
+            None => self.totals.push((label, seconds)),
+        }
+    }
+
+    fn total(&self, label: &str) -> Option<f64> {
+        self.totals
+            .iter()
+            .find(|(l, _)| *l == label)
+            .map(|(_, t)| *t)
+    }
+
+    /// Records, submits and waits for `stages`.
+    fn run(&mut self, during: &str, stages: &[Stage<'_>]) -> Result<(), KernelError> {
+        let ctx = self.ctx;
+        if let Some(ts) = self.timestamps.as_mut() {
+            ctx.scoped(during, || {
+                let mut enc = ctx.device.create_command_encoder(&Default::default());
+                for (label, record) in stages {
+                    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some(label),
+                        timestamp_writes: ts.writes(label),
+                    });
+                    record(&mut pass);
+                }
+                ts.resolve(&mut enc);
+                ctx.queue.submit([enc.finish()]);
+            })?;
+            let times = ts.read(ctx)?;
+            for (label, t) in times {
+                self.add(label, t);
+            }
+        } else {
+            for (label, record) in stages {
+                let t = Instant::now();
+                ctx.scoped(during, || {
+                    let mut enc = ctx.device.create_command_encoder(&Default::default());
+                    {
+                        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                            label: Some(label),
+                            timestamp_writes: None,
+                        });
+                        record(&mut pass);
+                    }
+                    ctx.queue.submit([enc.finish()]);
+                })?;
+                ctx.wait(during)?;
+                self.add(label, t.elapsed().as_secs_f64());
+            }
+        }
+        Ok(())
+    }
+}

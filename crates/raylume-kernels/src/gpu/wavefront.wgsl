@@ -1,0 +1,98 @@
+// The paper's wavefront schedule: `raygen` writes one ray per pixel sample of the batch;
+// then, max_bounces + 1 times, `prepare_propagate` sizes the next launch from the live-ray
+// count and `propagate` advances every live ray by one segment (traversal, intersection and
+// shading in one kernel), stores it, writes its sort key and appends it to the next queue.
+
+var<workgroup> wg_live: atomic<u32>;
+var<workgroup> wg_base: u32;
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn raygen(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    let r = thread_index(wg, nwg, local);
+    if (r >= scene.rays_in_batch) {
+        return;
+    }
+    let ps = batch_ray(r);
+    let path = camera_path(ps.x, ps.y);
+    ray_states[r] = RayState(path.origin, ps.x, path.dir, ps.y, path.throughput, 0u, path.radiance, 1u);
+    ray_queues[r] = r;
+    if (r == 0u) {
+        atomicStore(&queue_counts[0], scene.rays_in_batch);
+    }
+}
+
+@compute @workgroup_size(1)
+fn prepare_propagate() {
+    let q = bounce.depth & 1u;
+    let n = atomicLoad(&queue_counts[q]);
+    let groups = (n + WORKGROUP_SIZE - 1u) / WORKGROUP_SIZE;
+    let x = min(groups, MAX_WORKGROUPS_PER_DIMENSION);
+    var y = 1u;
+    if (x > 0u) {
+        y = (groups + x - 1u) / x;
+    }
+    dispatch_args[0] = x;
+    dispatch_args[1] = y;
+    dispatch_args[2] = 1u;
+    atomicStore(&queue_counts[1u - q], 0u);
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn propagate(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    let t = thread_index(wg, nwg, local);
+    let q = bounce.depth & 1u;
+    let n = atomicLoad(&queue_counts[q]);
+    var traced = 0u;
+    var dropped = 0u;
+    var live = false;
+    var r = 0u;
+    if (t < n) {
+        r = ray_queues[q * scene.queue_capacity + t];
+        var ray = ray_states[r];
+        var path = PathState(ray.origin, ray.dir, ray.throughput, ray.radiance, true);
+        trace_ray(&path, ray.pixel, ray.sample, bounce.depth);
+        traced = 1u;
+        live = path.alive;
+        ray.origin = path.origin;
+        ray.dir = path.dir;
+        ray.throughput = path.throughput;
+        ray.radiance = path.radiance;
+        ray.depth = bounce.depth + 1u;
+        ray.alive = select(0u, 1u, live);
+        ray_states[r] = ray;
+        var key = DEAD_RAY_KEY;
+        if (live) {
+            // SORT KEY: until raylume-sort lands, a local copy of the paper's 30-bit
+            // origin/direction Morton key; replace with its MORTON_WGSL `ray_sort_key`.
+            key = local_ray_sort_key(path.origin, path.dir, scene.scene_min, scene.scene_extent);
+        } else {
+            dropped = write_sample(r, path.radiance);
+        }
+        ray_keys[t] = key;
+    }
+    // Compaction: the live rays of this workgroup take consecutive slots of the next queue.
+    var slot = 0u;
+    if (live) {
+        slot = atomicAdd(&wg_live, 1u);
+    }
+    workgroupBarrier();
+    if (local == 0u) {
+        let count = atomicLoad(&wg_live);
+        if (count > 0u) {
+            wg_base = atomicAdd(&queue_counts[1u - q], count);
+        }
+    }
+    flush_stats(local, traced, dropped);
+    workgroupBarrier();
+    if (live) {
+        ray_queues[(1u - q) * scene.queue_capacity + wg_base + slot] = r;
+    }
+}

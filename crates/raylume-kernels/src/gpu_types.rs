@@ -1,0 +1,242 @@
+//! Types shared by the WGSL kernels and their Rust mirror, byte for byte.
+//!
+//! Each type is `#[repr(C)]`, `Pod`, with its size and field offsets asserted below; the WGSL
+//! struct of the same name in `gpu_types.wgsl` has the same fields in the same order (padding
+//! spelled out as `_pad*` fields). The test `layout_matches_wgsl` parses the assembled shader
+//! with naga and compares every struct's member names and offsets against these.
+//!
+//! The constants at the top are emitted into the shader by [`wgsl_constants`], so the WGSL
+//! side cannot drift from them.
+
+use bytemuck::{Pod, Zeroable};
+use std::mem::{offset_of, size_of};
+
+/// `GpuMaterial::kind`: Lambertian reflector.
+pub const MATERIAL_DIFFUSE: u32 = 0;
+/// `GpuMaterial::kind`: conductor (mirror at alpha 0, GGX above).
+pub const MATERIAL_METAL: u32 = 1;
+/// `GpuMaterial::kind`: smooth dielectric.
+pub const MATERIAL_GLASS: u32 = 2;
+
+/// `GpuMaterial::texture` when the material has no albedo texture.
+pub const NO_TEXTURE: u32 = u32::MAX;
+
+/// `SceneUniforms::environment_kind`: escaping rays carry nothing.
+pub const ENVIRONMENT_BLACK: u32 = 0;
+/// `SceneUniforms::environment_kind`: constant radiance `environment_color`.
+pub const ENVIRONMENT_CONSTANT: u32 = 1;
+/// `SceneUniforms::environment_kind`: equirectangular map times `environment_color`.
+pub const ENVIRONMENT_MAP: u32 = 2;
+
+/// `TriangleShading::flags`: the triangle has per-vertex shading normals.
+pub const SHADING_HAS_NORMALS: u32 = 1;
+/// `TriangleShading::flags`: the triangle has per-vertex texture coordinates.
+pub const SHADING_HAS_UVS: u32 = 2;
+
+/// The sort key of a dead ray: sorting by key also compacts the live rays to the front.
+pub const DEAD_RAY_KEY: u32 = u32::MAX;
+
+/// Random-number dimension (a group of 4 numbers) of the camera ray's pixel jitter.
+pub const DIM_CAMERA: u32 = 0;
+/// Random-number dimension of the scattering decision at a hit.
+pub const DIM_SCATTER: u32 = 1;
+
+/// The far end of every ray: the largest finite `f32` (WGSL has no infinity literal).
+pub const T_MAX: f32 = f32::MAX;
+
+/// Scene-constant data and the current batch, in a uniform buffer.
+///
+/// `repr(C)`, `Pod`, 176 bytes. WGSL: `SceneUniforms`.
+///
+/// The camera is a pinhole: a pixel's ray is
+/// `normalize(camera_forward + sx * camera_right + sy * camera_up)` with `sx, sy` in
+/// `[-1, 1]` across the image; `camera_right` and `camera_up` are pre-scaled by the field of
+/// view and aspect ratio.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SceneUniforms {
+    pub camera_origin: [f32; 3],
+    pub width: u32,
+    pub camera_forward: [f32; 3],
+    pub height: u32,
+    pub camera_right: [f32; 3],
+    /// Samples per pixel of the whole render.
+    pub spp: u32,
+    pub camera_up: [f32; 3],
+    /// Bounces after the camera ray (a path has at most `max_bounces + 1` segments).
+    pub max_bounces: u32,
+    /// Constant radiance, or the map's multiplier (`strength` in all three channels).
+    pub environment_color: [f32; 3],
+    /// [`ENVIRONMENT_BLACK`], [`ENVIRONMENT_CONSTANT`] or [`ENVIRONMENT_MAP`].
+    pub environment_kind: u32,
+    /// Scene bounds, for the rays' sort keys.
+    pub scene_min: [f32; 3],
+    pub seed: u32,
+    pub scene_extent: [f32; 3],
+    pub _pad0: u32,
+    /// Map rotation about +y, in turns (degrees / 360).
+    pub environment_rotation: f32,
+    pub environment_width: u32,
+    pub environment_height: u32,
+    /// Index of the map's first texel in the texel buffer (texels, not floats).
+    pub environment_offset: u32,
+    /// First sample index of this batch.
+    pub sample_begin: u32,
+    /// Samples per pixel in this batch.
+    pub sample_count: u32,
+    /// First pixel of this batch (row-major index).
+    pub pixel_begin: u32,
+    /// Pixels in this batch.
+    pub pixel_count: u32,
+    /// Index of this batch's statistics slot.
+    pub batch_index: u32,
+    /// Multiplier `resolve` applies after summing: `1 / spp` on a pixel's last batch, else 1.
+    pub resolve_scale: f32,
+    /// `sample_count * pixel_count`.
+    pub rays_in_batch: u32,
+    /// Capacity of one wavefront ray queue (the largest `rays_in_batch` of the render).
+    pub queue_capacity: u32,
+    pub primitive_count: u32,
+    pub material_count: u32,
+    pub texture_count: u32,
+    pub _pad1: u32,
+}
+
+/// One material, 48 bytes so that a warp's materials share few cache lines.
+///
+/// `repr(C)`, `Pod`, 48 bytes. WGSL: `GpuMaterial`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuMaterial {
+    /// Reflectance (diffuse, metal) or transmission tint (glass), linear RGB.
+    pub color: [f32; 3],
+    /// [`MATERIAL_DIFFUSE`], [`MATERIAL_METAL`] or [`MATERIAL_GLASS`].
+    pub kind: u32,
+    /// Emitted radiance (two-sided), linear RGB.
+    pub emission: [f32; 3],
+    /// GGX alpha = roughness² (metal); 0 is a perfect mirror.
+    pub alpha: f32,
+    /// Index of refraction (glass).
+    pub ior: f32,
+    /// Albedo texture index, or [`NO_TEXTURE`].
+    pub texture: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+}
+
+/// Per-triangle shading data in leaf order (parallel to the BVH's primitives): per-vertex
+/// normals and texture coordinates, interpolated with the hit's barycentrics.
+///
+/// `repr(C)`, `Pod`, 64 bytes. WGSL: `TriangleShading`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TriangleShading {
+    pub n0: [f32; 3],
+    pub u0: f32,
+    pub n1: [f32; 3],
+    pub v0: f32,
+    pub n2: [f32; 3],
+    pub u1: f32,
+    pub v1: f32,
+    pub u2: f32,
+    pub v2: f32,
+    /// [`SHADING_HAS_NORMALS`] | [`SHADING_HAS_UVS`].
+    pub flags: u32,
+}
+
+/// Where one texture's texels start in the shared texel buffer, and its size.
+///
+/// `repr(C)`, `Pod`, 16 bytes. WGSL: `TextureHeader`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct TextureHeader {
+    /// Index of the first texel (each texel is 3 floats in the texel buffer).
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub _pad0: u32,
+}
+
+/// One ray of the wavefront, between two `propagate` launches.
+///
+/// `repr(C)`, `Pod`, 64 bytes. WGSL: `RayState`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct RayState {
+    pub origin: [f32; 3],
+    /// Row-major pixel index.
+    pub pixel: u32,
+    pub dir: [f32; 3],
+    /// Sample index within the pixel (global, not batch-relative).
+    pub sample: u32,
+    pub throughput: [f32; 3],
+    /// Segments traced so far (0 for a camera ray).
+    pub depth: u32,
+    pub radiance: [f32; 3],
+    /// 1 while the path goes on, 0 once it has ended.
+    pub alive: u32,
+}
+
+/// The wavefront's per-bounce uniforms: one entry per bounce, each read at its own dynamic
+/// offset, so that one submission can run every bounce.
+///
+/// `repr(C)`, `Pod`, 16 bytes. WGSL: `BounceUniforms`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct BounceUniforms {
+    /// The segment `propagate` traces (0: camera rays).
+    pub depth: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+
+const _: () = assert!(size_of::<BounceUniforms>() == 16);
+const _: () = assert!(size_of::<SceneUniforms>() == 176);
+const _: () = assert!(offset_of!(SceneUniforms, width) == 12);
+const _: () = assert!(offset_of!(SceneUniforms, camera_forward) == 16);
+const _: () = assert!(offset_of!(SceneUniforms, environment_color) == 64);
+const _: () = assert!(offset_of!(SceneUniforms, scene_min) == 80);
+const _: () = assert!(offset_of!(SceneUniforms, environment_rotation) == 112);
+const _: () = assert!(offset_of!(SceneUniforms, sample_begin) == 128);
+const _: () = assert!(offset_of!(SceneUniforms, batch_index) == 144);
+const _: () = assert!(offset_of!(SceneUniforms, _pad1) == 172);
+const _: () = assert!(size_of::<GpuMaterial>() == 48);
+const _: () = assert!(offset_of!(GpuMaterial, emission) == 16);
+const _: () = assert!(offset_of!(GpuMaterial, ior) == 32);
+const _: () = assert!(size_of::<TriangleShading>() == 64);
+const _: () = assert!(offset_of!(TriangleShading, n1) == 16);
+const _: () = assert!(offset_of!(TriangleShading, v1) == 48);
+const _: () = assert!(offset_of!(TriangleShading, flags) == 60);
+const _: () = assert!(size_of::<TextureHeader>() == 16);
+const _: () = assert!(size_of::<RayState>() == 64);
+const _: () = assert!(offset_of!(RayState, dir) == 16);
+const _: () = assert!(offset_of!(RayState, throughput) == 32);
+const _: () = assert!(offset_of!(RayState, radiance) == 48);
+const _: () = assert!(offset_of!(RayState, alive) == 60);
+
+/// The shared constants as WGSL `const` declarations, prepended to every shader.
+pub fn wgsl_constants() -> String {
+    let u = |name: &str, v: u32| format!("const {name}: u32 = {v}u;\n");
+    let mut s = String::new();
+    s += &u("MATERIAL_DIFFUSE", MATERIAL_DIFFUSE);
+    s += &u("MATERIAL_METAL", MATERIAL_METAL);
+    s += &u("MATERIAL_GLASS", MATERIAL_GLASS);
+    s += &u("NO_TEXTURE", NO_TEXTURE);
+    s += &u("ENVIRONMENT_BLACK", ENVIRONMENT_BLACK);
+    s += &u("ENVIRONMENT_CONSTANT", ENVIRONMENT_CONSTANT);
+    s += &u("ENVIRONMENT_MAP", ENVIRONMENT_MAP);
+    s += &u("SHADING_HAS_NORMALS", SHADING_HAS_NORMALS);
+    s += &u("SHADING_HAS_UVS", SHADING_HAS_UVS);
+    s += &u("DEAD_RAY_KEY", DEAD_RAY_KEY);
+    s += &u("DIM_CAMERA", DIM_CAMERA);
+    s += &u("DIM_SCATTER", DIM_SCATTER);
+    s += &u("WORKGROUP_SIZE", crate::WORKGROUP_SIZE);
+    // `{:e}` prints the shortest representation that round-trips, so the WGSL literal is the
+    // same f32.
+    s += &format!("const T_MAX: f32 = {:e};\n", T_MAX);
+    s
+}
+
+/// The WGSL declarations of the types above.
+pub const GPU_TYPES_WGSL: &str = include_str!("gpu_types.wgsl");

@@ -1,0 +1,261 @@
+//! The scene flattened into the arrays both backends read: materials, per-primitive material
+//! indices and shading data in the BVH's leaf order, textures in one texel buffer, and the
+//! environment. Built once per scene; the GPU tracer uploads exactly these arrays, the CPU
+//! tracer reads them in place, so both see the same numbers.
+
+use glam::Vec3;
+use raylume_bvh::{GpuBvh, PRIM_SPHERE, PRIM_TRIANGLE};
+use raylume_scene::{Camera, Environment, MaterialKind, Scene, Texture};
+
+use crate::KernelError;
+use crate::TraceSettings;
+use crate::camera::camera_basis;
+use crate::gpu_types::{
+    ENVIRONMENT_BLACK, ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuMaterial, MATERIAL_DIFFUSE,
+    MATERIAL_GLASS, MATERIAL_METAL, NO_TEXTURE, SHADING_HAS_NORMALS, SHADING_HAS_UVS,
+    SceneUniforms, TextureHeader, TriangleShading,
+};
+
+/// The scene's data in the tracer's layout.
+#[derive(Clone, Debug, Default)]
+pub struct SceneData {
+    pub camera: Camera,
+    /// The material table (at least one entry, so bindings are never empty).
+    pub materials: Vec<GpuMaterial>,
+    /// Material index per primitive, in leaf order (parallel to `GpuBvh::primitives`): the
+    /// paper keeps them out of the primitives so intersection tests do not load them.
+    pub prim_materials: Vec<u32>,
+    /// Shading normals and uvs per primitive in leaf order; empty when no triangle has either.
+    pub triangle_shading: Vec<TriangleShading>,
+    pub texture_headers: Vec<TextureHeader>,
+    /// All textures' texels, RGB triples, each texture at its header's offset; the
+    /// environment map last.
+    pub texels: Vec<f32>,
+    pub environment_kind: u32,
+    pub environment_color: Vec3,
+    /// Turns (degrees / 360).
+    pub environment_rotation: f32,
+    pub environment_width: u32,
+    pub environment_height: u32,
+    pub environment_offset: u32,
+    pub scene_min: Vec3,
+    pub scene_extent: Vec3,
+}
+
+fn append_texture(texels: &mut Vec<f32>, t: &Texture, what: &str) -> Result<u32, KernelError> {
+    let n = u64::from(t.width) * u64::from(t.height);
+    if n == 0 || t.texels.len() as u64 != n {
+        return Err(KernelError::InvalidScene(format!(
+            "{what} `{}` is {}x{} but holds {} texels",
+            t.name,
+            t.width,
+            t.height,
+            t.texels.len()
+        )));
+    }
+    let offset = texels.len() / 3;
+    // Texel indices times 3 must stay within u32 in the kernels.
+    if (offset as u64 + n) * 3 > u64::from(u32::MAX) {
+        return Err(KernelError::InvalidScene(format!(
+            "textures hold more than {} texels in total (at {what} `{}`)",
+            u32::MAX / 3,
+            t.name
+        )));
+    }
+    texels.extend(t.texels.iter().flatten());
+    Ok(offset as u32)
+}
+
+impl SceneData {
+    /// Flattens `scene` for the primitives of `bvh` (which must have been built from it).
+    pub fn new(scene: &Scene, bvh: &GpuBvh) -> Result<Self, KernelError> {
+        if bvh.triangle_count as usize != scene.triangles.len()
+            || bvh.sphere_count as usize != scene.spheres.len()
+        {
+            return Err(KernelError::InvalidScene(format!(
+                "the BVH was built over {} triangles and {} spheres, but the scene has {} and {}",
+                bvh.triangle_count,
+                bvh.sphere_count,
+                scene.triangles.len(),
+                scene.spheres.len()
+            )));
+        }
+        let mut texels = Vec::new();
+        let mut texture_headers = Vec::with_capacity(scene.textures.len());
+        for t in &scene.textures {
+            let offset = append_texture(&mut texels, t, "texture")?;
+            texture_headers.push(TextureHeader {
+                offset,
+                width: t.width,
+                height: t.height,
+                _pad0: 0,
+            });
+        }
+
+        let mut materials = Vec::with_capacity(scene.materials.len().max(1));
+        for (i, m) in scene.materials.iter().enumerate() {
+            let texture = match (m.kind, m.albedo_texture) {
+                (MaterialKind::Glass, _) | (_, None) => NO_TEXTURE,
+                (_, Some(t)) if (t as usize) < scene.textures.len() => t,
+                (_, Some(t)) => {
+                    return Err(KernelError::InvalidScene(format!(
+                        "material {i} `{}` uses texture {t}, but the scene has {} textures",
+                        m.name,
+                        scene.textures.len()
+                    )));
+                }
+            };
+            let (kind, color, alpha) = match m.kind {
+                MaterialKind::Diffuse => (MATERIAL_DIFFUSE, m.albedo, 0.0),
+                MaterialKind::Metal => (MATERIAL_METAL, m.albedo, m.roughness * m.roughness),
+                MaterialKind::Glass => (MATERIAL_GLASS, m.tint, 0.0),
+            };
+            materials.push(GpuMaterial {
+                color: color.into(),
+                kind,
+                emission: m.emission.into(),
+                alpha,
+                ior: m.ior,
+                texture,
+                _pad0: 0,
+                _pad1: 0,
+            });
+        }
+        if materials.is_empty() {
+            materials.push(GpuMaterial::default());
+        }
+
+        let has_shading = scene
+            .triangles
+            .iter()
+            .any(|t| t.normals.is_some() || t.uvs.is_some());
+        let n_prims = bvh.primitives.len();
+        let mut prim_materials = Vec::with_capacity(n_prims);
+        let mut triangle_shading = Vec::with_capacity(if has_shading { n_prims } else { 0 });
+        for (leaf, p) in bvh.primitives.iter().enumerate() {
+            let index = p.scene_index() as usize;
+            let (material, shading) = match p.kind() {
+                PRIM_TRIANGLE => {
+                    let t = scene.triangles.get(index).ok_or_else(|| {
+                        KernelError::InvalidScene(format!(
+                            "BVH primitive {leaf} refers to triangle {index}, but the scene has \
+                             {} triangles (was the BVH built from another scene?)",
+                            scene.triangles.len()
+                        ))
+                    })?;
+                    let mut s = TriangleShading::default();
+                    if let Some([n0, n1, n2]) = t.normals {
+                        s.n0 = n0.into();
+                        s.n1 = n1.into();
+                        s.n2 = n2.into();
+                        s.flags |= SHADING_HAS_NORMALS;
+                    }
+                    if let Some([a, b, c]) = t.uvs {
+                        (s.u0, s.v0, s.u1, s.v1, s.u2, s.v2) = (a.x, a.y, b.x, b.y, c.x, c.y);
+                        s.flags |= SHADING_HAS_UVS;
+                    }
+                    (t.material, s)
+                }
+                PRIM_SPHERE => {
+                    let s = scene.spheres.get(index).ok_or_else(|| {
+                        KernelError::InvalidScene(format!(
+                            "BVH primitive {leaf} refers to sphere {index}, but the scene has {} \
+                             spheres (was the BVH built from another scene?)",
+                            scene.spheres.len()
+                        ))
+                    })?;
+                    (s.material, TriangleShading::default())
+                }
+                k => {
+                    return Err(KernelError::InvalidScene(format!(
+                        "BVH primitive {leaf} has unknown kind {k}"
+                    )));
+                }
+            };
+            if material as usize >= scene.materials.len() {
+                return Err(KernelError::InvalidScene(format!(
+                    "BVH primitive {leaf} uses material {material}, but the scene has {} materials",
+                    scene.materials.len()
+                )));
+            }
+            prim_materials.push(material);
+            if has_shading {
+                triangle_shading.push(shading);
+            }
+        }
+
+        let mut data = SceneData {
+            camera: scene.camera,
+            materials,
+            prim_materials,
+            triangle_shading,
+            texture_headers,
+            texels: Vec::new(),
+            environment_kind: ENVIRONMENT_BLACK,
+            environment_color: Vec3::ZERO,
+            environment_rotation: 0.0,
+            environment_width: 0,
+            environment_height: 0,
+            environment_offset: 0,
+            scene_min: Vec3::ZERO,
+            scene_extent: Vec3::ZERO,
+        };
+        match &scene.environment {
+            Environment::Black => {}
+            Environment::Constant(c) => {
+                if c.max_element() > 0.0 {
+                    data.environment_kind = ENVIRONMENT_CONSTANT;
+                    data.environment_color = *c;
+                }
+            }
+            Environment::Map {
+                image,
+                strength,
+                rotation,
+            } => {
+                data.environment_offset = append_texture(&mut texels, image, "environment map")?;
+                data.environment_kind = ENVIRONMENT_MAP;
+                data.environment_color = Vec3::splat(*strength);
+                data.environment_rotation = rotation / 360.0;
+                data.environment_width = image.width;
+                data.environment_height = image.height;
+            }
+        }
+        data.texels = texels;
+        let bounds = scene.bounds();
+        if !bounds.is_empty() {
+            data.scene_min = bounds.min;
+            data.scene_extent = bounds.extent();
+        }
+        Ok(data)
+    }
+
+    /// The uniforms of a render with `settings`; the batch fields are left for the caller.
+    pub fn uniforms(&self, settings: &TraceSettings) -> SceneUniforms {
+        let [origin, forward, right, up] =
+            camera_basis(&self.camera, settings.width, settings.height);
+        SceneUniforms {
+            camera_origin: origin.into(),
+            width: settings.width,
+            camera_forward: forward.into(),
+            height: settings.height,
+            camera_right: right.into(),
+            spp: settings.spp,
+            camera_up: up.into(),
+            max_bounces: settings.max_bounces,
+            environment_color: self.environment_color.into(),
+            environment_kind: self.environment_kind,
+            scene_min: self.scene_min.into(),
+            seed: settings.seed,
+            scene_extent: self.scene_extent.into(),
+            environment_rotation: self.environment_rotation,
+            environment_width: self.environment_width,
+            environment_height: self.environment_height,
+            environment_offset: self.environment_offset,
+            primitive_count: self.prim_materials.len() as u32,
+            material_count: self.materials.len() as u32,
+            texture_count: self.texture_headers.len() as u32,
+            ..Default::default()
+        }
+    }
+}

@@ -1,0 +1,129 @@
+// What a ray sees (surface.rs): the surface at a hit, albedo textures, the environment, and
+// Wächter & Binder's offset for the next ray's origin. Reads the global bindings.
+
+struct SurfaceHit {
+    position: vec3<f32>,
+    geometric_normal: vec3<f32>,
+    shading_normal: vec3<f32>,
+    uv: vec2<f32>,
+    material: u32,
+}
+
+fn direction_to_equirect(d: vec3<f32>) -> vec2<f32> {
+    let phi = atan2(d.x, -d.z);
+    return vec2<f32>(0.5 + phi * INV_2PI, acos(min(max(d.y, -1.0), 1.0)) * INV_PI);
+}
+
+fn surface_at(hit: Hit, origin: vec3<f32>, dir: vec3<f32>) -> SurfaceHit {
+    let prim = bvh_primitives[hit.prim];
+    let material = prim_materials[hit.prim];
+    let a = prim.a.xyz;
+    if (HAS_SPHERES && bitcast<u32>(prim.b.w) == PRIM_SPHERE) {
+        let radius = prim.a.w;
+        let p = origin + dir * hit.t;
+        let from_center = p - a;
+        let n = normalize(from_center);
+        let position = a + n * radius;
+        return SurfaceHit(position, n, n, direction_to_equirect(n), material);
+    }
+    let b = prim.b.xyz;
+    let c = prim.c.xyz;
+    let w = 1.0 - hit.u - hit.v;
+    let position = a * w + b * hit.u + c * hit.v;
+    let ng = normalize(cross(b - a, c - a));
+    var ns = ng;
+    var uv = vec2<f32>(hit.u, hit.v);
+    if (HAS_SHADING_NORMALS || HAS_TEXTURES) {
+        let sh = triangle_shading[hit.prim];
+        if (HAS_SHADING_NORMALS && (sh.flags & SHADING_HAS_NORMALS) != 0u) {
+            let n = normalize(sh.n0 * w + sh.n1 * hit.u + sh.n2 * hit.v);
+            ns = select(n, -n, dot(n, ng) < 0.0);
+        }
+        if (HAS_TEXTURES && (sh.flags & SHADING_HAS_UVS) != 0u) {
+            uv = vec2<f32>(sh.u0, sh.v0) * w + vec2<f32>(sh.u1, sh.v1) * hit.u
+                + vec2<f32>(sh.u2, sh.v2) * hit.v;
+        }
+    }
+    return SurfaceHit(position, ng, ns, uv, material);
+}
+
+fn texel(offset: u32, width: u32, x: u32, y: u32) -> vec3<f32> {
+    let i = (offset + y * width + x) * 3u;
+    return vec3<f32>(texels[i], texels[i + 1u], texels[i + 2u]);
+}
+
+fn wrap_index(i: i32, n: i32) -> i32 {
+    return ((i % n) + n) % n;
+}
+
+fn texture_bilinear(offset: u32, width: u32, height: u32, uv: vec2<f32>, wrap_v: bool) -> vec3<f32> {
+    let w = i32(width);
+    let h = i32(height);
+    let u = uv.x - floor(uv.x);
+    var v = min(max(uv.y, 0.0), 1.0);
+    if (wrap_v) {
+        v = uv.y - floor(uv.y);
+    }
+    let x = u * f32(width) - 0.5;
+    let y = v * f32(height) - 0.5;
+    let x0f = floor(x);
+    let y0f = floor(y);
+    let fx = x - x0f;
+    let fy = y - y0f;
+    let x0 = i32(x0f);
+    let y0 = i32(y0f);
+    let ix0 = u32(wrap_index(x0, w));
+    let ix1 = u32(wrap_index(x0 + 1, w));
+    var iy0 = u32(min(max(y0, 0), h - 1));
+    var iy1 = u32(min(max(y0 + 1, 0), h - 1));
+    if (wrap_v) {
+        iy0 = u32(wrap_index(y0, h));
+        iy1 = u32(wrap_index(y0 + 1, h));
+    }
+    let t00 = texel(offset, width, ix0, iy0);
+    let t10 = texel(offset, width, ix1, iy0);
+    let t01 = texel(offset, width, ix0, iy1);
+    let t11 = texel(offset, width, ix1, iy1);
+    let top = t00 * (1.0 - fx) + t10 * fx;
+    let bottom = t01 * (1.0 - fx) + t11 * fx;
+    return top * (1.0 - fy) + bottom * fy;
+}
+
+fn material_at(surface: SurfaceHit) -> GpuMaterial {
+    var m = materials[surface.material];
+    if (HAS_TEXTURES && m.texture != NO_TEXTURE && m.kind != MATERIAL_GLASS) {
+        let h = texture_headers[m.texture];
+        m.color = m.color * texture_bilinear(h.offset, h.width, h.height, surface.uv, true);
+    }
+    return m;
+}
+
+fn environment_radiance(dir: vec3<f32>) -> vec3<f32> {
+    if (HAS_CONSTANT_ENVIRONMENT && scene.environment_kind == ENVIRONMENT_CONSTANT) {
+        return scene.environment_color;
+    }
+    if (HAS_ENVIRONMENT_MAP && scene.environment_kind == ENVIRONMENT_MAP) {
+        let e = direction_to_equirect(dir);
+        let uv = vec2<f32>(e.x + scene.environment_rotation, e.y);
+        let l = texture_bilinear(
+            scene.environment_offset,
+            scene.environment_width,
+            scene.environment_height,
+            uv,
+            false,
+        );
+        return l * scene.environment_color;
+    }
+    return vec3<f32>(0.0);
+}
+
+// Wächter & Binder, Ray Tracing Gems ch. 6.
+const OFFSET_ORIGIN: f32 = 1.0 / 32.0;
+const OFFSET_FLOAT_SCALE: f32 = 1.0 / 65536.0;
+const OFFSET_INT_SCALE: f32 = 256.0;
+
+fn offset_ray_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let of_i = vec3<i32>(OFFSET_INT_SCALE * n);
+    let p_i = bitcast<vec3<f32>>(bitcast<vec3<i32>>(p) + select(of_i, -of_i, p < vec3<f32>(0.0)));
+    return select(p_i, p + OFFSET_FLOAT_SCALE * n, abs(p) < vec3<f32>(OFFSET_ORIGIN));
+}
