@@ -33,8 +33,9 @@ pub const SHADING_HAS_NORMALS: u32 = 1;
 /// `TriangleShading::flags`: the triangle has per-vertex texture coordinates.
 pub const SHADING_HAS_UVS: u32 = 2;
 
-/// The sort key of a dead ray: sorting by key also compacts the live rays to the front.
-pub const DEAD_RAY_KEY: u32 = u32::MAX;
+/// The sort key of a dead ray (raylume-sort's): sorting by key also compacts the live rays
+/// to the front. The WGSL constant comes from raylume-sort's `MORTON_WGSL`.
+pub const DEAD_RAY_KEY: u32 = raylume_sort::DEAD_RAY_KEY;
 
 /// Random-number dimension (a group of 4 numbers) of the camera ray's pixel jitter.
 pub const DIM_CAMERA: u32 = 0;
@@ -228,7 +229,6 @@ pub fn wgsl_constants() -> String {
     s += &u("ENVIRONMENT_MAP", ENVIRONMENT_MAP);
     s += &u("SHADING_HAS_NORMALS", SHADING_HAS_NORMALS);
     s += &u("SHADING_HAS_UVS", SHADING_HAS_UVS);
-    s += &u("DEAD_RAY_KEY", DEAD_RAY_KEY);
     s += &u("DIM_CAMERA", DIM_CAMERA);
     s += &u("DIM_SCATTER", DIM_SCATTER);
     s += &u("WORKGROUP_SIZE", crate::WORKGROUP_SIZE);

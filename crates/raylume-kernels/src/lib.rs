@@ -58,7 +58,7 @@ pub mod surface;
 
 pub use cpu::CpuTracer;
 pub use error::KernelError;
-pub use gpu::{GpuTracer, TraceStats};
+pub use gpu::{GpuTracer, TraceStats, WavefrontBuffers};
 
 use raylume_scene::RenderSettings;
 

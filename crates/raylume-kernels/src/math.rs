@@ -34,3 +34,64 @@ pub const INV_2PI: f32 = 0.5 * std::f32::consts::FRAC_1_PI;
 
 /// The WGSL source of the helpers above (`is_finite3`, `PI`, ...).
 pub const MATH_WGSL: &str = include_str!("math.wgsl");
+
+/// `atan2(y, x)` in `[-π, π]` from a degree-15 odd minimax polynomial for `atan` on `[0, 1]`
+/// (Hastings' coefficients; error below 4e-8 rad) and octant reduction: only `+ - * /` and
+/// comparisons, so the CPU and every GPU agree to rounding, unlike the drivers' `atan2`
+/// (Vulkan allows 4096 ULP).
+#[inline]
+pub fn atan2_poly(y: f32, x: f32) -> f32 {
+    let ax = x.abs();
+    let ay = y.abs();
+    let hi = ax.max(ay);
+    let lo = ax.min(ay);
+    let a = if hi > 0.0 { lo / hi } else { 0.0 };
+    let s = a * a;
+    let mut r = -0.004_054_058;
+    r = r * s + 0.021_861_229;
+    r = r * s - 0.055_909_886;
+    r = r * s + 0.096_420_044;
+    r = r * s - 0.139_085_33;
+    r = r * s + 0.199_465_36;
+    r = r * s - 0.333_298_56;
+    r = r * s + 0.999_999_33;
+    r *= a;
+    if ay > ax {
+        r = 0.5 * PI - r;
+    }
+    if x < 0.0 {
+        r = PI - r;
+    }
+    if y < 0.0 { -r } else { r }
+}
+
+/// `acos(x)` for `x` in `[-1, 1]` (clamped) through [`atan2_poly`].
+#[inline]
+pub fn acos_poly(x: f32) -> f32 {
+    let c = x.clamp(-1.0, 1.0);
+    atan2_poly((1.0 - c * c).max(0.0).sqrt(), c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn polynomial_atan2_and_acos_match_the_library() {
+        for i in 0..=3600 {
+            let t = (i as f32 / 3600.0 - 0.5) * 2.0 * PI;
+            for r in [1e-3f32, 1.0, 7.5e4] {
+                let (y, x) = (r * t.sin(), r * t.cos());
+                let e = (atan2_poly(y, x) - y.atan2(x)).abs();
+                // 4e-8 from the polynomial plus a few ULPs of rounding near ±π.
+                assert!(e < 1e-6, "atan2({y}, {x}) off by {e}");
+            }
+            let c = i as f32 / 1800.0 - 1.0;
+            assert!((acos_poly(c) - c.acos()).abs() < 1e-3 * (1.0 - c * c).sqrt().max(1e-3) + 1e-6);
+        }
+        assert_eq!(atan2_poly(0.0, 0.0), 0.0);
+        assert!((atan2_poly(0.0, -1.0) - PI).abs() < 1e-6);
+        assert!((acos_poly(-1.0) - PI).abs() < 1e-6);
+        assert_eq!(acos_poly(1.0), 0.0);
+    }
+}

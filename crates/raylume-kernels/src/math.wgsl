@@ -12,3 +12,39 @@ fn is_finite_f32(x: f32) -> bool {
 fn is_finite3(v: vec3<f32>) -> bool {
     return is_finite_f32(v.x) && is_finite_f32(v.y) && is_finite_f32(v.z);
 }
+
+// atan2 from a degree-15 odd minimax polynomial on [0, 1] (Hastings; error < 4e-8 rad) with
+// octant reduction: only + - * / and compares, so every device agrees with the Rust mirror to
+// rounding (Vulkan lets a driver's atan be 4096 ULP off).
+fn atan2_poly(y: f32, x: f32) -> f32 {
+    let ax = abs(x);
+    let ay = abs(y);
+    let hi = max(ax, ay);
+    let lo = min(ax, ay);
+    var a = 0.0;
+    if (hi > 0.0) {
+        a = lo / hi;
+    }
+    let s = a * a;
+    var r = -0.004054058;
+    r = r * s + 0.021861229;
+    r = r * s - 0.055909886;
+    r = r * s + 0.096420044;
+    r = r * s - 0.13908533;
+    r = r * s + 0.19946536;
+    r = r * s - 0.33329856;
+    r = r * s + 0.99999933;
+    r *= a;
+    if (ay > ax) {
+        r = 0.5 * PI - r;
+    }
+    if (x < 0.0) {
+        r = PI - r;
+    }
+    return select(r, -r, y < 0.0);
+}
+
+fn acos_poly(x: f32) -> f32 {
+    let c = clamp(x, -1.0, 1.0);
+    return atan2_poly(sqrt(max(1.0 - c * c, 0.0)), c);
+}

@@ -24,7 +24,7 @@ use crate::gpu_types::{
     ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuMaterial, MATERIAL_GLASS, NO_TEXTURE,
     SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms, TextureHeader, TriangleShading,
 };
-use crate::math::{INV_2PI, INV_PI, normalize};
+use crate::math::{INV_2PI, INV_PI, acos_poly, atan2_poly, normalize};
 
 /// The Rust mirror of the shader's global bindings: what the plain functions read.
 #[derive(Clone, Copy)]
@@ -55,8 +55,8 @@ pub struct SurfaceHit {
 /// The equirectangular coordinates of a unit direction (no rotation).
 #[inline]
 pub fn direction_to_equirect(d: Vec3) -> Vec2 {
-    let phi = d.x.atan2(-d.z);
-    Vec2::new(0.5 + phi * INV_2PI, d.y.clamp(-1.0, 1.0).acos() * INV_PI)
+    let phi = atan2_poly(d.x, -d.z);
+    Vec2::new(0.5 + phi * INV_2PI, acos_poly(d.y) * INV_PI)
 }
 
 /// The surface at `hit` of the ray `(origin, dir)`.

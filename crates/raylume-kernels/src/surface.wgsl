@@ -10,8 +10,8 @@ struct SurfaceHit {
 }
 
 fn direction_to_equirect(d: vec3<f32>) -> vec2<f32> {
-    let phi = atan2(d.x, -d.z);
-    return vec2<f32>(0.5 + phi * INV_2PI, acos(min(max(d.y, -1.0), 1.0)) * INV_PI);
+    let phi = atan2_poly(d.x, -d.z);
+    return vec2<f32>(0.5 + phi * INV_2PI, acos_poly(d.y) * INV_PI);
 }
 
 fn surface_at(hit: Hit, origin: vec3<f32>, dir: vec3<f32>) -> SurfaceHit {

@@ -51,6 +51,15 @@ impl CpuTracer {
         }
     }
 
+    /// The radiance of one pixel sample of a render with `settings` (what the GPU writes to
+    /// that sample's slot, before the non-finite check): for tests and debugging.
+    pub fn sample_radiance(&self, settings: &TraceSettings, pixel: u32, sample: u32) -> [f32; 3] {
+        let scene = self.data.uniforms(settings);
+        stages::trace_path(&self.globals(&scene), &self.bvh, pixel, sample)
+            .0
+            .into()
+    }
+
     /// Renders with `settings`, calling `progress(spp_done, spp_total)` after each batch.
     /// Timings are wall-clock: "upload" (flattening the scene in [`CpuTracer::new`]), the
     /// stages of the chosen schedule, and "trace", the whole batch loop.

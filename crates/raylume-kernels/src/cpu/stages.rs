@@ -69,12 +69,11 @@ pub fn propagate(
     (!path.alive).then(|| write_sample(path.radiance))
 }
 
-/// `trace_paths`: the whole path of ray `r` of the batch; returns its slot value, whether
-/// it was dropped, and the rays traced.
+/// The whole path of one pixel sample, all bounces in a loop: its radiance and the rays it
+/// traced.
 #[inline]
-pub fn trace_paths(g: &Globals, bvh: &GpuBvh, r: u32) -> ([f32; 3], bool, u32) {
+pub fn trace_path(g: &Globals, bvh: &GpuBvh, pixel: u32, sample: u32) -> (Vec3, u32) {
     let scene = g.scene;
-    let (pixel, sample) = batch_ray(scene, r);
     let mut path = camera_path(scene, pixel, sample);
     let mut traced = 0;
     let mut depth = 0;
@@ -83,7 +82,16 @@ pub fn trace_paths(g: &Globals, bvh: &GpuBvh, r: u32) -> ([f32; 3], bool, u32) {
         traced += 1;
         depth += 1;
     }
-    let (value, dropped) = write_sample(path.radiance);
+    (path.radiance, traced)
+}
+
+/// `trace_paths`: the whole path of ray `r` of the batch; returns its slot value, whether
+/// it was dropped, and the rays traced.
+#[inline]
+pub fn trace_paths(g: &Globals, bvh: &GpuBvh, r: u32) -> ([f32; 3], bool, u32) {
+    let (pixel, sample) = batch_ray(g.scene, r);
+    let (radiance, traced) = trace_path(g, bvh, pixel, sample);
+    let (value, dropped) = write_sample(radiance);
     (value, dropped, traced)
 }
 

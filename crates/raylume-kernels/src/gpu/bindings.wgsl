@@ -2,7 +2,7 @@
 //
 // Group 0, the scene: uploaded once per scene; `scene` is rewritten before every batch.
 // Group 1, the render's work buffers: allocated per render size; `bounce` is read at a
-// dynamic offset, one entry per wavefront bounce. (Binding 5 is unused.)
+// dynamic offset, one entry per wavefront bounce.
 
 @group(0) @binding(0) var<uniform> scene: SceneUniforms;
 @group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
@@ -16,11 +16,14 @@
 @group(1) @binding(0) var<storage, read_write> ray_states: array<RayState>;
 // Each sample's radiance, RGB triples, slot = sample_in_batch * pixel_count + pixel_in_batch.
 @group(1) @binding(1) var<storage, read_write> sample_radiance: array<f32>;
-// Two queues of ray indices (depth parity), `scene.queue_capacity` each.
-@group(1) @binding(2) var<storage, read_write> ray_queues: array<u32>;
+// The ray queues (ray indices), double-buffered by depth parity as in pbrt-v4's wavefront:
+// bounce d reads `ray_queue_in` and appends to `ray_queue_out`; the bind group of odd bounces
+// swaps the two buffers. `scene.queue_capacity` entries each.
+@group(1) @binding(2) var<storage, read_write> ray_queue_in: array<u32>;
+@group(1) @binding(5) var<storage, read_write> ray_queue_out: array<u32>;
 // Sort key per queue slot of the current bounce (DEAD_RAY_KEY for rays that ended).
 @group(1) @binding(3) var<storage, read_write> ray_keys: array<u32>;
-// Lengths of the two queues.
+// Lengths of the two queues: [d & 1] is bounce d's input, [1 - (d & 1)] its output.
 @group(1) @binding(4) var<storage, read_write> queue_counts: array<atomic<u32>, 4>;
 // The image: running sums, then the mean, RGB triples per pixel.
 @group(1) @binding(6) var<storage, read_write> accumulation: array<f32>;

@@ -20,6 +20,22 @@ fn camera_path(pixel: u32, sample: u32) -> PathState {
     return PathState(scene.camera_origin, dir, vec3<f32>(1.0), vec3<f32>(0.0), true);
 }
 
+struct PathResult {
+    radiance: vec3<f32>,
+    traced: u32,
+}
+
+// The whole path of one pixel sample, all bounces in a loop with the state in registers.
+fn trace_path(pixel: u32, sample: u32) -> PathResult {
+    var path = camera_path(pixel, sample);
+    var traced = 0u;
+    for (var depth = 0u; depth <= scene.max_bounces && path.alive; depth++) {
+        trace_ray(&path, pixel, sample, depth);
+        traced += 1u;
+    }
+    return PathResult(path.radiance, traced);
+}
+
 // Writes ray r's radiance to its slot; a non-finite sample is dropped (written as zero) and
 // counted. Returns 1 when dropped.
 fn write_sample(r: u32, radiance: vec3<f32>) -> u32 {

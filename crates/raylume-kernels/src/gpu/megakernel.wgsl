@@ -12,12 +12,9 @@ fn trace_paths(
     var dropped = 0u;
     if (r < scene.rays_in_batch) {
         let ps = batch_ray(r);
-        var path = camera_path(ps.x, ps.y);
-        for (var depth = 0u; depth <= scene.max_bounces && path.alive; depth++) {
-            trace_ray(&path, ps.x, ps.y, depth);
-            traced += 1u;
-        }
-        dropped = write_sample(r, path.radiance);
+        let result = trace_path(ps.x, ps.y);
+        traced = result.traced;
+        dropped = write_sample(r, result.radiance);
     }
     flush_stats(local, traced, dropped);
 }

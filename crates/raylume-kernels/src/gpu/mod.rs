@@ -2,7 +2,6 @@
 //! scene's features, and the two schedules (megakernel, wavefront) run batch by batch.
 
 mod shader;
-pub mod sort_key;
 mod work;
 
 pub use shader::{pipeline_constants, tracer_source};
@@ -14,7 +13,7 @@ use raylume_bvh::{BvhNode, GpuBvh, Primitive};
 use raylume_gpu::{GpuContext, Timestamps, wgpu};
 use raylume_scene::{Feature, Features, Scene};
 
-use crate::batches::{dispatch_size, plan_batches};
+use crate::batches::{Batch, dispatch_size, plan_batches};
 use crate::gpu_types::{GpuMaterial, RayState, SceneUniforms, TextureHeader, TriangleShading};
 use crate::scene_data::SceneData;
 use crate::{KernelError, Schedule, TraceOutput, TraceSettings, WORKGROUP_SIZE};
@@ -27,6 +26,22 @@ pub struct TraceStats {
     pub dropped_samples: u64,
     /// As [`TraceOutput::timings`].
     pub timings: Vec<(&'static str, f64)>,
+}
+
+/// The wavefront's queue buffers, for the reordering pass the facade inserts between
+/// `propagate` launches (raylume-sort) and for tests.
+///
+/// After `propagate` at bounce `d` (queue parity `q = d & 1`): `queue_counts` holds `u32`
+/// lengths, `[q]` the rays it advanced (`n`), `[1 - q]` those still alive; `ray_keys[t]` for
+/// `t < n` is the sort key of the ray `ray_queues[q][t]` (raylume-sort's
+/// `DEAD_RAY_KEY` if it ended); `ray_queues[1 - q][..live]` holds the live rays, compacted,
+/// which bounce `d + 1` reads. Sorting the pairs `(ray_keys, ray_queues[q])` over `n` and
+/// copying `ray_queues[q]` onto `ray_queues[1 - q]` gives bounce `d + 1` the live rays in key
+/// order. All four buffers allow `COPY_SRC` and `COPY_DST`.
+pub struct WavefrontBuffers<'b> {
+    pub ray_keys: &'b wgpu::Buffer,
+    pub ray_queues: [&'b wgpu::Buffer; 2],
+    pub queue_counts: &'b wgpu::Buffer,
 }
 
 /// The scene's storage buffers and their bind group (group 0).
@@ -51,6 +66,8 @@ pub struct GpuTracer<'a> {
     module: wgpu::ShaderModule,
     pipelines: HashMap<&'static str, wgpu::ComputePipeline>,
     work: Option<WorkBuffers>,
+    /// The last batch rendered (its samples stay in the sample-radiance buffer).
+    last_batch: Option<Batch>,
     upload_seconds: f64,
 }
 
@@ -168,6 +185,7 @@ impl<'a> GpuTracer<'a> {
                 storage_entry(2, false),
                 storage_entry(3, false),
                 storage_entry(4, false),
+                storage_entry(5, false),
                 storage_entry(6, false),
                 storage_entry(7, false),
                 uniform_entry(8, true),
@@ -260,6 +278,7 @@ impl<'a> GpuTracer<'a> {
             module,
             pipelines: HashMap::new(),
             work: None,
+            last_batch: None,
             upload_seconds: start.elapsed().as_secs_f64(),
         })
     }
@@ -305,6 +324,29 @@ impl<'a> GpuTracer<'a> {
     /// usable as a storage buffer or copy source (e.g. by a bloom pass before read-back).
     pub fn image_buffer(&self) -> Option<&wgpu::Buffer> {
         self.work.as_ref().map(|w| &w.accumulation)
+    }
+
+    /// The wavefront's queues, keys and counts, once a wavefront render has allocated them.
+    pub fn wavefront_buffers(&self) -> Option<WavefrontBuffers<'_>> {
+        let w = self.work.as_ref()?;
+        (w.key.schedule == Schedule::Wavefront).then_some(WavefrontBuffers {
+            ray_keys: &w.ray_keys,
+            ray_queues: [&w.ray_queues[0], &w.ray_queues[1]],
+            queue_counts: &w.queue_counts,
+        })
+    }
+
+    /// The per-sample radiance of the last batch of the last render, in slot order (slot
+    /// `s * pixel_count + p` holds sample `sample_begin + s` of pixel `pixel_begin + p`), and
+    /// that batch: for tests and debugging (compare with [`crate::CpuTracer::sample_radiance`]).
+    pub fn last_batch_samples(&self) -> Result<Option<(Batch, Vec<[f32; 3]>)>, KernelError> {
+        let (Some(b), Some(w)) = (self.last_batch, self.work.as_ref()) else {
+            return Ok(None);
+        };
+        let samples = self
+            .ctx
+            .read_buffer(&w.sample_radiance, b.rays() as usize)?;
+        Ok(Some((b, samples)))
     }
 
     /// Renders and reads the image back.
@@ -403,13 +445,16 @@ impl<'a> GpuTracer<'a> {
             let ray_groups = dispatch_size(b.rays(), WORKGROUP_SIZE, max_dim);
             let pixel_groups = dispatch_size(b.pixel_count, WORKGROUP_SIZE, max_dim);
             let scene_bg = &self.scene.bind_group;
-            let work_bg = &work.bind_group;
-            let bind =
-                |pass: &mut wgpu::ComputePass<'_>, pipe: &wgpu::ComputePipeline, offset: u32| {
-                    pass.set_pipeline(pipe);
-                    pass.set_bind_group(0, scene_bg, &[]);
-                    pass.set_bind_group(1, work_bg, &[offset]);
-                };
+            // Group 1 of bounce `depth` (0 for every other stage): its parity's queues and its
+            // bounce uniforms.
+            let bind = |pass: &mut wgpu::ComputePass<'_>,
+                        pipe: &wgpu::ComputePipeline,
+                        depth: u32| {
+                pass.set_pipeline(pipe);
+                pass.set_bind_group(0, scene_bg, &[]);
+                let parity = (depth & 1) as usize;
+                pass.set_bind_group(1, &work.bind_groups[parity], &[depth * work.bounce_stride]);
+            };
             let resolve = |pass: &mut wgpu::ComputePass<'_>| {
                 bind(pass, &pipes["resolve"], 0);
                 pass.dispatch_workgroups(pixel_groups.0, pixel_groups.1, 1);
@@ -433,11 +478,10 @@ impl<'a> GpuTracer<'a> {
                     };
                     let propagate = |pass: &mut wgpu::ComputePass<'_>| {
                         for depth in 0..=settings.max_bounces {
-                            let offset = depth * work.bounce_stride;
-                            bind(pass, &pipes["prepare_propagate"], offset);
+                            bind(pass, &pipes["prepare_propagate"], depth);
                             pass.set_bind_group(2, &work.args_bind_group, &[]);
                             pass.dispatch_workgroups(1, 1, 1);
-                            bind(pass, &pipes["propagate"], offset);
+                            bind(pass, &pipes["propagate"], depth);
                             pass.dispatch_workgroups_indirect(&work.dispatch_args, 0);
                         }
                     };
@@ -455,6 +499,7 @@ impl<'a> GpuTracer<'a> {
             progress((samples_done / u64::from(pixels)) as u32, settings.spp);
         }
         let trace = start.elapsed().as_secs_f64();
+        self.last_batch = batches.last().copied();
         let stats: Vec<u32> = ctx.read_buffer(&work.batch_stats, 4 * batches.len())?;
         let (mut rays_traced, mut dropped_samples) = (0u64, 0u64);
         for s in stats.chunks_exact(4) {

@@ -1,5 +1,5 @@
 //! The tracer's WGSL module: the shared functions (each `.wgsl` beside its Rust mirror), the
-//! BVH traversal from raylume-bvh, the bindings, and the two schedules' entry points, in one
+//! BVH traversal from raylume-bvh, the ray sort key from raylume-sort, the bindings, and the two schedules' entry points, in one
 //! source; and the pipeline-override constants that specialise it on a scene's features.
 
 use raylume_scene::{Feature, Features};
@@ -8,7 +8,7 @@ use crate::gpu_types::{GPU_TYPES_WGSL, wgsl_constants};
 
 /// WGSL sources in the order they are concatenated (WGSL declarations are order-independent;
 /// the order only helps reading the assembled shader).
-const PARTS: [(&str, &str); 12] = [
+const PARTS: [(&str, &str); 11] = [
     ("gpu_types.wgsl", GPU_TYPES_WGSL),
     ("math.wgsl", crate::math::MATH_WGSL),
     ("rng.wgsl", crate::rng::RNG_WGSL),
@@ -17,7 +17,6 @@ const PARTS: [(&str, &str); 12] = [
     ("sampling.wgsl", crate::sampling::SAMPLING_WGSL),
     ("surface.wgsl", crate::surface::SURFACE_WGSL),
     ("shade.wgsl", crate::shade::SHADE_WGSL),
-    ("gpu/sort_key.wgsl", super::sort_key::SORT_KEY_WGSL),
     ("gpu/common.wgsl", include_str!("common.wgsl")),
     ("gpu/megakernel.wgsl", include_str!("megakernel.wgsl")),
     ("gpu/wavefront.wgsl", include_str!("wavefront.wgsl")),
@@ -31,6 +30,8 @@ pub fn tracer_source(max_workgroups_per_dimension: u32) -> String {
     s += &format!("const MAX_WORKGROUPS_PER_DIMENSION: u32 = {max_workgroups_per_dimension}u;\n");
     s += "\n// ---- raylume-bvh: TRAVERSE_WGSL ----\n";
     s += raylume_bvh::TRAVERSE_WGSL;
+    s += "\n// ---- raylume-sort: MORTON_WGSL ----\n";
+    s += raylume_sort::MORTON_WGSL;
     for (name, src) in PARTS {
         s += &format!("\n// ---- {name} ----\n");
         s += src;

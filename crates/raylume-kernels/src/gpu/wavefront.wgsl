@@ -19,7 +19,7 @@ fn raygen(
     let ps = batch_ray(r);
     let path = camera_path(ps.x, ps.y);
     ray_states[r] = RayState(path.origin, ps.x, path.dir, ps.y, path.throughput, 0u, path.radiance, 1u);
-    ray_queues[r] = r;
+    ray_queue_in[r] = r;
     if (r == 0u) {
         atomicStore(&queue_counts[0], scene.rays_in_batch);
     }
@@ -55,7 +55,7 @@ fn propagate(
     var live = false;
     var r = 0u;
     if (t < n) {
-        r = ray_queues[q * scene.queue_capacity + t];
+        r = ray_queue_in[t];
         var ray = ray_states[r];
         var path = PathState(ray.origin, ray.dir, ray.throughput, ray.radiance, true);
         trace_ray(&path, ray.pixel, ray.sample, bounce.depth);
@@ -70,9 +70,9 @@ fn propagate(
         ray_states[r] = ray;
         var key = DEAD_RAY_KEY;
         if (live) {
-            // SORT KEY: until raylume-sort lands, a local copy of the paper's 30-bit
-            // origin/direction Morton key; replace with its MORTON_WGSL `ray_sort_key`.
-            key = local_ray_sort_key(path.origin, path.dir, scene.scene_min, scene.scene_extent);
+            // SORT KEY (raylume-sort's MORTON_WGSL): the paper's 30-bit origin-direction key,
+            // indexed by queue slot so that (ray_keys, queue) pairs can be sorted.
+            key = ray_sort_key(path.origin, path.dir, scene.scene_min, scene.scene_extent);
         } else {
             dropped = write_sample(r, path.radiance);
         }
@@ -93,6 +93,6 @@ fn propagate(
     flush_stats(local, traced, dropped);
     workgroupBarrier();
     if (live) {
-        ray_queues[(1u - q) * scene.queue_capacity + wg_base + slot] = r;
+        ray_queue_out[wg_base + slot] = r;
     }
 }

@@ -21,12 +21,19 @@ pub(crate) struct WorkKey {
 pub(crate) struct WorkBuffers {
     pub key: WorkKey,
     pub accumulation: wgpu::Buffer,
+    pub sample_radiance: wgpu::Buffer,
     pub batch_stats: wgpu::Buffer,
     pub dispatch_args: wgpu::Buffer,
     pub bounce: wgpu::Buffer,
     /// Bytes between two bounces' uniforms (the adapter's dynamic-offset alignment).
     pub bounce_stride: u32,
-    pub bind_group: wgpu::BindGroup,
+    /// Group 1 of even bounces (and of every other entry point): queue 0 in, queue 1 out;
+    /// then odd bounces: queue 1 in, queue 0 out.
+    pub bind_groups: [wgpu::BindGroup; 2],
+    /// The wavefront's ray queues, sort keys and queue lengths (see `WavefrontBuffers`).
+    pub ray_queues: [wgpu::Buffer; 2],
+    pub ray_keys: wgpu::Buffer,
+    pub queue_counts: wgpu::Buffer,
     /// Group 2 of `prepare_propagate`: the dispatch size it writes.
     pub args_bind_group: wgpu::BindGroup,
 }
@@ -52,10 +59,15 @@ impl WorkBuffers {
         let none = wgpu::BufferUsages::empty();
         let ray_states =
             ctx.storage_buffer_zeroed("ray states", per_ray(size_of::<RayState>() as u64), none)?;
-        let sample_radiance = ctx.storage_buffer_zeroed("sample radiance", rays * 12, none)?;
-        let ray_queues = ctx.storage_buffer_zeroed("ray queues", per_ray(8), none)?;
-        let ray_keys = ctx.storage_buffer_zeroed("ray sort keys", per_ray(4), none)?;
-        let queue_counts = ctx.storage_buffer_zeroed("queue counts", 16, none)?;
+        let sample_radiance =
+            ctx.storage_buffer_zeroed("sample radiance", rays * 12, wgpu::BufferUsages::COPY_SRC)?;
+        let queue_usage = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let ray_queues = [
+            ctx.storage_buffer_zeroed("ray queue 0", per_ray(4), queue_usage)?,
+            ctx.storage_buffer_zeroed("ray queue 1", per_ray(4), queue_usage)?,
+        ];
+        let ray_keys = ctx.storage_buffer_zeroed("ray sort keys", per_ray(4), queue_usage)?;
+        let queue_counts = ctx.storage_buffer_zeroed("queue counts", 16, queue_usage)?;
         let dispatch_args =
             ctx.storage_buffer_zeroed("propagate dispatch size", 16, wgpu::BufferUsages::INDIRECT)?;
         let accumulation = ctx.storage_buffer_zeroed(
@@ -80,27 +92,34 @@ impl WorkBuffers {
                 mapped_at_creation: false,
             })
         })?;
-        let bind_group = ctx.scoped("creating the work bind group", || {
-            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("raylume work"),
-                layout,
-                entries: &[
-                    entry(0, &ray_states),
-                    entry(1, &sample_radiance),
-                    entry(2, &ray_queues),
-                    entry(3, &ray_keys),
-                    entry(4, &queue_counts),
-                    entry(6, &accumulation),
-                    entry(7, &batch_stats),
-                    wgpu::BindGroupEntry {
-                        binding: 8,
-                        resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                            buffer: &bounce,
-                            offset: 0,
-                            size: wgpu::BufferSize::new(size_of::<BounceUniforms>() as u64),
-                        }),
-                    },
-                ],
+        let bind_groups = ctx.scoped("creating the work bind groups", || {
+            [0, 1].map(|parity| {
+                ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some(if parity == 0 {
+                        "raylume work (even bounces)"
+                    } else {
+                        "raylume work (odd bounces)"
+                    }),
+                    layout,
+                    entries: &[
+                        entry(0, &ray_states),
+                        entry(1, &sample_radiance),
+                        entry(2, &ray_queues[parity]),
+                        entry(3, &ray_keys),
+                        entry(4, &queue_counts),
+                        entry(5, &ray_queues[1 - parity]),
+                        entry(6, &accumulation),
+                        entry(7, &batch_stats),
+                        wgpu::BindGroupEntry {
+                            binding: 8,
+                            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                buffer: &bounce,
+                                offset: 0,
+                                size: wgpu::BufferSize::new(size_of::<BounceUniforms>() as u64),
+                            }),
+                        },
+                    ],
+                })
             })
         })?;
         let args_bind_group = ctx.scoped("creating the dispatch-size bind group", || {
@@ -112,13 +131,17 @@ impl WorkBuffers {
         })?;
         Ok(Self {
             key,
+            sample_radiance,
             args_bind_group,
+            bind_groups,
+            ray_queues,
+            ray_keys,
+            queue_counts,
             accumulation,
             batch_stats,
             dispatch_args,
             bounce,
             bounce_stride,
-            bind_group,
         })
     }
 

@@ -1,0 +1,114 @@
+//! The assembled tracer shader parses and validates, and every struct shared with Rust has
+//! the same members at the same offsets and the same size on both sides (naga's layouter
+//! computes the WGSL side, `offset_of!` the Rust side).
+
+use std::mem::{offset_of, size_of};
+
+use raylume_gpu::wgpu::naga;
+use raylume_kernels::gpu::tracer_source;
+use raylume_kernels::gpu_types::*;
+
+macro_rules! rust_layout {
+    ($t:ty; $($f:ident),* $(,)?) => {
+        (stringify!($t), size_of::<$t>(), vec![$((stringify!($f), offset_of!($t, $f))),*])
+    };
+}
+
+fn parse() -> naga::Module {
+    let src = tracer_source(65535);
+    match naga::front::wgsl::parse_str(&src) {
+        Ok(m) => m,
+        Err(e) => panic!("{}", e.emit_to_string(&src)),
+    }
+}
+
+#[test]
+fn tracer_shader_validates() {
+    let module = parse();
+    let src = tracer_source(65535);
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)));
+    for entry in [
+        "raygen",
+        "prepare_propagate",
+        "propagate",
+        "resolve",
+        "trace_paths",
+    ] {
+        assert!(
+            module.entry_points.iter().any(|e| e.name == entry),
+            "missing entry point {entry}"
+        );
+    }
+}
+
+#[test]
+fn layout_matches_wgsl() {
+    let module = parse();
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).expect("layout");
+    let expected = [
+        rust_layout!(SceneUniforms; camera_origin, width, camera_forward, height, camera_right, spp,
+            camera_up, max_bounces, environment_color, environment_kind, scene_min, seed,
+            scene_extent, _pad0, environment_rotation, environment_width, environment_height,
+            environment_offset, sample_begin, sample_count, pixel_begin, pixel_count, batch_index,
+            resolve_scale, rays_in_batch, queue_capacity, primitive_count, material_count,
+            texture_count, _pad1),
+        rust_layout!(GpuMaterial; color, kind, emission, alpha, ior, texture, _pad0, _pad1),
+        rust_layout!(TriangleShading; n0, u0, n1, v0, n2, u1, v1, u2, v2, flags),
+        rust_layout!(TextureHeader; offset, width, height, _pad0),
+        rust_layout!(RayState; origin, pixel, dir, sample, throughput, depth, radiance, alive),
+        rust_layout!(BounceUniforms; depth, _pad0, _pad1, _pad2),
+    ];
+    for (name, size, fields) in expected {
+        let (handle, ty) = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("WGSL has no struct {name}"));
+        let naga::TypeInner::Struct { members, span } = &ty.inner else {
+            panic!("{name} is not a struct in WGSL");
+        };
+        assert_eq!(*span as usize, size, "size of {name}");
+        assert_eq!(
+            layouter[handle].size as usize, size,
+            "layout size of {name}"
+        );
+        let wgsl: Vec<(&str, usize)> = members
+            .iter()
+            .map(|m| (m.name.as_deref().unwrap_or("?"), m.offset as usize))
+            .collect();
+        assert_eq!(wgsl, fields, "members of {name}");
+    }
+}
+
+#[test]
+fn shared_constants_reach_the_shader() {
+    let src = tracer_source(65535);
+    for line in [
+        format!("const MATERIAL_GLASS: u32 = {MATERIAL_GLASS}u;"),
+        format!("const NO_TEXTURE: u32 = {NO_TEXTURE}u;"),
+        format!("const DIM_SCATTER: u32 = {DIM_SCATTER}u;"),
+        format!(
+            "const WORKGROUP_SIZE: u32 = {}u;",
+            raylume_kernels::WORKGROUP_SIZE
+        ),
+    ] {
+        assert!(src.contains(&line), "{line}");
+    }
+    // T_MAX parses back to the same f32.
+    let module = parse();
+    let (_, c) = module
+        .constants
+        .iter()
+        .find(|(_, c)| c.name.as_deref() == Some("T_MAX"))
+        .expect("T_MAX");
+    match module.global_expressions[c.init] {
+        naga::Expression::Literal(naga::Literal::F32(v)) => assert_eq!(v, T_MAX),
+        ref other => panic!("T_MAX is {other:?}"),
+    }
+}
