@@ -180,6 +180,11 @@ fn other_workgroup_sizes_and_digit_widths_match_cpu() {
                     .with_tile(64, 8),
             ),
             ("7-bit keys", base.with_key_bits(7).with_tile(64, 8)),
+            // The four-word ballot path of 64/128-lane adapters, run on narrower subgroups.
+            (
+                "wide ballot masks",
+                base.with_wide_ballot_masks(true).with_tile(100, 3),
+            ),
         ];
         for (name, opts) in variants {
             check_options(ctx, opts, &format!("{name}, subgroups {sg}"));

@@ -1,6 +1,7 @@
 // raylume-sort radix sort: thread numbering and workgroup scans WITH subgroup operations.
 // Variant of lanes_shared.wgsl (same function names). No assumption on the subgroup size
-// (ballots are vec4<u32>, up to 128 lanes) nor on how the driver maps invocations to subgroups:
+// (mask32.wgsl or mask128.wgsl, chosen from the adapter's largest subgroup size, define
+// `LaneMask` and the ballot helpers) nor on how the driver maps invocations to subgroups:
 // threads are numbered by (subgroup id, rank among the active lanes of their subgroup).
 // The `num_subgroups` builtin is not used: lavapipe reports floor(WG / 8) for a workgroup whose
 // last subgroup is partial (1 for 12 threads in subgroups of 8 and 4); the count is taken as
@@ -24,23 +25,10 @@ var<private> sg_lanes: u32;
 /// Lanes in the subgroups before this one.
 var<private> sg_base: u32;
 /// Ballot mask of the lanes with a smaller invocation id.
-var<private> lt_mask: vec4<u32>;
+var<private> lt_mask: LaneMask;
 
 var<workgroup> s_sg_sum: array<u32, MAX_SG>;
 var<workgroup> s_num_sg: atomic<u32>;
-
-fn lanes_below_mask(id: u32) -> vec4<u32> {
-    var m = vec4<u32>(0u);
-    for (var w = 0u; w < 4u; w++) {
-        let lo = 32u * w;
-        if (id >= lo + 32u) {
-            m[w] = 0xFFFFFFFFu;
-        } else if (id > lo) {
-            m[w] = (1u << (id - lo)) - 1u;
-        }
-    }
-    return m;
-}
 
 /// Call first, in uniform control flow, from every stage that uses `lin` or the scans.
 fn lanes_init(ids: LaneIds) {
@@ -86,32 +74,13 @@ fn wg_exclusive_scan(x: u32) -> vec2<u32> {
     return vec2<u32>(before + incl - x, total);
 }
 
-fn popcount4(m: vec4<u32>) -> u32 {
-    let c = countOneBits(m);
-    return c.x + c.y + c.z + c.w;
-}
-
-/// Invocation id of the lowest lane set in `m` (m must not be empty).
-fn first_lane(m: vec4<u32>) -> u32 {
-    if (m.x != 0u) {
-        return countTrailingZeros(m.x);
-    }
-    if (m.y != 0u) {
-        return 32u + countTrailingZeros(m.y);
-    }
-    if (m.z != 0u) {
-        return 64u + countTrailingZeros(m.z);
-    }
-    return 96u + countTrailingZeros(m.w);
-}
-
 /// The lanes of this subgroup whose `v` agrees with mine in the low `bits` bits (one ballot
 /// per bit: the "warp-level multi-split" of Onesweep). Uniform control flow only.
-fn match_peers(v: u32, bits: u32) -> vec4<u32> {
-    var peers = subgroupBallot(true);
+fn match_peers(v: u32, bits: u32) -> LaneMask {
+    var peers = ballot(true);
     for (var b = 0u; b < bits; b++) {
         let bit = ((v >> b) & 1u) == 1u;
-        let bal = subgroupBallot(bit);
+        let bal = ballot(bit);
         peers &= select(~bal, bal, bit);
     }
     return peers;
@@ -121,8 +90,8 @@ fn match_peers(v: u32, bits: u32) -> vec4<u32> {
 /// "no key") if I am the lowest of them, else 0. Uniform control flow only.
 fn digit_leader_count(d: u32) -> u32 {
     let peers = match_peers(d, RADIX_BITS + 1u);
-    if (popcount4(peers & lt_mask) == 0u) {
-        return popcount4(peers);
+    if (mask_count(peers & lt_mask) == 0u) {
+        return mask_count(peers);
     }
     return 0u;
 }

@@ -247,6 +247,14 @@ impl RadixSorter {
         self.max_len
     }
 
+    /// The tile grid for `n` pairs, as `sort_setup` computes it on the GPU: (per row, rows).
+    fn grid(&self, n: u32) -> (u32, u32) {
+        let tiles = n.div_ceil(self.plan.tile);
+        let x = tiles.min(self.plan.max_grid_x);
+        let y = if x == 0 { 0 } else { tiles.div_ceil(x) };
+        (x, y)
+    }
+
     /// What runs on this adapter: workgroup size, tile, passes, subgroups or not.
     pub fn plan(&self) -> &SortPlan {
         &self.plan
@@ -390,6 +398,16 @@ impl RadixSorter {
             )
         });
 
+        // A count known here gets direct dispatches of the same grid `sort_setup` computes;
+        // a GPU count gets indirect ones from `dispatch_args`.
+        let grid = match len {
+            SortLen::Fixed(n) => Some(self.grid(n)),
+            SortLen::Indirect { .. } => None,
+        };
+        let dispatch_tiles = |pass: &mut wgpu::ComputePass<'_>| match grid {
+            Some((x, y)) => pass.dispatch_workgroups(x, y, 1),
+            None => pass.dispatch_workgroups_indirect(&self.dispatch_args, 0),
+        };
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("sort_keys"),
             timestamp_writes: timestamps.and_then(|t| t.writes("sort_keys")),
@@ -400,18 +418,18 @@ impl RadixSorter {
         for (up, down) in &groups {
             pass.set_pipeline(upsweep);
             pass.set_bind_group(0, up, &[]);
-            pass.dispatch_workgroups_indirect(&self.dispatch_args, 0);
+            dispatch_tiles(&mut pass);
             pass.set_pipeline(scan);
             pass.set_bind_group(0, &self.scan_bind_group, &[]);
             pass.dispatch_workgroups(self.plan.radix, 1, 1);
             pass.set_pipeline(downsweep);
             pass.set_bind_group(0, down, &[]);
-            pass.dispatch_workgroups_indirect(&self.dispatch_args, 0);
+            dispatch_tiles(&mut pass);
         }
         if let Some(group) = &copy_group {
             pass.set_pipeline(copy);
             pass.set_bind_group(0, group, &[]);
-            pass.dispatch_workgroups_indirect(&self.dispatch_args, 0);
+            dispatch_tiles(&mut pass);
         }
         Ok(())
     }

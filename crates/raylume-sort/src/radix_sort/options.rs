@@ -27,6 +27,10 @@ pub struct SortOptions {
     /// Cap on workgroups per row of the tile grid (2D dispatches beyond it). `None` = the
     /// adapter's `max_compute_workgroups_per_dimension`. Tests set it low to exercise the grid.
     pub max_grid_x: Option<u32>,
+    /// Use four-word ballot masks (the path of adapters with 64- or 128-lane subgroups) even
+    /// when every subgroup has at most 32 lanes, where one word suffices. For tests. Default
+    /// false.
+    pub wide_ballot_masks: bool,
 }
 
 impl Default for SortOptions {
@@ -45,6 +49,7 @@ impl SortOptions {
             items_per_thread: 16,
             use_subgroups: true,
             max_grid_x: None,
+            wide_ballot_masks: false,
         }
     }
 
@@ -81,6 +86,12 @@ impl SortOptions {
         self
     }
 
+    /// These options with four-word ballot masks forced (or not).
+    pub const fn with_wide_ballot_masks(mut self, wide: bool) -> Self {
+        self.wide_ballot_masks = wide;
+        self
+    }
+
     /// These options with at most `x` workgroups per row of the tile grid.
     pub const fn with_max_grid_x(mut self, x: u32) -> Self {
         self.max_grid_x = Some(x);
@@ -105,6 +116,8 @@ pub struct SortPlan {
     pub subgroups: bool,
     /// Most subgroups one workgroup can have: ceil(workgroup_size / smallest subgroup size).
     pub max_subgroups: u32,
+    /// Ballot masks of four words (subgroups of up to 128 lanes) rather than one (up to 32).
+    pub wide_ballot_masks: bool,
     /// Tile counts per thread in `sort_scan`.
     pub scan_items: u32,
     pub max_grid_x: u32,
@@ -162,6 +175,7 @@ impl SortPlan {
                 tile,
                 subgroups,
                 max_subgroups,
+                wide_ballot_masks: opts.wide_ballot_masks || info.subgroup_max_size > 32,
                 scan_items: 4,
                 max_grid_x,
                 shared_bytes: words * 4,

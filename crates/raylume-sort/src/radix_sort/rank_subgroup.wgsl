@@ -36,10 +36,10 @@ fn rank_and_scatter(start: u32, valid: u32) {
         }
         keys[i] = key;
         let peers = match_peers(d, RADIX_BITS);
-        let below = popcount4(peers & lt_mask);
+        let below = mask_count(peers & lt_mask);
         var old = 0u;
         if (below == 0u) {
-            old = atomicAdd(&s_sg_hist[hist_row + d], popcount4(peers));
+            old = atomicAdd(&s_sg_hist[hist_row + d], mask_count(peers));
         }
         old = subgroupShuffle(old, first_lane(peers));
         rank[i] = (d << 16u) | (old + below);

@@ -5,6 +5,8 @@ use super::options::SortPlan;
 
 const COMMON: &str = include_str!("common.wgsl");
 const LANES_SUBGROUP: &str = include_str!("lanes_subgroup.wgsl");
+const MASK32: &str = include_str!("mask32.wgsl");
+const MASK128: &str = include_str!("mask128.wgsl");
 const LANES_SHARED: &str = include_str!("lanes_shared.wgsl");
 const SETUP: &str = include_str!("setup.wgsl");
 const UPSWEEP: &str = include_str!("upsweep.wgsl");
@@ -76,23 +78,28 @@ pub fn module_source(plan: &SortPlan, max_len: u32, stage: Stage) -> String {
     let mut s = prelude(plan, max_len);
     s.push_str(COMMON);
     let lanes = if plan.subgroups {
-        LANES_SUBGROUP
+        let mask = if plan.wide_ballot_masks {
+            MASK128
+        } else {
+            MASK32
+        };
+        format!("{mask}{LANES_SUBGROUP}")
     } else {
-        LANES_SHARED
+        LANES_SHARED.to_string()
     };
     match stage {
         Stage::Setup => s.push_str(SETUP),
         Stage::Copy => s.push_str(COPY),
         Stage::Upsweep => {
-            s.push_str(lanes);
+            s.push_str(&lanes);
             s.push_str(UPSWEEP);
         }
         Stage::Scan => {
-            s.push_str(lanes);
+            s.push_str(&lanes);
             s.push_str(SCAN);
         }
         Stage::Downsweep => {
-            s.push_str(lanes);
+            s.push_str(&lanes);
             s.push_str(DOWNSWEEP);
             s.push_str(if plan.subgroups {
                 RANK_SUBGROUP
