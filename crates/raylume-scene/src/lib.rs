@@ -2,12 +2,179 @@
 //! validation, and [`Scene::features`], the set of effects a scene calls for.
 //!
 //! **Architecture invariant:** this crate knows nothing about GPUs, BVHs or rays.
+//!
+//! # Entry points
+//! - [`Scene::load`]: by extension — `.toml` (raylume's format, `DESIGN.md`), `.obj`
+//!   (+ `.mtl`), `.gltf` / `.glb`, `.json` (Tungsten). Paths inside a file are relative to it.
+//! - [`Scene::from_toml_str`]: a TOML scene held in memory.
+//! - [`Scene::validate`]: the checks every loader runs before returning.
+//!
+//! Every failure is a [`SceneError`] naming the file and the place (`scene.toml:12:5`,
+//! `scene.json: primitives[3].transform`, `model.glb: nodes[2] mesh 0 primitive 1 accessor 4`,
+//! `scene.toml: triangle 7 of meshes/a.obj`). What a loader had to approximate or drop is in
+//! [`Scene::warnings`], never silent.
+//!
+//! ```
+//! use raylume_scene::{MaterialKind, Scene};
+//!
+//! let text = r#"
+//!     [camera]
+//!     position = [0.0, 1.0, 5.0]
+//!     look_at = [0.0, 1.0, 0.0]
+//!     vfov = 40.0
+//!
+//!     [materials.white]
+//!     type = "diffuse"
+//!     albedo = [0.7, 0.7, 0.7]
+//!
+//!     [materials.lamp]
+//!     type = "diffuse"
+//!     emission = [4.0, 4.0, 4.0]
+//!
+//!     [[sphere]]
+//!     center = [0.0, 1.0, 0.0]
+//!     radius = 0.5
+//!     material = "white"
+//!
+//!     [[quad]]
+//!     corner = [-0.5, 2.0, -0.5]
+//!     u = [1.0, 0.0, 0.0]
+//!     v = [0.0, 0.0, 1.0]
+//!     material = "lamp"
+//! "#;
+//! let scene = Scene::from_toml_str(text, std::path::Path::new("."), "inline.toml")?;
+//! assert_eq!(scene.spheres.len(), 1);
+//! assert_eq!(scene.triangles.len(), 2);
+//! assert_eq!(scene.materials[0].kind, MaterialKind::Diffuse);
+//! assert_eq!(scene.features().names(), ["diffuse", "emission", "spheres", "triangles"]);
+//!
+//! // A typo is an error with file, line and column.
+//! let err = Scene::from_toml_str("[camera]\nposition = [0, 0, 1]\nlook_at = [0, 0, 0]\nvfv = 40\n",
+//!     std::path::Path::new("."), "typo.toml").unwrap_err();
+//! assert!(err.to_string().starts_with("typo.toml:4:1: unknown key `vfv`"), "{err}");
+//! # Ok::<(), raylume_scene::SceneError>(())
+//! ```
+//!
+//! # Material mappings
+//!
+//! | source | raylume diffuse | raylume metal | raylume glass |
+//! | --- | --- | --- | --- |
+//! | TOML | `type = "diffuse"` | `type = "metal"` | `type = "glass"` |
+//! | MTL | otherwise (`Kd`) | `Ks > 0` and (`illum 3` or `max Ks > max Kd`); roughness `(2/(Ns+2))^(1/4)` | `illum` 4/6/7, or `Ni` with `d < 1` |
+//! | glTF | `metallicFactor < 0.5` | `metallicFactor >= 0.5` (roughness as is) | transmission > 0.5 (`KHR_materials_ior`) |
+//! | Tungsten | `lambert`; approx.: `oren_nayar`, `plastic`, `rough_plastic`, `phong`, `null` (black) | `mirror`; approx.: `conductor`, `rough_conductor` (RGB F0 table) | `dielectric`; approx.: `rough_dielectric`, `thinsheet` |
+//!
+//! Emission: TOML `emission`, MTL `Ke`, glTF `emissiveFactor` x
+//! `KHR_materials_emissive_strength`, Tungsten `emission` / `power` on primitives. Albedo
+//! textures: TOML `texture`, MTL `map_Kd`, glTF `baseColorTexture`, Tungsten `albedo` as a
+//! path. Texture coordinates put (0, 0) at the top-left texel (glTF's convention; OBJ's v is
+//! flipped on load). Details in the `obj`, `gltf` and `tungsten` module docs.
+//!
+//! A bare mesh file loads as a scene: its own materials, the glTF camera if it has one, else a
+//! camera on +z looking down -z at the bounding box (vfov 40 degrees, the bounding sphere
+//! fitting the view), a black environment, [`RenderSettings::default`].
 
+pub mod error;
 pub mod features;
+pub mod limits;
 pub mod model;
 
+mod builder;
+mod gltf;
+mod image_io;
+mod obj;
+mod toml;
+mod transform;
+mod tungsten;
+mod validate;
+
+use std::path::Path;
+
+pub use error::{Location, SceneError};
 pub use features::{Feature, Features};
 pub use model::{
     Bloom, Bounds, Camera, Environment, Material, MaterialKind, PostSettings, RenderSettings,
     Scene, Sphere, Texture, Triangle,
 };
+
+use builder::{MeshOptions, SceneBuilder};
+
+fn extension(path: &Path) -> Option<String> {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+}
+
+/// Loads a mesh file (OBJ or glTF) into a scene under construction.
+pub(crate) fn load_mesh_into(
+    b: &mut SceneBuilder,
+    path: &Path,
+    opts: &MeshOptions,
+) -> Result<Option<gltf::GltfCamera>, SceneError> {
+    match extension(path).as_deref() {
+        Some("obj") => obj::load_into(b, path, opts).map(|()| None),
+        Some("gltf" | "glb") => gltf::load_into(b, path, opts),
+        _ => Err(SceneError::UnsupportedExtension {
+            path: path.to_path_buf(),
+            referenced_by: opts.referenced_by.clone(),
+            expected: ".obj, .gltf or .glb",
+        }),
+    }
+}
+
+impl Scene {
+    /// Loads a scene file, by extension: `.toml`, `.obj`, `.gltf`, `.glb`, `.json` (Tungsten).
+    /// The result is validated; see [`Scene::warnings`] for what had to be approximated.
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
+        let path = path.as_ref();
+        match extension(path).as_deref() {
+            Some("toml") => {
+                let bytes = builder::read_description(path, None)?;
+                let label = path.display().to_string();
+                let text = String::from_utf8(bytes).map_err(|e| SceneError::Syntax {
+                    file: label.clone(),
+                    at: Location::Line(builder::line_of_offset(
+                        e.as_bytes(),
+                        e.utf8_error().valid_up_to(),
+                    )),
+                    message: "not valid UTF-8".into(),
+                })?;
+                let dir = path.parent().unwrap_or(Path::new(""));
+                toml::parse(&text, dir, &label)
+            }
+            Some("json") => tungsten::load(path),
+            Some("obj" | "gltf" | "glb") => {
+                let label = path.display().to_string();
+                let mut b = SceneBuilder::new(&label);
+                let camera = load_mesh_into(&mut b, path, &MeshOptions::bare())?;
+                match camera {
+                    Some(c) => {
+                        b.scene.camera = c.camera;
+                        if let Some(aspect) = c.aspect.filter(|a| a.is_finite() && *a > 0.0) {
+                            let h = b.scene.render.height as f32;
+                            b.scene.render.width =
+                                ((h * aspect).round() as u32).clamp(1, limits::MAX_IMAGE_SIZE);
+                        }
+                    }
+                    None => b.scene.camera = transform::frame_bounds(b.scene.bounds()),
+                }
+                b.finish()
+            }
+            _ => Err(SceneError::UnsupportedExtension {
+                path: path.to_path_buf(),
+                referenced_by: None,
+                expected: ".toml, .obj, .gltf, .glb or .json (Tungsten)",
+            }),
+        }
+    }
+
+    /// Parses a TOML scene held in memory. `base_dir`: where the paths in it start;
+    /// `file_label`: the name used in messages.
+    pub fn from_toml_str(
+        text: &str,
+        base_dir: &Path,
+        file_label: &str,
+    ) -> Result<Scene, SceneError> {
+        toml::parse(text, base_dir, file_label)
+    }
+}

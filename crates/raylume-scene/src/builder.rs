@@ -1,0 +1,249 @@
+//! [`SceneBuilder`]: what every loader fills. It remembers where triangles came from (for
+//! error messages), caches textures by path, enforces the size limits, and ends in
+//! [`SceneBuilder::finish`], which drops degenerate triangles, clamps albedos and validates.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+
+use crate::error::{Location, SceneError};
+use crate::image_io;
+use crate::limits::{MAX_MATERIALS, MAX_TEXTURES, MAX_TRIANGLES};
+use crate::model::{Material, Scene, Texture, Triangle};
+
+/// A triangle source: the first triangle index it produced and a label (a mesh file).
+#[derive(Clone, Debug)]
+pub(crate) struct Source {
+    pub start: usize,
+    pub label: String,
+}
+
+/// A scene under construction.
+pub(crate) struct SceneBuilder {
+    pub scene: Scene,
+    /// Label of the top-level file (for scene-wide messages).
+    pub file: String,
+    /// Where each run of triangles came from, in triangle order.
+    pub sources: Vec<Source>,
+    /// One label per sphere (its place in the scene file).
+    pub sphere_labels: Vec<String>,
+    textures: HashMap<PathBuf, u32>,
+    default_material: Option<u32>,
+}
+
+/// Shading normals checked for use.
+pub(crate) enum ShadingNormals {
+    /// Normalised; use them.
+    Unit([glam::Vec3; 3]),
+    /// Finite but zero length: drop them (flat shading) and count it.
+    Zero,
+    /// NaN or infinite: keep them so that validation reports the triangle.
+    NonFinite([glam::Vec3; 3]),
+}
+
+impl ShadingNormals {
+    pub fn check(n: [Vec3; 3]) -> Self {
+        if !n.iter().all(|v| v.is_finite()) {
+            return ShadingNormals::NonFinite(n);
+        }
+        let mut out = n;
+        for v in &mut out {
+            let len = v.length();
+            if !(len > 0.0) || !len.is_finite() {
+                return ShadingNormals::Zero;
+            }
+            *v /= len;
+        }
+        ShadingNormals::Unit(out)
+    }
+}
+
+impl SceneBuilder {
+    pub fn new(file: &str) -> Self {
+        SceneBuilder {
+            scene: Scene::default(),
+            file: file.to_string(),
+            sources: Vec::new(),
+            sphere_labels: Vec::new(),
+            textures: HashMap::new(),
+            default_material: None,
+        }
+    }
+
+    /// Triangles pushed from now on come from `label`.
+    pub fn begin_source(&mut self, label: &str) {
+        let start = self.scene.triangles.len();
+        if let Some(last) = self.sources.last_mut() {
+            if last.start == start {
+                last.label = label.to_string();
+                return;
+            }
+        }
+        self.sources.push(Source {
+            start,
+            label: label.to_string(),
+        });
+    }
+
+    /// Makes room for `n` more triangles, or fails past [`MAX_TRIANGLES`].
+    pub fn reserve_triangles(
+        &mut self,
+        n: usize,
+        file: &str,
+        at: Location,
+    ) -> Result<(), SceneError> {
+        let total = self.scene.triangles.len().saturating_add(n);
+        if total > MAX_TRIANGLES {
+            return Err(SceneError::TooLarge {
+                file: file.to_string(),
+                at,
+                what: "the triangle count".into(),
+                count: total as u64,
+                limit: MAX_TRIANGLES as u64,
+            });
+        }
+        self.scene.triangles.reserve(n);
+        Ok(())
+    }
+
+    pub fn push_triangle(&mut self, t: Triangle) {
+        self.scene.triangles.push(t);
+    }
+
+    pub fn add_material(
+        &mut self,
+        m: Material,
+        file: &str,
+        at: Location,
+    ) -> Result<u32, SceneError> {
+        if self.scene.materials.len() >= MAX_MATERIALS {
+            return Err(SceneError::TooLarge {
+                file: file.to_string(),
+                at,
+                what: "the material count".into(),
+                count: self.scene.materials.len() as u64 + 1,
+                limit: MAX_MATERIALS as u64,
+            });
+        }
+        self.scene.materials.push(m);
+        Ok(self.scene.materials.len() as u32 - 1)
+    }
+
+    /// The grey diffuse material (albedo 0.8) for geometry that names none.
+    pub fn default_material(&mut self) -> u32 {
+        if let Some(m) = self.default_material {
+            return m;
+        }
+        self.scene
+            .materials
+            .push(Material::diffuse("default", Vec3::splat(0.8)));
+        let m = self.scene.materials.len() as u32 - 1;
+        self.default_material = Some(m);
+        m
+    }
+
+    fn check_texture_count(&self, file: &str) -> Result<(), SceneError> {
+        if self.scene.textures.len() >= MAX_TEXTURES {
+            return Err(SceneError::TooLarge {
+                file: file.to_string(),
+                at: Location::None,
+                what: "the texture count".into(),
+                count: self.scene.textures.len() as u64 + 1,
+                limit: MAX_TEXTURES as u64,
+            });
+        }
+        Ok(())
+    }
+
+    /// The texture at `path` (loaded once, then shared), as an index into `scene.textures`.
+    pub fn texture(&mut self, path: &Path, referenced_by: &str) -> Result<u32, SceneError> {
+        if let Some(&i) = self.textures.get(path) {
+            return Ok(i);
+        }
+        self.check_texture_count(referenced_by)?;
+        let tex = image_io::load_texture(path, referenced_by)?;
+        let i = self.push_texture(tex);
+        self.textures.insert(path.to_path_buf(), i);
+        Ok(i)
+    }
+
+    /// Adds an already decoded texture (glTF embedded images).
+    pub fn add_texture(&mut self, tex: Texture, file: &str) -> Result<u32, SceneError> {
+        self.check_texture_count(file)?;
+        Ok(self.push_texture(tex))
+    }
+
+    fn push_texture(&mut self, tex: Texture) -> u32 {
+        self.scene.textures.push(tex);
+        self.scene.textures.len() as u32 - 1
+    }
+
+    pub fn warn(&mut self, message: String) {
+        self.scene.warnings.push(message);
+    }
+
+    /// Drops degenerate triangles (with a warning per source), clamps albedos above 1 (with a
+    /// warning per material), then validates. NaN/Inf are errors, found before anything is
+    /// dropped so that the index in the message is the index in the source file.
+    pub fn finish(mut self) -> Result<Scene, SceneError> {
+        crate::validate::finish(&mut self)?;
+        Ok(self.scene)
+    }
+}
+
+/// How a mesh file is placed into a scene.
+#[derive(Clone, Debug)]
+pub(crate) struct MeshOptions {
+    pub xform: crate::transform::Xform,
+    /// Material index overriding the file's own materials.
+    pub material: Option<u32>,
+    /// The place that named the file ("scene.toml:12:8"), for messages.
+    pub referenced_by: Option<String>,
+}
+
+impl MeshOptions {
+    /// A bare mesh file loaded as a scene: identity transform, the file's materials.
+    pub fn bare() -> Self {
+        MeshOptions {
+            xform: crate::transform::Xform::IDENTITY,
+            material: None,
+            referenced_by: None,
+        }
+    }
+}
+
+/// Reads a whole file, mapping failures to [`SceneError::MissingFile`] / [`SceneError::Io`].
+pub(crate) fn read_file(path: &Path, referenced_by: Option<&str>) -> Result<Vec<u8>, SceneError> {
+    std::fs::read(path)
+        .map_err(|e| SceneError::io(path.to_path_buf(), referenced_by.map(str::to_string), e))
+}
+
+/// Reads a scene description file, bounded by [`crate::limits::MAX_DESCRIPTION_BYTES`].
+pub(crate) fn read_description(
+    path: &Path,
+    referenced_by: Option<&str>,
+) -> Result<Vec<u8>, SceneError> {
+    let limit = crate::limits::MAX_DESCRIPTION_BYTES;
+    if let Ok(meta) = std::fs::metadata(path) {
+        if meta.len() > limit {
+            return Err(SceneError::TooLarge {
+                file: path.display().to_string(),
+                at: Location::None,
+                what: "the file size in bytes".into(),
+                count: meta.len(),
+                limit,
+            });
+        }
+    }
+    read_file(path, referenced_by)
+}
+
+/// The 1-based line of byte `offset` in `bytes`.
+pub(crate) fn line_of_offset(bytes: &[u8], offset: usize) -> usize {
+    bytes[..offset.min(bytes.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
