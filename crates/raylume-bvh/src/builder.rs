@@ -18,7 +18,7 @@ use raylume_scene::{Scene, Sphere, Triangle};
 use crate::bounds::primitive_aabb;
 use crate::flatten::{Flat, flatten};
 use crate::median::build_median;
-use crate::stats::BvhStats;
+use crate::stats::{BvhStats, Fallback};
 use crate::{BvhError, BvhQuality, GpuBvh, INVALID_INDEX, MAX_STACK_DEPTH, Primitive};
 
 /// The largest count a `u32` index may address: `u32::MAX` is [`INVALID_INDEX`].
@@ -38,9 +38,10 @@ impl GpuBvh {
     /// several leaves. Zero primitives give a root with two empty slots; one primitive, a root
     /// whose left slot is a one-primitive leaf.
     ///
-    /// Should the preset's tree be deeper than [`MAX_STACK_DEPTH`] (it takes thousands of
-    /// coincident primitives), the builder falls back to balanced object-median splits and
-    /// records the fact in [`BvhStats::fallback_from_depth`].
+    /// Should the preset's tree be deeper than [`MAX_STACK_DEPTH`], or the input hold more
+    /// than [`MAX_STACK_DEPTH`] coincident primitives (on which PLOC builds a chain, slowly),
+    /// the builder falls back to balanced object-median splits and says so in
+    /// [`BvhStats::fallback`].
     pub fn build(
         triangles: &[Triangle],
         spheres: &[Sphere],
@@ -71,14 +72,27 @@ impl GpuBvh {
             }
         }
 
-        let bvh2 = build_obvhs(triangles, &aabbs, quality.params())?;
-        let mut flat = flatten(&bvh2, &source);
-        let mut fallback_from_depth = None;
-        if flat.max_depth > MAX_STACK_DEPTH {
-            fallback_from_depth = Some(flat.max_depth);
+        let coincident = largest_coincident_group(&aabbs);
+        let mut fallback = None;
+        let mut flat = if coincident > MAX_COINCIDENT {
+            fallback = Some(Fallback::CoincidentBoxes { count: coincident });
+            flatten(&build_median(&aabbs), &source)
+        } else {
+            match build_obvhs(triangles, &aabbs, quality.params())? {
+                Ok(bvh2) => flatten(&bvh2, &source),
+                Err(depth) => {
+                    fallback = Some(Fallback::TooDeep { depth });
+                    flatten(&build_median(&aabbs), &source)
+                }
+            }
+        };
+        if fallback.is_none() && flat.max_depth > MAX_STACK_DEPTH {
+            fallback = Some(Fallback::TooDeep {
+                depth: flat.max_depth,
+            });
             flat = flatten(&build_median(&aabbs), &source);
-            BvhError::check_depth(flat.max_depth)?;
         }
+        BvhError::check_depth(flat.max_depth)?;
         check_output(&flat)?;
 
         let Flat {
@@ -93,7 +107,7 @@ impl GpuBvh {
             sphere_count: spheres.len() as u32,
             stats: BvhStats::default(),
         };
-        bvh.stats = BvhStats::measure(&bvh, quality, max_depth, fallback_from_depth, start);
+        bvh.stats = BvhStats::measure(&bvh, quality, max_depth, fallback, start);
         Ok(bvh)
     }
 }
@@ -163,16 +177,24 @@ fn check_output(flat: &Flat) -> Result<(), BvhError> {
     Ok(())
 }
 
+/// A PLOC tree deeper than this (in obvhs' count, leaves included) is abandoned before the
+/// SAH passes: collapsing leaves removes at most 3 levels and reinsertion optimises cost, not
+/// depth, so it would end far past [`MAX_STACK_DEPTH`], and reinsertion over a chain of
+/// thousands of nodes is quadratic (seconds for 5000 coincident triangles).
+const ABANDON_PLOC_DEPTH: usize = 2 * MAX_STACK_DEPTH;
+
 /// obvhs' `build_bvh2_from_tris`, generalised to triangles followed by spheres: `aabbs[i]`
 /// bounds primitive `i`, the first `triangles.len()` of them triangles. Only triangles are
 /// pre-split (the splitter clips a triangle's polygon; a sphere has none). Calls the stages
 /// directly rather than through `build_bvh2`, whose debug-build self-check panics where this
 /// crate wants typed errors and its own `validate`.
+///
+/// The inner `Err(depth)`: the PLOC tree is `depth` deep, past [`ABANDON_PLOC_DEPTH`].
 fn build_obvhs(
     triangles: &[Triangle],
     aabbs: &[Aabb],
     params: BvhBuildParams,
-) -> Result<Bvh2, BvhError> {
+) -> Result<Result<Bvh2, usize>, BvhError> {
     let n_tri = triangles.len();
     let mut boxes: Vec<Aabb> = aabbs[..n_tri].to_vec();
     let mut indices: Vec<u32> = (0..n_tri as u32).collect();
@@ -212,6 +234,10 @@ fn build_obvhs(
         params.search_depth_threshold,
     );
     bvh2.uses_spatial_splits = params.pre_split;
+    let depth = tree_depth(&bvh2);
+    if depth > ABANDON_PLOC_DEPTH {
+        return Ok(Err(depth));
+    }
     let mut reinsertion = ReinsertionOptimizer::default();
     reinsertion.run(&mut bvh2, params.reinsertion_batch_ratio, None);
     collapse(
@@ -224,5 +250,46 @@ fn build_obvhs(
         params.reinsertion_batch_ratio * params.post_collapse_reinsertion_batch_ratio_multiplier,
         None,
     );
-    Ok(bvh2)
+    Ok(Ok(bvh2))
+}
+
+/// More bit-identical primitive boxes than this and the builder goes straight to the median
+/// fallback. PLOC pairs each cluster with its nearest neighbour, and among equal boxes every
+/// distance ties: measured, n coincident triangles cluster into a chain n deep, in time
+/// quadratic in n (0.4 s for 5000, 9 s for 20,000 with the Fast preset), and the chain is
+/// deeper than the stack anyway once n passes [`MAX_STACK_DEPTH`].
+const MAX_COINCIDENT: usize = MAX_STACK_DEPTH;
+
+/// The size of the largest group of bit-identical boxes.
+fn largest_coincident_group(aabbs: &[Aabb]) -> usize {
+    let mut keys: Vec<[u32; 6]> = aabbs
+        .iter()
+        .map(|b| {
+            let (lo, hi) = (b.min.to_array(), b.max.to_array());
+            [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]].map(f32::to_bits)
+        })
+        .collect();
+    keys.sort_unstable();
+    keys.chunk_by(|a, b| a == b)
+        .map(<[_]>::len)
+        .max()
+        .unwrap_or(0)
+}
+
+/// Nodes on the longest root-to-leaf path of an obvhs tree (0 for an empty one).
+fn tree_depth(bvh: &Bvh2) -> usize {
+    if bvh.nodes.is_empty() {
+        return 0;
+    }
+    let mut deepest = 0;
+    let mut stack = vec![(0usize, 1usize)];
+    while let Some((id, depth)) = stack.pop() {
+        deepest = deepest.max(depth);
+        let n = &bvh.nodes[id];
+        if !n.is_leaf() {
+            stack.push((n.first_index as usize, depth + 1));
+            stack.push((n.first_index as usize + 1, depth + 1));
+        }
+    }
+    deepest
 }

@@ -61,17 +61,17 @@ pub use gpu_types::{
     BvhNode, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE, PRIM_TRIANGLE, Primitive,
 };
 pub use quality::BvhQuality;
-pub use stats::{BvhStats, SAH_NODE_COST, SAH_PRIMITIVE_COST};
+pub use stats::{BvhStats, Fallback, SAH_NODE_COST, SAH_PRIMITIVE_COST};
 pub use traverse::{
-    AABB_T_FAR_SCALE, Hit, Ray, T_MAX_LIMIT, T_MISS, intersect_aabb, intersect_primitive,
-    intersect_sphere, intersect_triangle, trace_any, trace_closest,
+    AABB_T_FAR_SCALE, Hit, Ray, ShearedRay, T_MAX_LIMIT, T_MISS, intersect_aabb,
+    intersect_primitive, intersect_sphere, intersect_triangle, shear_ray, trace_any, trace_closest,
 };
 
 /// The WGSL of [`traverse`]: the structs [`BvhNode`], [`Primitive`], `Hit`, `Ray`, the
 /// constants (`INVALID_INDEX`, `MAX_STACK_DEPTH`, `PRIM_TRIANGLE`, `PRIM_SPHERE`, `T_MISS`,
 /// `T_MAX_LIMIT`, `AABB_T_FAR_SCALE`) and the functions `intersect_aabb`,
 /// `intersect_triangle`, `intersect_sphere`, `intersect_primitive`, `trace_closest`,
-/// `trace_any` (plus helpers `bvh_dot`, `bvh_cross`, `intersect_leaf_closest`,
+/// `trace_any` (plus helpers `bvh_dot`, `shear_ray`, `intersect_leaf_closest`,
 /// `intersect_leaf_any`).
 ///
 /// It declares no bindings. Concatenate it with a shader that declares, at module scope,

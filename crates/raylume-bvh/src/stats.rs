@@ -12,15 +12,26 @@ pub const SAH_NODE_COST: f32 = 1.0;
 /// Cost of one primitive test, in the SAH cost below.
 pub const SAH_PRIMITIVE_COST: f32 = 1.0;
 
+/// Why a build used the median-split fallback instead of the preset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Fallback {
+    /// The preset's tree was `depth` nodes deep, more than
+    /// [`MAX_STACK_DEPTH`](crate::MAX_STACK_DEPTH). (For a PLOC tree abandoned before its SAH
+    /// passes, counted as obvhs does, leaves as nodes.)
+    TooDeep { depth: usize },
+    /// `count` primitives had bit-identical boxes, more than
+    /// [`MAX_STACK_DEPTH`](crate::MAX_STACK_DEPTH); PLOC would have chained them.
+    CoincidentBoxes { count: usize },
+}
+
 /// Measurements of one build.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct BvhStats {
     /// The preset asked for.
     pub quality: BvhQuality,
-    /// `Some(depth)` when the preset's tree was `depth` nodes deep, more than
-    /// [`MAX_STACK_DEPTH`](crate::MAX_STACK_DEPTH), and the balanced median-split fallback
-    /// was built instead.
-    pub fallback_from_depth: Option<usize>,
+    /// `Some` when the preset's tree was replaced by the balanced median-split fallback, and
+    /// why.
+    pub fallback: Option<Fallback>,
     /// [`BvhNode`](crate::BvhNode)s (inner nodes; leaves live in their parents' slots).
     pub node_count: usize,
     /// Non-empty leaf slots.
@@ -51,7 +62,7 @@ impl BvhStats {
         bvh: &GpuBvh,
         quality: BvhQuality,
         max_depth: usize,
-        fallback_from_depth: Option<usize>,
+        fallback: Option<Fallback>,
         start: Instant,
     ) -> BvhStats {
         let mut root_area = 0.0f32;
@@ -92,7 +103,7 @@ impl BvhStats {
         };
         BvhStats {
             quality,
-            fallback_from_depth,
+            fallback,
             node_count: bvh.nodes.len(),
             leaf_count: leaves.len(),
             max_depth,

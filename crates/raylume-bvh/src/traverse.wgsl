@@ -60,14 +60,6 @@ fn bvh_dot(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return a.x * b.x + a.y * b.y + a.z * b.z;
 }
 
-fn bvh_cross(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
-    return vec3<f32>(
-        a.y * b.z - a.z * b.y,
-        a.z * b.x - a.x * b.z,
-        a.x * b.y - a.y * b.x,
-    );
-}
-
 // Slab test: entry distance (>= t_min) if [t_min, t_max] overlaps the box, else T_MISS.
 // select(b, a, a > b) is max(a, b) returning b when a is NaN (NaN compares false); a NaN
 // arises only as 0 * inf (zero direction component, origin on the slab plane), and dropping
@@ -86,26 +78,59 @@ fn intersect_aabb(bmin: vec3<f32>, bmax: vec3<f32>, origin: vec3<f32>, inv_dir: 
     return select(T_MISS, t_near, t_near <= t_far * AABB_T_FAR_SCALE);
 }
 
-// Möller–Trumbore, edge-inclusive: (t, u, v) for t_min < t < t_max, else (T_MISS, 0, 0).
-// Only det == 0 is rejected (see traverse.rs).
-fn intersect_triangle(origin: vec3<f32>, dir: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>,
-                      v2: vec3<f32>, t_min: f32, t_max: f32) -> vec3<f32> {
+// A ray prepared for intersect_triangle (Woop, Benthin & Wald 2013): kz = axis of the
+// direction's largest component, kx, ky the next two; shear = (dir[kx] / dir[kz],
+// dir[ky] / dir[kz], 1 / dir[kz]). A value type, not a buffer layout.
+struct ShearedRay {
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+    shear: vec3<f32>,
+    kx: u32,
+    ky: u32,
+    kz: u32,
+}
+
+fn shear_ray(ray: Ray) -> ShearedRay {
+    let d = ray.dir;
+    let ad = abs(d);
+    let kz = select(select(2u, 1u, ad.y >= ad.z), 0u, ad.x >= ad.y && ad.x >= ad.z);
+    let kx = (kz + 1u) % 3u;
+    let ky = (kx + 1u) % 3u;
+    let sz = 1.0 / d[kz];
+    return ShearedRay(ray.origin, d, vec3<f32>(d[kx] * sz, d[ky] * sz, sz), kx, ky, kz);
+}
+
+// Watertight, edge-inclusive ray/triangle test: (t, u, v) for t_min < t < t_max, else
+// (T_MISS, 0, 0). 2D edge functions in ray space, exactly antisymmetric between neighbours
+// (without FMA contraction); t is the barycentric mean of the vertices' depths. Only
+// det == 0 is rejected. See traverse.rs.
+fn intersect_triangle(r: ShearedRay, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>,
+                      t_min: f32, t_max: f32) -> vec3<f32> {
     let miss = vec3<f32>(T_MISS, 0.0, 0.0);
-    let e1 = v1 - v0;
-    let e2 = v2 - v0;
-    let p = bvh_cross(dir, e2);
-    let det = bvh_dot(e1, p);
-    if det == 0.0 {
+    let a = v0 - r.origin;
+    let b = v1 - r.origin;
+    let c = v2 - r.origin;
+    let ax = a[r.kx] - r.shear.x * a[r.kz];
+    let ay = a[r.ky] - r.shear.y * a[r.kz];
+    let bx = b[r.kx] - r.shear.x * b[r.kz];
+    let by = b[r.ky] - r.shear.y * b[r.kz];
+    let cx = c[r.kx] - r.shear.x * c[r.kz];
+    let cy = c[r.ky] - r.shear.y * c[r.kz];
+    let w0 = cx * by - cy * bx;
+    let w1 = ax * cy - ay * cx;
+    let w2 = bx * ay - by * ax;
+    let inside = (w0 >= 0.0 && w1 >= 0.0 && w2 >= 0.0) || (w0 <= 0.0 && w1 <= 0.0 && w2 <= 0.0);
+    let det = w0 + w1 + w2;
+    if !inside || det == 0.0 {
         return miss;
     }
+    let az = r.shear.z * a[r.kz];
+    let bz = r.shear.z * b[r.kz];
+    let cz = r.shear.z * c[r.kz];
     let inv_det = 1.0 / det;
-    let s = origin - v0;
-    let u = bvh_dot(s, p) * inv_det;
-    let q = bvh_cross(s, e1);
-    let v = bvh_dot(dir, q) * inv_det;
-    let t = bvh_dot(e2, q) * inv_det;
-    if u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > t_min && t < t_max {
-        return vec3<f32>(t, u, v);
+    let t = (w0 * az + w1 * bz + w2 * cz) * inv_det;
+    if t > t_min && t < t_max {
+        return vec3<f32>(t, w1 * inv_det, w2 * inv_det);
     }
     return miss;
 }
@@ -136,27 +161,26 @@ fn intersect_sphere(origin: vec3<f32>, dir: vec3<f32>, center: vec3<f32>, radius
     return select(T_MISS, t, t > t_min && t < t_max);
 }
 
-fn intersect_primitive(p: Primitive, origin: vec3<f32>, dir: vec3<f32>, t_min: f32,
-                       t_max: f32) -> vec3<f32> {
+fn intersect_primitive(p: Primitive, r: ShearedRay, t_min: f32, t_max: f32) -> vec3<f32> {
     if bitcast<u32>(p.b.w) == PRIM_SPHERE {
-        return vec3<f32>(intersect_sphere(origin, dir, p.a.xyz, p.a.w, t_min, t_max), 0.0, 0.0);
+        return vec3<f32>(intersect_sphere(r.origin, r.dir, p.a.xyz, p.a.w, t_min, t_max), 0.0, 0.0);
     }
-    return intersect_triangle(origin, dir, p.a.xyz, p.b.xyz, p.c.xyz, t_min, t_max);
+    return intersect_triangle(r, p.a.xyz, p.b.xyz, p.c.xyz, t_min, t_max);
 }
 
-fn intersect_leaf_closest(ray: Ray, first: u32, count: u32, t_min: f32,
+fn intersect_leaf_closest(ray: ShearedRay, first: u32, count: u32, t_min: f32,
                           hit: ptr<function, Hit>) {
     for (var i = first; i < first + count; i += 1u) {
-        let r = intersect_primitive(bvh_primitives[i], ray.origin, ray.dir, t_min, (*hit).t);
+        let r = intersect_primitive(bvh_primitives[i], ray, t_min, (*hit).t);
         if r.x < (*hit).t {
             *hit = Hit(r.x, i, r.y, r.z);
         }
     }
 }
 
-fn intersect_leaf_any(ray: Ray, first: u32, count: u32, t_min: f32, t_max: f32) -> bool {
+fn intersect_leaf_any(ray: ShearedRay, first: u32, count: u32, t_min: f32, t_max: f32) -> bool {
     for (var i = first; i < first + count; i += 1u) {
-        let r = intersect_primitive(bvh_primitives[i], ray.origin, ray.dir, t_min, t_max);
+        let r = intersect_primitive(bvh_primitives[i], ray, t_min, t_max);
         if r.x < t_max {
             return true;
         }
@@ -168,6 +192,7 @@ fn intersect_leaf_any(ray: Ray, first: u32, count: u32, t_min: f32, t_max: f32) 
 // t == min(t_max, T_MAX_LIMIT).
 fn trace_closest(ray: Ray, t_min: f32, t_max: f32) -> Hit {
     let inv_dir = 1.0 / ray.dir;
+    let sheared = shear_ray(ray);
     var hit = Hit(min(t_max, T_MAX_LIMIT), INVALID_INDEX, 0.0, 0.0);
     var stack: array<u32, MAX_STACK_DEPTH>;
     var sp = 0u;
@@ -186,10 +211,10 @@ fn trace_closest(ray: Ray, t_min: f32, t_max: f32) -> Hit {
         let far_index = select(node.right_index, node.left_index, swap);
         let far_count = select(node.right_count, node.left_count, swap);
         if near_count > 0u && t_near <= hit.t * AABB_T_FAR_SCALE {
-            intersect_leaf_closest(ray, near_index, near_count, t_min, &hit);
+            intersect_leaf_closest(sheared, near_index, near_count, t_min, &hit);
         }
         if far_count > 0u && t_far <= hit.t * AABB_T_FAR_SCALE {
-            intersect_leaf_closest(ray, far_index, far_count, t_min, &hit);
+            intersect_leaf_closest(sheared, far_index, far_count, t_min, &hit);
         }
         let go_near = near_count == 0u && t_near <= hit.t * AABB_T_FAR_SCALE;
         let go_far = far_count == 0u && t_far <= hit.t * AABB_T_FAR_SCALE;
@@ -214,6 +239,7 @@ fn trace_closest(ray: Ray, t_min: f32, t_max: f32) -> Hit {
 // True if anything is hit with t_min < t < t_max (returns at the first hit).
 fn trace_any(ray: Ray, t_min: f32, t_max_in: f32) -> bool {
     let inv_dir = 1.0 / ray.dir;
+    let sheared = shear_ray(ray);
     let t_max = min(t_max_in, T_MAX_LIMIT);
     var stack: array<u32, MAX_STACK_DEPTH>;
     var sp = 0u;
@@ -232,12 +258,12 @@ fn trace_any(ray: Ray, t_min: f32, t_max_in: f32) -> bool {
         let far_index = select(node.right_index, node.left_index, swap);
         let far_count = select(node.right_count, node.left_count, swap);
         if near_count > 0u && t_near < T_MISS {
-            if intersect_leaf_any(ray, near_index, near_count, t_min, t_max) {
+            if intersect_leaf_any(sheared, near_index, near_count, t_min, t_max) {
                 return true;
             }
         }
         if far_count > 0u && t_far < T_MISS {
-            if intersect_leaf_any(ray, far_index, far_count, t_min, t_max) {
+            if intersect_leaf_any(sheared, far_index, far_count, t_min, t_max) {
                 return true;
             }
         }

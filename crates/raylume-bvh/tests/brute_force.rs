@@ -26,7 +26,7 @@ fn check_fixture(f: Fixture, seed: u64) {
     }
     let hits = reference.iter().filter(|r| r.is_some()).count();
     assert!(
-        hits > QUERIES / 5,
+        hits > QUERIES / 10,
         "{}: only {hits} of {QUERIES} queries hit",
         f.name
     );
@@ -67,4 +67,9 @@ fn cornell_box_matches_brute_force() {
 #[test]
 fn spheres_and_triangles_match_brute_force() {
     check_fixture(support::spheres_and_triangles(), 4);
+}
+
+#[test]
+fn slivers_in_soup_match_brute_force() {
+    check_fixture(support::slivers_in_soup(), 5);
 }

@@ -6,7 +6,7 @@
 use glam::{Mat3, Vec3};
 use raylume_bvh::{
     GpuBvh, Hit, INVALID_INDEX, PRIM_SPHERE, PRIM_TRIANGLE, Ray, T_MISS, intersect_sphere,
-    intersect_triangle,
+    intersect_triangle, shear_ray,
 };
 use raylume_scene::{Sphere, Triangle};
 
@@ -305,10 +305,29 @@ pub fn spheres_and_triangles() -> Fixture {
     }
 }
 
+/// 300 small random triangles with 12 long, thin triangles laid diagonally across the cube:
+/// the case spatial pre-splits are for.
+pub fn slivers_in_soup() -> Fixture {
+    let mut t = random_soup(300, 0.05, 13);
+    let mut rng = Rng::new(14);
+    for _ in 0..12 {
+        let a = rng.vec3(Vec3::ZERO, Vec3::splat(0.1));
+        let b = rng.vec3(Vec3::splat(0.9), Vec3::ONE);
+        let w = rng.vec3(Vec3::splat(-0.01), Vec3::splat(0.01));
+        t.push(tri(a, b, a + w));
+    }
+    Fixture {
+        name: "slivers in soup",
+        triangles: t,
+        spheres: Vec::new(),
+    }
+}
+
 /// Every fixture the brute-force tests run.
 pub fn fixtures() -> Vec<Fixture> {
     vec![
         triangle_soup(),
+        slivers_in_soup(),
         icosphere_on_plane(),
         cornell_box(),
         spheres_and_triangles(),
@@ -431,9 +450,10 @@ pub type SceneHit = (u32, u32, f32);
 pub fn brute_force(f: &Fixture, q: &Query) -> Option<SceneHit> {
     let mut best: Option<SceneHit> = None;
     let mut t_max = q.t_max.min(raylume_bvh::T_MAX_LIMIT);
+    let sheared = shear_ray(&q.ray);
     for (i, t) in f.triangles.iter().enumerate() {
         let [a, b, c] = t.positions;
-        let r = intersect_triangle(q.ray.origin, q.ray.dir, a, b, c, q.t_min, t_max);
+        let r = intersect_triangle(&sheared, a, b, c, q.t_min, t_max);
         if r.x < t_max {
             t_max = r.x;
             best = Some((PRIM_TRIANGLE, i as u32, r.x));

@@ -1,0 +1,302 @@
+//! The builder's contract: shapes of tiny trees, typed errors for bad input, the depth
+//! fallback on degenerate input, spatial splits, stats.
+
+mod support;
+
+use glam::Vec3;
+use raylume_bvh::{
+    BvhError, BvhQuality, Fallback, GpuBvh, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE,
+    PRIM_TRIANGLE, Ray,
+};
+use raylume_scene::{Scene, Sphere, Triangle};
+use support::{Fixture, brute_force, check_against_brute_force, queries};
+
+const QUALITIES: [BvhQuality; 2] = [BvhQuality::Fast, BvhQuality::Quality];
+
+fn unit_triangle() -> Triangle {
+    Triangle::flat([Vec3::ZERO, Vec3::X, Vec3::Y], 0)
+}
+
+#[test]
+fn no_primitives_give_a_root_with_two_empty_slots() {
+    for quality in QUALITIES {
+        let bvh = GpuBvh::build(&[], &[], quality).unwrap();
+        bvh.validate().unwrap();
+        assert_eq!(bvh.nodes.len(), 1);
+        assert!(bvh.primitives.is_empty());
+        let root = bvh.nodes[0];
+        assert_eq!((root.left_index, root.left_count), (INVALID_INDEX, 0));
+        assert_eq!((root.right_index, root.right_count), (INVALID_INDEX, 0));
+        let ray = Ray::new(Vec3::new(0.0, 0.0, -1.0), Vec3::Z);
+        assert_eq!(bvh.trace_closest(&ray, 0.0, f32::INFINITY), None);
+        assert!(!bvh.trace_any(&ray, 0.0, f32::INFINITY));
+        assert_eq!(bvh.stats.leaf_count, 0);
+    }
+}
+
+#[test]
+fn one_primitive_is_a_left_leaf_with_an_empty_right_slot() {
+    let sphere = Sphere {
+        center: Vec3::new(0.0, 0.0, 3.0),
+        radius: 1.0,
+        material: 0,
+    };
+    for quality in QUALITIES {
+        for (tris, spheres, kind, origin, t) in [
+            (
+                vec![unit_triangle()],
+                vec![],
+                PRIM_TRIANGLE,
+                Vec3::new(0.25, 0.25, -1.0),
+                1.0,
+            ),
+            (
+                vec![],
+                vec![sphere],
+                PRIM_SPHERE,
+                Vec3::new(0.0, 0.0, -1.0),
+                3.0,
+            ),
+        ] {
+            let bvh = GpuBvh::build(&tris, &spheres, quality).unwrap();
+            bvh.validate().unwrap();
+            assert_eq!(bvh.nodes.len(), 1);
+            let root = bvh.nodes[0];
+            assert_eq!((root.left_index, root.left_count), (0, 1));
+            assert_eq!((root.right_index, root.right_count), (INVALID_INDEX, 0));
+            assert_eq!(bvh.primitives[0].kind(), kind);
+            assert_eq!(bvh.primitives[0].scene_index(), 0);
+            let ray = Ray::new(origin, Vec3::Z);
+            let hit = bvh.trace_closest(&ray, 0.0, f32::INFINITY).unwrap();
+            assert_eq!((hit.prim, hit.t), (0, t));
+            // Beside it: nothing, and nothing past t_max.
+            let beside = Ray::new(Vec3::new(5.0, 5.0, -1.0), Vec3::Z);
+            assert_eq!(bvh.trace_closest(&beside, 0.0, f32::INFINITY), None);
+            assert!(!bvh.trace_any(&ray, 0.0, t * 0.5));
+        }
+    }
+}
+
+#[test]
+fn from_scene_builds_triangles_and_spheres_together() {
+    let scene = Scene {
+        triangles: vec![unit_triangle(); 3],
+        spheres: vec![
+            Sphere {
+                center: Vec3::ONE,
+                radius: 0.5,
+                material: 0,
+            };
+            2
+        ],
+        ..Scene::default()
+    };
+    let bvh = GpuBvh::from_scene(&scene, BvhQuality::Quality).unwrap();
+    bvh.validate().unwrap();
+    assert_eq!((bvh.triangle_count, bvh.sphere_count), (3, 2));
+    let mut seen: Vec<(u32, u32)> = bvh
+        .primitives
+        .iter()
+        .map(|p| (p.kind(), p.scene_index()))
+        .collect();
+    seen.sort_unstable();
+    seen.dedup();
+    assert_eq!(
+        seen,
+        [(0, 0), (0, 1), (0, 2), (1, 0), (1, 1)],
+        "every scene primitive, by kind and index"
+    );
+}
+
+#[test]
+fn non_finite_and_bad_radius_are_typed_errors() {
+    let mut bad = unit_triangle();
+    bad.positions[2].y = f32::NAN;
+    let err = GpuBvh::build(&[unit_triangle(), bad], &[], BvhQuality::Fast).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            BvhError::NonFinite {
+                kind: "triangle",
+                index: 1,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains("triangle 1"), "{err}");
+
+    let s = |center: Vec3, radius: f32| Sphere {
+        center,
+        radius,
+        material: 0,
+    };
+    let err = GpuBvh::build(&[], &[s(Vec3::ZERO, f32::INFINITY)], BvhQuality::Fast).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            BvhError::NonFinite {
+                kind: "sphere",
+                index: 0,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    let err = GpuBvh::build(
+        &[],
+        &[s(Vec3::ZERO, 1.0), s(Vec3::ZERO, 0.0)],
+        BvhQuality::Fast,
+    )
+    .unwrap_err();
+    assert_eq!(
+        err,
+        BvhError::BadRadius {
+            index: 1,
+            radius: 0.0
+        }
+    );
+    // Finite centre and radius whose bounds overflow f32.
+    let err = GpuBvh::build(&[], &[s(Vec3::splat(3e38), 3e38)], BvhQuality::Fast).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            BvhError::NonFinite {
+                kind: "sphere",
+                index: 0,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+}
+
+/// Thousands of coincident triangles give clustering nothing to work with; whatever obvhs
+/// makes of them, the result must be a valid tree within the stack depth that traces like
+/// brute force.
+#[test]
+fn coincident_triangles_give_a_usable_tree() {
+    let t = Triangle::flat(
+        [
+            Vec3::new(0.1, 0.2, 0.3),
+            Vec3::new(1.0, 0.2, 0.4),
+            Vec3::new(0.3, 1.5, 0.2),
+        ],
+        0,
+    );
+    let f = Fixture {
+        name: "5000 coincident triangles",
+        triangles: vec![t; 5000],
+        spheres: Vec::new(),
+    };
+    let qs = queries(&f, 2000, 9);
+    let reference: Vec<_> = qs.iter().map(|q| brute_force(&f, q)).collect();
+    for quality in QUALITIES {
+        let bvh = GpuBvh::build(&f.triangles, &f.spheres, quality).unwrap();
+        bvh.validate().unwrap();
+        assert!(bvh.stats.max_depth <= MAX_STACK_DEPTH);
+        assert_eq!(
+            bvh.stats.fallback,
+            Some(Fallback::CoincidentBoxes { count: 5000 })
+        );
+        // ceil(log2(5000 / 4)) + 1 levels of median splits.
+        assert_eq!(bvh.stats.max_depth, 11);
+        eprintln!("{quality:?}: {:?}", bvh.stats);
+        check_against_brute_force(&f, &bvh, &qs, &reference);
+    }
+}
+
+/// Long thin diagonal triangles get pre-split by the Quality preset: copies in several
+/// leaves, each leaf box covering its piece (validate checks the union covers the triangle),
+/// and traversal still agrees with brute force.
+#[test]
+fn quality_splits_long_diagonal_triangles() {
+    let f = support::slivers_in_soup();
+    let fast = GpuBvh::build(&f.triangles, &f.spheres, BvhQuality::Fast).unwrap();
+    let quality = GpuBvh::build(&f.triangles, &f.spheres, BvhQuality::Quality).unwrap();
+    fast.validate().unwrap();
+    quality.validate().unwrap();
+    assert_eq!(fast.stats.primitive_refs, f.primitive_count());
+    assert!(
+        quality.stats.primitive_refs > f.primitive_count(),
+        "expected split copies, got {} refs for {} primitives",
+        quality.stats.primitive_refs,
+        f.primitive_count()
+    );
+    assert!(
+        quality.stats.sah_cost < fast.stats.sah_cost,
+        "splits should lower the SAH cost here: {} vs {}",
+        quality.stats.sah_cost,
+        fast.stats.sah_cost
+    );
+    let qs = queries(&f, 20_000, 10);
+    let reference: Vec<_> = qs.iter().map(|q| brute_force(&f, q)).collect();
+    check_against_brute_force(&f, &quality, &qs, &reference);
+}
+
+#[test]
+fn stats_describe_the_tree() {
+    let f = support::icosphere_on_plane();
+    let bvh = GpuBvh::build(&f.triangles, &f.spheres, BvhQuality::Fast).unwrap();
+    let s = bvh.stats;
+    assert_eq!(s.node_count, bvh.nodes.len());
+    assert_eq!(s.primitive_refs, bvh.primitives.len());
+    // A binary tree with every inner node full: leaves = inner nodes + 1.
+    assert_eq!(s.leaf_count, s.node_count + 1);
+    let leaf_sizes: Vec<u32> = bvh
+        .nodes
+        .iter()
+        .flat_map(|n| [n.left_count, n.right_count])
+        .filter(|&c| c > 0)
+        .collect();
+    assert_eq!(
+        leaf_sizes.iter().sum::<u32>() as usize,
+        bvh.primitives.len()
+    );
+    assert_eq!(s.max_leaf_size, *leaf_sizes.iter().max().unwrap() as usize);
+    assert!(
+        s.max_leaf_size <= 8,
+        "obvhs collapses to at most 8 per leaf"
+    );
+    assert!(s.max_depth >= (bvh.nodes.len() as f32).log2().ceil() as usize);
+    assert!(s.sah_cost > 1.0 && s.sah_cost.is_finite());
+    assert_eq!(s.fallback, None);
+    assert_eq!(s.quality, BvhQuality::Fast);
+}
+
+/// 400 places with 64 coincident triangles each (not more than the coincidence limit):
+/// obvhs chains each group into a subtree 64 deep, past the stack; the builder sees the depth
+/// and falls back.
+#[test]
+fn groups_of_coincident_triangles_past_the_stack_fall_back() {
+    let k = MAX_STACK_DEPTH;
+    let triangles: Vec<Triangle> = (0..400 * k)
+        .map(|i| {
+            let o = Vec3::new((i / k) as f32 * 0.0025, 0.0, 0.0);
+            Triangle::flat(
+                [
+                    Vec3::new(0.1, 0.2, 0.3) + o,
+                    Vec3::new(1.0, 0.2, 0.4) + o,
+                    Vec3::new(0.3, 1.5, 0.2) + o,
+                ],
+                0,
+            )
+        })
+        .collect();
+    let f = Fixture {
+        name: "400 x 64 coincident triangles",
+        triangles,
+        spheres: Vec::new(),
+    };
+    let bvh = GpuBvh::build(&f.triangles, &f.spheres, BvhQuality::Fast).unwrap();
+    bvh.validate().unwrap();
+    assert!(
+        matches!(bvh.stats.fallback, Some(Fallback::TooDeep { depth }) if depth > MAX_STACK_DEPTH),
+        "{:?}",
+        bvh.stats
+    );
+    assert!(bvh.stats.max_depth <= MAX_STACK_DEPTH);
+    let qs = queries(&f, 2000, 15);
+    let reference: Vec<_> = qs.iter().map(|q| brute_force(&f, q)).collect();
+    check_against_brute_force(&f, &bvh, &qs, &reference);
+}
