@@ -38,8 +38,10 @@ pub const MATH_WGSL: &str = include_str!("math.wgsl");
 /// `atan2(y, x)` in `[-π, π]` from a degree-15 odd minimax polynomial for `atan` on `[0, 1]`
 /// (Hastings' coefficients; error below 4e-8 rad) and octant reduction: only `+ - * /` and
 /// comparisons, so the CPU and every GPU agree to rounding, unlike the drivers' `atan2`
-/// (Vulkan allows 4096 ULP).
+/// (Vulkan allows 4096 ULP). The coefficients are written as the exact `f32` values, so the
+/// WGSL literals (parsed as f64, then rounded) are the same `f32`s.
 #[inline]
+#[allow(clippy::excessive_precision)]
 pub fn atan2_poly(y: f32, x: f32) -> f32 {
     let ax = x.abs();
     let ay = y.abs();
@@ -47,14 +49,14 @@ pub fn atan2_poly(y: f32, x: f32) -> f32 {
     let lo = ax.min(ay);
     let a = if hi > 0.0 { lo / hi } else { 0.0 };
     let s = a * a;
-    let mut r = -0.004_054_058;
-    r = r * s + 0.021_861_229;
-    r = r * s - 0.055_909_886;
-    r = r * s + 0.096_420_044;
-    r = r * s - 0.139_085_33;
-    r = r * s + 0.199_465_36;
-    r = r * s - 0.333_298_56;
-    r = r * s + 0.999_999_33;
+    let mut r = -0.004054057877510786;
+    r = r * s + 0.021861229091882706;
+    r = r * s - 0.055909886956214905;
+    r = r * s + 0.0964200422167778;
+    r = r * s - 0.1390853226184845;
+    r = r * s + 0.19946536421775818;
+    r = r * s - 0.33329856395721436;
+    r = r * s + 0.9999993443489075;
     r *= a;
     if ay > ax {
         r = 0.5 * PI - r;

@@ -15,7 +15,7 @@ fn is_finite3(v: vec3<f32>) -> bool {
 
 // atan2 from a degree-15 odd minimax polynomial on [0, 1] (Hastings; error < 4e-8 rad) with
 // octant reduction: only + - * / and compares, so every device agrees with the Rust mirror to
-// rounding (Vulkan lets a driver's atan be 4096 ULP off).
+// rounding (Vulkan lets a driver's atan be 4096 ULP off). Coefficients: exact f32 values.
 fn atan2_poly(y: f32, x: f32) -> f32 {
     let ax = abs(x);
     let ay = abs(y);
@@ -26,14 +26,14 @@ fn atan2_poly(y: f32, x: f32) -> f32 {
         a = lo / hi;
     }
     let s = a * a;
-    var r = -0.004054058;
-    r = r * s + 0.021861229;
-    r = r * s - 0.055909886;
-    r = r * s + 0.096420044;
-    r = r * s - 0.13908533;
-    r = r * s + 0.19946536;
-    r = r * s - 0.33329856;
-    r = r * s + 0.99999933;
+    var r = -0.004054057877510786;
+    r = r * s + 0.021861229091882706;
+    r = r * s - 0.055909886956214905;
+    r = r * s + 0.0964200422167778;
+    r = r * s - 0.1390853226184845;
+    r = r * s + 0.19946536421775818;
+    r = r * s - 0.33329856395721436;
+    r = r * s + 0.9999993443489075;
     r *= a;
     if (ay > ax) {
         r = 0.5 * PI - r;

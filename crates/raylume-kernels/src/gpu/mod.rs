@@ -44,6 +44,9 @@ pub struct WavefrontBuffers<'b> {
     pub queue_counts: &'b wgpu::Buffer,
 }
 
+/// A batch and its per-sample radiance in slot order ([`GpuTracer::last_batch_samples`]).
+pub type BatchSamples = (Batch, Vec<[f32; 3]>);
+
 /// The scene's storage buffers and their bind group (group 0).
 struct SceneBuffers {
     uniforms: wgpu::Buffer,
@@ -68,6 +71,8 @@ pub struct GpuTracer<'a> {
     work: Option<WorkBuffers>,
     /// The last batch rendered (its samples stay in the sample-radiance buffer).
     last_batch: Option<Batch>,
+    /// A cap on rays per batch below the adapter's own ([`GpuTracer::set_batch_ray_limit`]).
+    batch_ray_limit: Option<u64>,
     upload_seconds: f64,
 }
 
@@ -279,8 +284,17 @@ impl<'a> GpuTracer<'a> {
             pipelines: HashMap::new(),
             work: None,
             last_batch: None,
+            batch_ray_limit: None,
             upload_seconds: start.elapsed().as_secs_f64(),
         })
+    }
+
+    /// Caps the rays (pixel samples) of one batch below what the adapter's binding size
+    /// allows, e.g. to bound memory; `None` restores the adapter's limit. Batches then hold
+    /// fewer samples per pixel, or a range of the pixels when even one sample of every pixel
+    /// exceeds the cap. The image does not depend on it.
+    pub fn set_batch_ray_limit(&mut self, limit: Option<u64>) {
+        self.batch_ray_limit = limit;
     }
 
     /// The features the pipelines are specialised on.
@@ -339,7 +353,7 @@ impl<'a> GpuTracer<'a> {
     /// The per-sample radiance of the last batch of the last render, in slot order (slot
     /// `s * pixel_count + p` holds sample `sample_begin + s` of pixel `pixel_begin + p`), and
     /// that batch: for tests and debugging (compare with [`crate::CpuTracer::sample_radiance`]).
-    pub fn last_batch_samples(&self) -> Result<Option<(Batch, Vec<[f32; 3]>)>, KernelError> {
+    pub fn last_batch_samples(&self) -> Result<Option<BatchSamples>, KernelError> {
         let (Some(b), Some(w)) = (self.last_batch, self.work.as_ref()) else {
             return Ok(None);
         };
@@ -385,12 +399,9 @@ impl<'a> GpuTracer<'a> {
             Schedule::Wavefront => size_of::<RayState>() as u64,
             Schedule::Megakernel => 12,
         };
-        let batches = plan_batches(
-            pixels,
-            settings.spp,
-            settings.batch_spp,
-            ctx.max_binding_bytes() / per_ray,
-        );
+        let max_rays =
+            (ctx.max_binding_bytes() / per_ray).min(self.batch_ray_limit.unwrap_or(u64::MAX));
+        let batches = plan_batches(pixels, settings.spp, settings.batch_spp, max_rays);
         let capacity = batches.iter().map(|b| b.rays()).max().unwrap_or(1);
         let key = work::WorkKey {
             schedule: settings.schedule,

@@ -1,0 +1,273 @@
+//! The GPU schedules and their plumbing: megakernel and wavefront give the same image,
+//! specialised pipelines the same image as the unspecialised one, batching does not change
+//! the image, non-finite samples are dropped and counted alike on both backends, and bad
+//! input comes back as typed errors.
+
+mod support;
+
+use glam::Vec3;
+use raylume_bvh::GpuBvh;
+use raylume_gpu::wgpu;
+use raylume_kernels::gpu_types::DEAD_RAY_KEY;
+use raylume_kernels::{CpuTracer, GpuTracer, KernelError, Schedule, TraceSettings};
+use raylume_scene::{Environment, Features, Texture};
+use support::*;
+
+#[test]
+fn megakernel_and_wavefront_trace_the_same_paths() {
+    let Some(ctx) =
+        raylume_gpu::testing::context_or_skip("megakernel_and_wavefront_trace_the_same_paths")
+    else {
+        return;
+    };
+    for (name, scene) in [
+        ("cornell", cornell_box()),
+        ("spheres", spheres()),
+        ("textured", textured()),
+        ("environment", environment_lit()),
+    ] {
+        let bvh = bvh(&scene);
+        let mut tracer = GpuTracer::new(ctx, &scene, &bvh).unwrap();
+        let s = settings(24, 16, 3, 5, Schedule::Megakernel);
+        let mk = tracer.render(&s, &mut |_, _| {}).unwrap();
+        let s = TraceSettings {
+            schedule: Schedule::Wavefront,
+            ..s
+        };
+        let wf = tracer.render(&s, &mut |_, _| {}).unwrap();
+        // The same functions on the same random numbers in the same order: only a compiler's
+        // different contraction of a multiply-add could separate them (none was seen on
+        // lavapipe, where they are bit-identical).
+        let e = relative_rmse(&wf.radiance, &mk.radiance);
+        assert!(e < 1e-6, "{name}: relative RMSE {e}");
+        assert_eq!(mk.rays_traced, wf.rays_traced, "{name}");
+        assert!(mk.timing("trace_paths").is_some() && wf.timing("propagate").is_some());
+
+        // After the last bounce every ray has ended: its keys are all DEAD_RAY_KEY and the
+        // output queue is empty.
+        let b = tracer.wavefront_buffers().expect("wavefront buffers");
+        let counts: Vec<u32> = ctx.read_buffer(b.queue_counts, 2).unwrap();
+        let q = (s.max_bounces & 1) as usize;
+        assert_eq!(counts[1 - q], 0, "{name}: rays alive after the last bounce");
+        let keys: Vec<u32> = ctx.read_buffer(b.ray_keys, counts[q] as usize).unwrap();
+        assert!(keys.iter().all(|&k| k == DEAD_RAY_KEY), "{name}");
+    }
+}
+
+#[test]
+fn specialised_pipelines_render_what_the_reference_renders() {
+    let Some(ctx) = raylume_gpu::testing::context_or_skip(
+        "specialised_pipelines_render_what_the_reference_renders",
+    ) else {
+        return;
+    };
+    for scene in [cornell_box(), textured()] {
+        assert_ne!(scene.features(), Features::all());
+        let bvh = bvh(&scene);
+        let s = settings(16, 16, 2, 4, Schedule::Megakernel);
+        let special = GpuTracer::new(ctx, &scene, &bvh)
+            .unwrap()
+            .render(&s, &mut |_, _| {})
+            .unwrap();
+        let mut reference = GpuTracer::with_features(ctx, &scene, &bvh, Features::all()).unwrap();
+        assert_eq!(reference.features(), Features::all());
+        let all = reference.render(&s, &mut |_, _| {}).unwrap();
+        // Code removed by specialisation is code the scene cannot reach.
+        let e = relative_rmse(&special.radiance, &all.radiance);
+        assert!(e < 1e-6, "relative RMSE {e}");
+    }
+    // Specialising away a feature the scene uses is refused.
+    let scene = spheres();
+    let err = GpuTracer::with_features(ctx, &scene, &bvh(&scene), Features::NONE)
+        .err()
+        .expect("refused");
+    assert!(matches!(err, KernelError::InvalidScene(_)), "{err}");
+}
+
+#[test]
+fn batching_does_not_change_the_image() {
+    let Some(ctx) = raylume_gpu::testing::context_or_skip("batching_does_not_change_the_image")
+    else {
+        return;
+    };
+    let scene = spheres();
+    let bvh = bvh(&scene);
+    let mut tracer = GpuTracer::new(ctx, &scene, &bvh).unwrap();
+    let base = settings(20, 12, 5, 4, Schedule::Megakernel);
+    let whole = tracer.render(&base, &mut |_, _| {}).unwrap();
+    // Each pixel's samples are summed in sample order whatever the batches, so the image is
+    // bit-identical: 1 sample per batch, and (with a ray cap below the pixel count) ranges of
+    // 100 pixels, one sample at a time, for both schedules.
+    let mut calls = Vec::new();
+    let one = tracer
+        .render(
+            &TraceSettings {
+                batch_spp: 1,
+                ..base
+            },
+            &mut |d, t| calls.push((d, t)),
+        )
+        .unwrap();
+    assert_eq!(one.radiance, whole.radiance);
+    assert_eq!(one.rays_traced, whole.rays_traced);
+    assert_eq!(
+        calls,
+        (1..=5).map(|d| (d, 5)).collect::<Vec<_>>(),
+        "progress after each batch"
+    );
+    tracer.set_batch_ray_limit(Some(100));
+    for schedule in [Schedule::Megakernel, Schedule::Wavefront] {
+        let mut last = (0, 0);
+        let chunked = tracer
+            .render(&TraceSettings { schedule, ..base }, &mut |d, t| {
+                last = (d, t)
+            })
+            .unwrap();
+        assert_eq!(chunked.radiance, whole.radiance, "{schedule:?}");
+        assert_eq!(last, (5, 5));
+        let (batch, _) = tracer.last_batch_samples().unwrap().unwrap();
+        assert!(
+            batch.pixel_count <= 100 && batch.sample_count == 1,
+            "{batch:?}"
+        );
+    }
+    // The CPU's batches do not change its image either.
+    let cpu = |batch_spp| {
+        CpuTracer::new(&scene, &bvh)
+            .unwrap()
+            .render(&TraceSettings { batch_spp, ..base }, &mut |_, _| {})
+            .unwrap()
+    };
+    assert_eq!(cpu(1).radiance, cpu(20).radiance);
+}
+
+#[test]
+fn non_finite_samples_are_dropped_and_counted_on_both_backends() {
+    // A light of infinite emission makes every sample that sees it infinite (or NaN).
+    let mut scene = cornell_box();
+    scene.materials[3].emission = Vec3::new(f32::INFINITY, 1.0, 1.0);
+    let s = settings(16, 16, 4, 3, Schedule::Megakernel);
+    let cpu = render_cpu(&scene, &s);
+    assert!(cpu.dropped_samples > 0);
+    assert!(cpu.radiance.iter().flatten().all(|x| x.is_finite()));
+    let Some(ctx) = raylume_gpu::testing::context_or_skip(
+        "non_finite_samples_are_dropped_and_counted_on_both_backends",
+    ) else {
+        return;
+    };
+    for schedule in [Schedule::Megakernel, Schedule::Wavefront] {
+        let gpu = render_gpu(ctx, &scene, &TraceSettings { schedule, ..s });
+        assert_eq!(gpu.dropped_samples, cpu.dropped_samples, "{schedule:?}");
+        assert!(gpu.radiance.iter().flatten().all(|x| x.is_finite()));
+        assert!(relative_rmse(&gpu.radiance, &cpu.radiance) < 1e-3);
+    }
+}
+
+#[test]
+fn the_image_can_stay_on_the_gpu() {
+    let Some(ctx) = raylume_gpu::testing::context_or_skip("the_image_can_stay_on_the_gpu") else {
+        return;
+    };
+    let scene = cornell_box();
+    let mut tracer = GpuTracer::new(ctx, &scene, &bvh(&scene)).unwrap();
+    assert!(tracer.image_buffer().is_none());
+    let s = settings(12, 10, 2, 3, Schedule::Megakernel);
+    let stats = tracer.render_to_buffer(&s, &mut |_, _| {}).unwrap();
+    let buf = tracer.image_buffer().expect("image");
+    assert!(buf.size() >= 12 * 10 * 12);
+    assert!(
+        buf.usage()
+            .contains(wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC)
+    );
+    let on_gpu: Vec<[f32; 3]> = ctx.read_buffer(buf, 120).unwrap();
+    let rendered = tracer.render(&s, &mut |_, _| {}).unwrap();
+    assert_eq!(on_gpu, rendered.radiance);
+    assert_eq!(stats.rays_traced, rendered.rays_traced);
+    // Re-rendering at another size reallocates and still matches a fresh tracer.
+    let s2 = settings(7, 9, 3, 2, Schedule::Wavefront);
+    let again = tracer.render(&s2, &mut |_, _| {}).unwrap();
+    assert_eq!(again.radiance, render_gpu(ctx, &scene, &s2).radiance);
+}
+
+#[test]
+fn bad_input_is_a_typed_error() {
+    let scene = cornell_box();
+    let bvh = bvh(&scene);
+    let mut cpu = CpuTracer::new(&scene, &bvh).unwrap();
+    for bad in [
+        TraceSettings {
+            spp: 0,
+            ..TraceSettings::default()
+        },
+        TraceSettings {
+            width: 0,
+            ..TraceSettings::default()
+        },
+        TraceSettings {
+            batch_spp: 0,
+            ..TraceSettings::default()
+        },
+        TraceSettings {
+            max_bounces: u32::MAX,
+            ..TraceSettings::default()
+        },
+    ] {
+        let e = cpu.render(&bad, &mut |_, _| {}).unwrap_err();
+        assert!(matches!(e, KernelError::InvalidSettings(_)), "{e}");
+    }
+    // A BVH of another scene.
+    let other = GpuBvh::from_scene(&spheres(), raylume_bvh::BvhQuality::Fast).unwrap();
+    let e = CpuTracer::new(&scene, &other).err().expect("mismatch");
+    assert!(e.to_string().contains("BVH"), "{e}");
+    // A material pointing at a missing texture.
+    let mut broken = scene.clone();
+    broken.materials[0].albedo_texture = Some(3);
+    let e = CpuTracer::new(&broken, &bvh)
+        .err()
+        .expect("missing texture");
+    assert!(e.to_string().contains("texture 3"), "{e}");
+
+    let Some(ctx) = raylume_gpu::testing::context_or_skip("bad_input_is_a_typed_error") else {
+        return;
+    };
+    let mut gpu = GpuTracer::new(ctx, &scene, &bvh).unwrap();
+    let e = gpu
+        .render(
+            &TraceSettings {
+                spp: 0,
+                ..TraceSettings::default()
+            },
+            &mut |_, _| {},
+        )
+        .unwrap_err();
+    assert!(matches!(e, KernelError::InvalidSettings(_)), "{e}");
+    // An environment map larger than one storage binding (only tried where that is small,
+    // like lavapipe's 128 MiB: the map is allocated on the CPU first).
+    let limit = ctx.max_binding_bytes();
+    if limit <= 256 << 20 {
+        let texels = (limit / 12 + 1) as usize;
+        let mut huge = scene.clone();
+        huge.environment = Environment::Map {
+            image: Texture {
+                name: "huge".into(),
+                width: texels as u32,
+                height: 1,
+                texels: vec![[0.0; 3]; texels],
+            },
+            strength: 1.0,
+            rotation: 0.0,
+        };
+        let e = GpuTracer::new(ctx, &huge, &bvh).err().expect("too large");
+        match &e {
+            KernelError::SceneTooLarge { what, limit: l, .. } => {
+                assert_eq!(what, "texels");
+                assert_eq!(*l, limit);
+            }
+            other => panic!("expected SceneTooLarge, got {other}"),
+        }
+        assert!(
+            e.to_string().contains("too large for the GPU adapter"),
+            "{e}"
+        );
+    }
+}
