@@ -196,8 +196,8 @@ fn build_obvhs(
     params: BvhBuildParams,
 ) -> Result<Result<Bvh2, usize>, BvhError> {
     let n_tri = triangles.len();
-    let mut boxes: Vec<Aabb> = aabbs[..n_tri].to_vec();
-    let mut indices: Vec<u32> = (0..n_tri as u32).collect();
+    let mut boxes: Vec<Aabb> = aabbs.to_vec();
+    let mut indices: Vec<u32> = (0..aabbs.len() as u32).collect();
     if params.pre_split && n_tri > 0 {
         let tris: Vec<ObvhsTriangle> = triangles
             .iter()
@@ -208,16 +208,22 @@ fn build_obvhs(
             })
             .collect();
         let (mut largest, mut sum) = (0.0f32, 0.0f64);
-        for b in &boxes {
+        for b in &aabbs[..n_tri] {
             let a = b.half_area();
             largest = largest.max(a);
             sum += f64::from(a);
         }
         let average = (sum / n_tri as f64) as f32;
-        split_aabbs_preset(&mut boxes, &mut indices, &tris, average, largest);
+        // The splitter looks every box up in `tris`, so it gets the triangles' boxes alone;
+        // the pieces it appends go after the spheres. obvhs needs `indices[i] == i` for every
+        // primitive (PLOC leaves store the primitive id where collapse later reads a slot).
+        let mut tri_boxes = aabbs[..n_tri].to_vec();
+        let mut tri_indices: Vec<u32> = (0..n_tri as u32).collect();
+        split_aabbs_preset(&mut tri_boxes, &mut tri_indices, &tris, average, largest);
+        boxes[..n_tri].copy_from_slice(&tri_boxes[..n_tri]);
+        boxes.extend_from_slice(&tri_boxes[n_tri..]);
+        indices.extend_from_slice(&tri_indices[n_tri..]);
     }
-    boxes.extend_from_slice(&aabbs[n_tri..]);
-    indices.extend(n_tri as u32..aabbs.len() as u32);
     if boxes.len() > MAX_U32_COUNT {
         return Err(BvhError::TooManyPrimitives {
             what: "primitives (after spatial splits)",

@@ -247,12 +247,16 @@ pub fn intersect_triangle(
 /// starting inside the sphere (or on its surface, `t_min` past the root at its origin) hits
 /// the far side, which is what refraction through glass needs.
 ///
-/// With `oc = center - origin`, `a = dir.dir`, `b = oc.dir`, `c = oc.oc - r^2`, the roots of
-/// `a t^2 - 2 b t + c = 0` are `q / a` and `c / q` with `q = b + sign(b) sqrt(h)`, and
-/// `h = b^2 - a c` is computed as `a (r^2 - |oc - (b / a) dir|^2)`, the squared distance from
-/// the centre to the line, which does not cancel for small, distant spheres (Haines et al.,
-/// *Precision Improvements for Ray/Sphere Intersection*, Ray Tracing Gems, 2019). `q` has the
-/// sign of `b`, so neither root formula subtracts nearly equal numbers.
+/// With `oc = center - origin` and `a = dir . dir`, the roots of
+/// `|t dir - oc|^2 = r^2` are `tc ± s` where `tc = (oc . dir) / a` is the closest approach
+/// and `s^2 = (r^2 - |l|^2) / a`, `l = oc - tc dir` the offset of the centre from the line.
+/// Computing `s^2` from `|l|`, not as the textbook `b^2 - a c`, keeps small, distant spheres
+/// from cancelling (Haines et al., *Precision Improvements for Ray/Sphere Intersection*, Ray
+/// Tracing Gems, 2019); dividing by `a` before multiplying keeps every intermediate quadratic
+/// in the scene's scale, so nothing underflows for scenes of size 1e-12 either. The root
+/// nearer `0` is taken as `(c / a) / q` with `q = tc ± s` of the sign of `tc` (the product of
+/// the roots is `c / a`, `c = |oc|^2 - r^2`), so that neither root subtracts nearly equal
+/// numbers.
 #[inline(always)]
 pub fn intersect_sphere(
     origin: Vec3,
@@ -263,25 +267,23 @@ pub fn intersect_sphere(
     t_max: f32,
 ) -> f32 {
     let oc = center - origin;
-    let a = bvh_dot(dir, dir);
-    let b = bvh_dot(oc, dir);
+    let inv_a = 1.0 / bvh_dot(dir, dir);
+    let tc = bvh_dot(oc, dir) * inv_a;
     let r2 = radius * radius;
-    let c = bvh_dot(oc, oc) - r2;
-    let l = oc - dir * (b / a);
-    let h = a * (r2 - bvh_dot(l, l));
+    let l = oc - dir * tc;
+    let h = (r2 - bvh_dot(l, l)) * inv_a;
     if h < 0.0 {
         return T_MISS;
     }
-    let sq = h.sqrt();
-    let q = if b >= 0.0 { b + sq } else { b - sq };
+    let s = h.sqrt();
+    let q = if tc >= 0.0 { tc + s } else { tc - s };
     if q == 0.0 {
-        // b == 0 and h == 0: a ray tangent to the sphere at its own origin.
+        // tc == 0 and s == 0: a ray tangent to the sphere at its own origin.
         return T_MISS;
     }
-    let ta = c / q;
-    let tb = q / a;
-    let t_lo = ta.min(tb);
-    let t_hi = ta.max(tb);
+    let ta = (bvh_dot(oc, oc) - r2) * inv_a / q;
+    let t_lo = ta.min(q);
+    let t_hi = ta.max(q);
     let t = if t_lo > t_min { t_lo } else { t_hi };
     if t > t_min && t < t_max { t } else { T_MISS }
 }

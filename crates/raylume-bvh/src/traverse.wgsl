@@ -135,28 +135,27 @@ fn intersect_triangle(r: ShearedRay, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>
     return miss;
 }
 
-// Smallest root t_min < t < t_max, else T_MISS; from inside, the far side (see traverse.rs).
+// Smallest root t_min < t < t_max, else T_MISS; from inside, the far side. Roots tc ± s
+// computed without cancellation or underflow (see traverse.rs).
 fn intersect_sphere(origin: vec3<f32>, dir: vec3<f32>, center: vec3<f32>, radius: f32,
                     t_min: f32, t_max: f32) -> f32 {
     let oc = center - origin;
-    let a = bvh_dot(dir, dir);
-    let b = bvh_dot(oc, dir);
+    let inv_a = 1.0 / bvh_dot(dir, dir);
+    let tc = bvh_dot(oc, dir) * inv_a;
     let r2 = radius * radius;
-    let c = bvh_dot(oc, oc) - r2;
-    let l = oc - dir * (b / a);
-    let h = a * (r2 - bvh_dot(l, l));
+    let l = oc - dir * tc;
+    let h = (r2 - bvh_dot(l, l)) * inv_a;
     if h < 0.0 {
         return T_MISS;
     }
-    let sq = sqrt(h);
-    let q = select(b - sq, b + sq, b >= 0.0);
+    let s = sqrt(h);
+    let q = select(tc - s, tc + s, tc >= 0.0);
     if q == 0.0 {
         return T_MISS;
     }
-    let ta = c / q;
-    let tb = q / a;
-    let t_lo = min(ta, tb);
-    let t_hi = max(ta, tb);
+    let ta = (bvh_dot(oc, oc) - r2) * inv_a / q;
+    let t_lo = min(ta, q);
+    let t_hi = max(ta, q);
     let t = select(t_hi, t_lo, t_lo > t_min);
     return select(T_MISS, t, t > t_min && t < t_max);
 }
