@@ -460,14 +460,17 @@ impl<'a> Tungsten<'a> {
                         Material::diffuse("default", Vec3::splat(0.8))
                     }
                 };
+                let mut emits = false;
                 if let Some(e) = emission {
                     if e.max_element() > 0.0 || e.min_element() < 0.0 {
                         mat.emission = e;
-                        // The same BSDF may also be used without emission: keep names apart.
-                        if materials.keys().any(|(n, _)| *n == key_name) {
-                            mat.name = format!("{} ({} emitter)", mat.name, p.path);
-                        }
+                        emits = true;
                     }
+                }
+                // The same BSDF may be used with several emissions: keep names apart.
+                if materials.keys().any(|(n, _)| *n == key_name) {
+                    let role = if emits { " emitter" } else { "" };
+                    mat.name = format!("{} ({}{role})", mat.name, p.path);
                 }
                 let i = b.add_material(mat, self.file, p.at())?;
                 materials.insert((key_name, bits), i);
