@@ -172,7 +172,11 @@ impl GpuBvh {
             for i in 0..=steps {
                 for j in 0..=steps - i {
                     let (a, b) = (i as f32 / steps as f32, j as f32 / steps as f32);
-                    let point = v[0] * (1.0 - a - b) + v[1] * a + v[2] * b;
+                    // The exact point lies in the triangle's box; rounding may push the
+                    // computed one out (e.g. off an axis-aligned triangle's plane).
+                    let full = primitive_aabb(p);
+                    let point =
+                        (v[0] * (1.0 - a - b) + v[1] * a + v[2] * b).clamp(full.min, full.max);
                     if !boxes.iter().any(|bx| bx.contains_point(point)) {
                         return Err(format!(
                             "triangle {scene} is split over {} leaves whose boxes miss its \
