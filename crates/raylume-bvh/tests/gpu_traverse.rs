@@ -163,16 +163,17 @@ fn check_scene(ctx: &GpuContext, f: support::Fixture, quality: BvhQuality, seed:
         if bytemuck::bytes_of(&cpu) == bytemuck::bytes_of(&gpu) && any_ok {
             identical += 1;
         }
+        // Rounding moves t by ulps of the coordinates involved, not of t: for a hit just
+        // past a ray's origin on a surface, 1e-5 of t is less than one ulp of the scene. So
+        // t agrees when within 1e-5 of max(t, scene size / |dir|).
+        let scale = cpu.t.abs().max(size / q.ray.dir.length());
         let (same_prim, tie) = match (scene_of(&bvh, &cpu), scene_of(&bvh, &gpu)) {
             (None, None) => (true, false),
-            (Some(a), Some(b)) if a == b => ((cpu.t - gpu.t).abs() <= 1e-5 * cpu.t.abs(), false),
-            (Some(_), Some(_)) => {
-                let scale = cpu.t.abs().max(size / q.ray.dir.length());
-                (
-                    false,
-                    (cpu.t - gpu.t).abs() <= support::TIE_RELATIVE * scale,
-                )
-            }
+            (Some(a), Some(b)) if a == b => ((cpu.t - gpu.t).abs() <= 1e-5 * scale, false),
+            (Some(_), Some(_)) => (
+                false,
+                (cpu.t - gpu.t).abs() <= support::TIE_RELATIVE * scale,
+            ),
             _ => (false, false),
         };
         same += usize::from(same_prim && any_ok);
@@ -187,7 +188,7 @@ fn check_scene(ctx: &GpuContext, f: support::Fixture, quality: BvhQuality, seed:
     let n = queries.len();
     eprintln!(
         "{} on {} ({quality:?}): of {n} queries {identical} bit-identical, {same} same \
-         primitive with t within 1e-5, {ties} ties (another primitive at the same t), {hits} hit",
+         primitive with t within 1e-5 of max(t, size), {ties} ties (another primitive at the same t), {hits} hit",
         f.name,
         ctx.describe(),
     );
@@ -201,13 +202,15 @@ fn check_scene(ctx: &GpuContext, f: support::Fixture, quality: BvhQuality, seed:
     // The WGSL evaluates the same expressions in the same order as the Rust, and on lavapipe
     // every result is bit-identical. A GPU compiler may contract a multiply and an add into
     // one fused multiply-add (WGSL allows it and cannot forbid it) and divide less exactly
-    // than IEEE (Vulkan allows 2.5 ulp for 1 / x); the H100 does both: a quarter of its
-    // results differ from the CPU's in the last bits. That changes an outcome only for a ray
-    // within rounding of an edge or a vertex, where two primitives meet at the same t, and
-    // the two sides can then report different ones of those: a tie, as in the brute-force
-    // tests. A fifth of these queries run parallel to an axis, half of those exactly through
-    // vertices, so ties are frequent here (1.5 % of the icosphere's queries on the H100).
-    // Required: every query the same primitive or a tie, but for 0.1 %.
+    // than IEEE (Vulkan allows 2.5 ulp for 1 / x); the H100 does both, and a quarter of its
+    // results differ from the CPU's in the last bits. That changes the outcome only for a ray
+    // within rounding of an edge or a vertex, where two primitives meet at the same t: the two
+    // sides may then report different ones of them, a tie as in the brute-force tests. A fifth
+    // of these queries run parallel to an axis, half of those exactly through vertices, so
+    // ties are common here (732 of the icosphere's 50,000 on the H100). Beyond ties, the H100
+    // differed on 3 of 100,000 queries: the same triangle hit by a grazing ray from 20 scene
+    // units away, t apart by 1.5e-5 (ill-conditioned barycentrics amplify the ulp
+    // differences). Required: the same primitive (t within 1e-5) or a tie, but for 0.1 %.
     assert!(
         (same + ties) * 1000 >= n * 999,
         "{} of {n} queries differ between GPU and CPU, e.g.:\n{}",
