@@ -47,6 +47,18 @@ impl GpuBvh {
         spheres: &[Sphere],
         quality: BvhQuality,
     ) -> Result<GpuBvh, BvhError> {
+        GpuBvh::build_with_params(triangles, spheres, quality, quality.params())
+    }
+
+    /// [`GpuBvh::build`] with any obvhs parameters, for measuring presets against each other
+    /// (the crate's bench); `quality` only labels the stats.
+    #[doc(hidden)]
+    pub fn build_with_params(
+        triangles: &[Triangle],
+        spheres: &[Sphere],
+        quality: BvhQuality,
+        params: BvhBuildParams,
+    ) -> Result<GpuBvh, BvhError> {
         let start = Instant::now();
         check_input(triangles, spheres)?;
         let source: Vec<Primitive> = triangles
@@ -78,7 +90,7 @@ impl GpuBvh {
             fallback = Some(Fallback::CoincidentBoxes { count: coincident });
             flatten(&build_median(&aabbs), &source)
         } else {
-            match build_obvhs(triangles, &aabbs, quality.params())? {
+            match build_obvhs(triangles, &aabbs, params)? {
                 Ok(bvh2) => flatten(&bvh2, &source),
                 Err(depth) => {
                     fallback = Some(Fallback::TooDeep { depth });

@@ -1,6 +1,6 @@
-//! The flattened BVH layout read unchanged by the WGSL kernels (`raylume-kernels`,
-//! `bvh.wgsl` there declares the same structs with the same names and field order) and by the
-//! CPU traversal in this crate.
+//! The flattened BVH layout read unchanged by the WGSL kernels (`traverse.wgsl`, included by
+//! `raylume-kernels` through [`TRAVERSE_WGSL`](crate::TRAVERSE_WGSL), declares the same
+//! structs with the same names and field order) and by the CPU traversal in this crate.
 
 use bytemuck::{Pod, Zeroable};
 

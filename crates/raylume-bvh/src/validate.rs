@@ -108,9 +108,9 @@ impl GpuBvh {
                             "{here}: leaf range {index}..{end} past {n_prims} primitives"
                         ));
                     }
-                    for k in index as usize..end {
+                    let range = index as usize..end;
+                    for (k, p) in range.clone().zip(&self.primitives[range]) {
                         covered[k] += 1;
-                        let p = &self.primitives[k];
                         let scene = p.scene_index() as usize;
                         let inside = contains(&b, &primitive_aabb(p));
                         if p.kind() == PRIM_SPHERE {
