@@ -50,7 +50,7 @@ impl ShadingNormals {
         let mut out = n;
         for v in &mut out {
             let len = v.length();
-            if !(len > 0.0) || !len.is_finite() {
+            if len.is_nan() || len <= 0.0 || !len.is_finite() {
                 return ShadingNormals::Zero;
             }
             *v /= len;

@@ -36,16 +36,33 @@ fn decode(bytes: &[u8], path: &Path, referenced_by: &str) -> Result<DynamicImage
         referenced_by: Some(referenced_by.to_string()),
         message,
     };
-    let mut reader = ImageReader::new(Cursor::new(bytes));
-    if let Ok(format) = ImageFormat::from_path(path) {
-        reader.set_format(format);
-    }
-    let mut reader = reader
-        .with_guessed_format()
+    let open = || -> Result<ImageReader<Cursor<&[u8]>>, SceneError> {
+        let mut reader = ImageReader::new(Cursor::new(bytes));
+        if let Ok(format) = ImageFormat::from_path(path) {
+            reader.set_format(format);
+        }
+        let reader = reader
+            .with_guessed_format()
+            .map_err(|e| image_err(e.to_string()))?;
+        if reader.format().is_none() {
+            return Err(image_err("unknown image format".into()));
+        }
+        Ok(reader)
+    };
+    // The header first: a size past the limit is refused before any pixel is decoded.
+    let (w, h) = open()?
+        .into_dimensions()
         .map_err(|e| image_err(e.to_string()))?;
-    if reader.format().is_none() {
-        return Err(image_err("unknown image format".into()));
+    if w.max(h) > MAX_TEXTURE_SIZE {
+        return Err(SceneError::TooLarge {
+            file: path.display().to_string(),
+            at: crate::error::Location::None,
+            what: format!("the larger side of this {w}x{h} image (referenced by {referenced_by})"),
+            count: u64::from(w.max(h)),
+            limit: u64::from(MAX_TEXTURE_SIZE),
+        });
     }
+    let mut reader = open()?;
     let mut limits = Limits::default();
     limits.max_image_width = Some(MAX_TEXTURE_SIZE);
     limits.max_image_height = Some(MAX_TEXTURE_SIZE);
@@ -56,9 +73,11 @@ fn decode(bytes: &[u8], path: &Path, referenced_by: &str) -> Result<DynamicImage
         image::ImageError::Limits(l) => SceneError::TooLarge {
             file: path.display().to_string(),
             at: crate::error::Location::None,
-            what: format!("image ({l}; referenced by {referenced_by})"),
-            count: 0,
-            limit: u64::from(MAX_TEXTURE_SIZE),
+            what: format!(
+                "the texels of this {w}x{h} image, within the decoder's memory limit ({l}; referenced by {referenced_by})"
+            ),
+            count: u64::from(w) * u64::from(h),
+            limit: u64::from(MAX_TEXTURE_SIZE).pow(2),
         },
         other => image_err(other.to_string()),
     })

@@ -31,12 +31,14 @@ use crate::builder::{MeshOptions, SceneBuilder, ShadingNormals, line_of_offset, 
 use crate::error::{Location, SceneError};
 use crate::model::{Material, Triangle};
 
+#[allow(clippy::needless_update)]
 fn load_options() -> tobj::LoadOptions {
     tobj::LoadOptions {
         single_index: true,
         triangulate: true,
         ignore_points: true,
         ignore_lines: true,
+        // Further fields exist when tobj's `merging` / `reordering` features are on.
         ..Default::default()
     }
 }

@@ -193,7 +193,10 @@ fn map_toml_error(text: &str, file: &str, e: &::toml::de::Error) -> SceneError {
     } else if msg.starts_with("missing field") {
         let key = quoted(&msg).unwrap_or("?").to_string();
         SceneError::MissingKey { file, at, key }
-    } else if msg.starts_with("invalid type") || msg.starts_with("invalid length") || msg.starts_with("invalid value") {
+    } else if msg.starts_with("invalid type")
+        || msg.starts_with("invalid length")
+        || msg.starts_with("invalid value")
+    {
         SceneError::WrongType {
             file,
             at,

@@ -133,7 +133,7 @@ pub(crate) fn is_degenerate(t: &Triangle) -> bool {
     let [a, b, c] = t.positions;
     let n = (b - a).cross(c - a);
     let len = n.length();
-    !(len > 0.0) || !len.is_finite() || !(n / len).is_finite()
+    len.is_nan() || len <= 0.0 || !len.is_finite() || !(n / len).is_finite()
 }
 
 fn check_triangle_finite(t: &Triangle, prov: &Provenance, i: usize) -> Result<(), SceneError> {
@@ -504,7 +504,7 @@ pub(crate) fn check_camera_frame(
 ) -> Result<(), SceneError> {
     let dir = look_at - position;
     let len = dir.length();
-    if !(len > 0.0) || !len.is_finite() {
+    if len.is_nan() || len <= 0.0 || !len.is_finite() {
         return Err(SceneError::DegenerateCamera {
             file: file.into(),
             at: at.clone(),
@@ -513,7 +513,7 @@ pub(crate) fn check_camera_frame(
     }
     let up_len = up.length();
     // sin(angle between up and dir) below 1e-6: parallel (or up is zero).
-    if !(up_len > 0.0) || dir.cross(up).length() <= 1e-6 * len * up_len {
+    if up_len.is_nan() || up_len <= 0.0 || dir.cross(up).length() <= 1e-6 * len * up_len {
         return Err(SceneError::DegenerateCamera {
             file: file.into(),
             at: at.clone(),

@@ -33,7 +33,7 @@ fn document(buffer_uri: Option<String>, len: usize) -> Value {
         "nodes": [
             { "translation": [10.0, 0.0, 0.0], "children": [1] },
             // 90 degrees about +z, uniform scale 2.
-            { "rotation": [0.0, 0.0, 0.70710678, 0.70710678], "scale": [2.0, 2.0, 2.0], "mesh": 0 },
+            { "rotation": [0.0, 0.0, std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2], "scale": [2.0, 2.0, 2.0], "mesh": 0 },
             // Column-major matrix: translate (0, 0, -3).
             { "matrix": [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,-3,1], "mesh": 1 },
             { "translation": [0.0, 1.0, 5.0], "camera": 0 },
@@ -80,10 +80,16 @@ fn document(buffer_uri: Option<String>, len: usize) -> Value {
 fn write_all(d: &TempDir) -> [std::path::PathBuf; 3] {
     let bin = buffer();
     d.write("asset.bin", &bin);
-    let external = d.write("external.gltf", document(Some("asset.bin".into()), bin.len()).to_string());
+    let external = d.write(
+        "external.gltf",
+        document(Some("asset.bin".into()), bin.len()).to_string(),
+    );
     let uri = format!("data:application/octet-stream;base64,{}", base64(&bin));
     let embedded = d.write("embedded.gltf", document(Some(uri), bin.len()).to_string());
-    let binary = d.write("binary.glb", glb(&document(None, bin.len()).to_string(), &bin));
+    let binary = d.write(
+        "binary.glb",
+        glb(&document(None, bin.len()).to_string(), &bin),
+    );
     [external, embedded, binary]
 }
 
@@ -94,7 +100,8 @@ fn close(a: Vec3, b: Vec3) -> bool {
 #[test]
 fn three_containers_give_the_same_scene() {
     let d = TempDir::new("gltf-three");
-    let scenes = write_all(&d).map(|p| Scene::load(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display())));
+    let scenes =
+        write_all(&d).map(|p| Scene::load(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display())));
     for s in &scenes[1..] {
         assert_eq!(s.triangles, scenes[0].triangles);
         assert_eq!(s.materials, scenes[0].materials);
@@ -113,7 +120,11 @@ fn hierarchy_materials_and_camera() {
     // Node 1 under node 0: world = T(10,0,0) * R_z(90) * S(2). Quad corner (1,0,0) -> (2,0,0)
     // -> (0,2,0) -> (10,2,0); (1,1,0) -> (2,2,0) -> (-2,2,0) -> (8,2,0).
     let world = Mat4::from_translation(Vec3::new(10.0, 0.0, 0.0))
-        * Mat4::from_scale_rotation_translation(Vec3::splat(2.0), Quat::from_rotation_z(90f32.to_radians()), Vec3::ZERO);
+        * Mat4::from_scale_rotation_translation(
+            Vec3::splat(2.0),
+            Quat::from_rotation_z(90f32.to_radians()),
+            Vec3::ZERO,
+        );
     let quad = &s.triangles[0..2];
     assert!(close(quad[0].positions[1], Vec3::new(10.0, 2.0, 0.0)));
     assert!(close(quad[0].positions[2], Vec3::new(8.0, 2.0, 0.0)));
@@ -125,26 +136,61 @@ fn hierarchy_materials_and_camera() {
         // Normal (0,0,1) under a rotation about z stays (0,0,1); uvs as stored (top-left origin).
         assert!(close(t.normals.unwrap()[0], Vec3::Z));
     }
-    assert_eq!(quad[0].uvs.unwrap(), [Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(1.0, 0.0)]);
+    assert_eq!(
+        quad[0].uvs.unwrap(),
+        [
+            Vec2::new(0.0, 1.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(1.0, 0.0)
+        ]
+    );
     // Node 2: the matrix moves the triangle to z - 3.
-    assert_eq!(s.triangles[2].positions, [Vec3::new(0.0, 0.0, -3.0), Vec3::new(0.0, 0.0, -4.0), Vec3::new(0.0, 1.0, -3.0)]);
+    assert_eq!(
+        s.triangles[2].positions,
+        [
+            Vec3::new(0.0, 0.0, -3.0),
+            Vec3::new(0.0, 0.0, -4.0),
+            Vec3::new(0.0, 1.0, -3.0)
+        ]
+    );
 
     let m = |i: usize| &s.materials[s.triangles[i].material as usize];
     let painted = m(0);
-    assert_eq!((painted.name.as_str(), painted.kind, painted.albedo), ("painted", MaterialKind::Diffuse, Vec3::new(0.5, 0.6, 0.7)));
-    assert_eq!(s.textures[painted.albedo_texture.unwrap() as usize].texels[2], [0.0, 0.0, 1.0]);
+    assert_eq!(
+        (painted.name.as_str(), painted.kind, painted.albedo),
+        ("painted", MaterialKind::Diffuse, Vec3::new(0.5, 0.6, 0.7))
+    );
+    assert_eq!(
+        s.textures[painted.albedo_texture.unwrap() as usize].texels[2],
+        [0.0, 0.0, 1.0]
+    );
     let brass = m(2);
-    assert_eq!((brass.kind, brass.albedo, brass.roughness), (MaterialKind::Metal, Vec3::new(0.9, 0.8, 0.4), 0.3));
+    assert_eq!(
+        (brass.kind, brass.albedo, brass.roughness),
+        (MaterialKind::Metal, Vec3::new(0.9, 0.8, 0.4), 0.3)
+    );
     let water = m(3);
-    assert_eq!((water.kind, water.ior, water.tint), (MaterialKind::Glass, 1.33, Vec3::ONE));
+    assert_eq!(
+        (water.kind, water.ior, water.tint),
+        (MaterialKind::Glass, 1.33, Vec3::ONE)
+    );
     let neon = m(4);
-    assert_eq!((neon.kind, neon.emission), (MaterialKind::Diffuse, Vec3::new(4.0, 2.0, 1.0)));
+    assert_eq!(
+        (neon.kind, neon.emission),
+        (MaterialKind::Diffuse, Vec3::new(4.0, 2.0, 1.0))
+    );
     // A primitive without a material: the grey default diffuse, not glTF's rough metal.
-    assert_eq!((m(5).name.as_str(), m(5).kind), ("default", MaterialKind::Diffuse));
+    assert_eq!(
+        (m(5).name.as_str(), m(5).kind),
+        ("default", MaterialKind::Diffuse)
+    );
 
     // Camera at node 3: looking down -z from (0,1,5); yfov 0.5 rad; aspect 1.5 sets the width.
     let c = s.camera;
-    assert_eq!((c.position, c.look_at, c.up), (Vec3::new(0.0, 1.0, 5.0), Vec3::new(0.0, 1.0, 4.0), Vec3::Y));
+    assert_eq!(
+        (c.position, c.look_at, c.up),
+        (Vec3::new(0.0, 1.0, 5.0), Vec3::new(0.0, 1.0, 4.0), Vec3::Y)
+    );
     assert!((c.vfov - 0.5f32.to_degrees()).abs() < 1e-4);
     assert_eq!((s.render.width, s.render.height), (768, 512));
     assert_eq!(s.environment, Environment::Black);
@@ -162,7 +208,11 @@ fn toml_mesh_of_a_glb_with_override_and_transform() {
     assert_eq!(s.textures.len(), 0);
     assert!(s.triangles.iter().all(|t| t.material == 0));
     assert_eq!(s.triangles[2].positions[0], Vec3::new(0.0, 0.0, 97.0));
-    assert_eq!(s.camera.position, Vec3::new(0.0, 0.0, 20.0), "the TOML camera wins");
+    assert_eq!(
+        s.camera.position,
+        Vec3::new(0.0, 0.0, 20.0),
+        "the TOML camera wins"
+    );
 }
 
 /// Writes `doc` (with the standard buffer as asset.bin) and loads it.
@@ -181,7 +231,10 @@ fn malformed_files_are_typed_errors_with_indices() {
     let mut doc = ok.clone();
     doc["accessors"][4]["count"] = json!(4);
     let e = load_doc(&doc);
-    assert!(matches!(&e, SceneError::InvalidValue { at: Location::Path(p), .. } if p.contains("accessor 4")), "{e}");
+    assert!(
+        matches!(&e, SceneError::InvalidValue { at: Location::Path(p), .. } if p.contains("accessor 4")),
+        "{e}"
+    );
 
     // A buffer view past the end of its buffer.
     let mut doc = ok.clone();
@@ -196,13 +249,22 @@ fn malformed_files_are_typed_errors_with_indices() {
     let d = TempDir::new("gltf-index");
     d.write("asset.bin", &bin);
     let e = Scene::load(d.write("i.gltf", ok.to_string())).unwrap_err();
-    assert!(matches!(&e, SceneError::IndexOutOfRange { index: 7, len: 4, at: Location::Path(p), .. } if p.contains("mesh 0 primitive 0")), "{e}");
+    assert!(
+        matches!(&e, SceneError::IndexOutOfRange { index: 7, len: 4, at: Location::Path(p), .. } if p.contains("mesh 0 primitive 0")),
+        "{e}"
+    );
 
     // POSITION that is not VEC3 f32.
     let mut doc = ok.clone();
     doc["accessors"][4]["type"] = json!("VEC2");
     let e = load_doc(&doc);
-    assert!(matches!(&e, SceneError::WrongType { .. } | SceneError::InvalidValue { .. }), "{e}");
+    assert!(
+        matches!(
+            &e,
+            SceneError::WrongType { .. } | SceneError::InvalidValue { .. }
+        ),
+        "{e}"
+    );
 
     // A node that is its own child.
     let mut doc = ok.clone();
@@ -215,17 +277,38 @@ fn malformed_files_are_typed_errors_with_indices() {
     let d = TempDir::new("gltf-missing");
     let e = Scene::load(d.write("m.gltf", ok.to_string())).unwrap_err();
     match &e {
-        SceneError::MissingFile { path, referenced_by } => {
+        SceneError::MissingFile {
+            path,
+            referenced_by,
+        } => {
             assert!(path.ends_with("asset.bin"));
-            assert!(referenced_by.as_deref().is_some_and(|r| r.ends_with("m.gltf: buffers[0]")), "{e}");
+            assert!(
+                referenced_by
+                    .as_deref()
+                    .is_some_and(|r| r.ends_with("m.gltf: buffers[0]")),
+                "{e}"
+            );
         }
         other => panic!("{other}"),
     }
 
     // Broken JSON: line and column.
     let d = TempDir::new("gltf-json");
-    let e = Scene::load(d.write("j.gltf", "{\n  \"asset\": {\"version\": \"2.0\"},\n  \"nodes\": [}\n")).unwrap_err();
-    assert!(matches!(&e, SceneError::Syntax { at: Location::LineCol { line: 3, .. }, .. }), "{e}");
+    let e = Scene::load(d.write(
+        "j.gltf",
+        "{\n  \"asset\": {\"version\": \"2.0\"},\n  \"nodes\": [}\n",
+    ))
+    .unwrap_err();
+    assert!(
+        matches!(
+            &e,
+            SceneError::Syntax {
+                at: Location::LineCol { line: 3, .. },
+                ..
+            }
+        ),
+        "{e}"
+    );
 
     // A shorter buffer than byteLength says.
     let mut doc = ok.clone();

@@ -8,7 +8,8 @@ use glam::{Vec2, Vec3};
 use raylume_scene::{Bloom, Environment, Location, MaterialKind, RenderSettings, SceneError};
 
 /// A one-triangle OBJ (with normals and uvs) and a small MTL-free mesh.
-const TRI_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\nf 1/1/1 2/2/1 3/3/1\n";
+const TRI_OBJ: &str =
+    "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\nf 1/1/1 2/2/1 3/3/1\n";
 
 /// Every key of DESIGN.md's example, with values that differ from every default.
 fn full_scene(env: &str) -> String {
@@ -82,14 +83,21 @@ fn fixtures() -> TempDir {
     let d = TempDir::new("toml-full");
     d.write("meshes/tri.obj", TRI_OBJ);
     d.write("tex/wood.png", common::png_2x2());
-    d.write("sky.hdr", common::float_image(4, 2, image::ImageFormat::Hdr));
+    d.write(
+        "sky.hdr",
+        common::float_image(4, 2, image::ImageFormat::Hdr),
+    );
     d
 }
 
 #[test]
 fn every_key_lands_in_the_scene() {
     let d = fixtures();
-    let s = toml(&d.0, &full_scene("[environment]\nradiance = [0.5, 0.25, 1.0]\nstrength = 2.0")).unwrap();
+    let s = toml(
+        &d.0,
+        &full_scene("[environment]\nradiance = [0.5, 0.25, 1.0]\nstrength = 2.0"),
+    )
+    .unwrap();
 
     let c = s.camera;
     assert_eq!(c.position, Vec3::new(0.0, 1.0, 6.8));
@@ -108,23 +116,50 @@ fn every_key_lands_in_the_scene() {
         }
     );
     // radiance x strength.
-    assert_eq!(s.environment, Environment::Constant(Vec3::new(1.0, 0.5, 2.0)));
+    assert_eq!(
+        s.environment,
+        Environment::Constant(Vec3::new(1.0, 0.5, 2.0))
+    );
 
     // Materials in file order; a texture counts as one texture.
     let names: Vec<_> = s.materials.iter().map(|m| m.name.as_str()).collect();
     assert_eq!(names, ["white", "mirror", "glass", "wood", "default"]);
     let [white, mirror, glass, wood] = [0, 1, 2, 3].map(|i| &s.materials[i]);
-    assert_eq!((white.kind, white.albedo, white.emission), (MaterialKind::Diffuse, Vec3::new(0.73, 0.72, 0.71), Vec3::new(0.5, 0.25, 0.125)));
-    assert_eq!((mirror.kind, mirror.albedo, mirror.roughness), (MaterialKind::Metal, Vec3::new(0.9, 0.8, 0.7), 0.25));
-    assert_eq!((glass.kind, glass.ior, glass.tint), (MaterialKind::Glass, 1.33, Vec3::new(0.9, 1.0, 0.95)));
-    assert_eq!((wood.kind, wood.albedo_texture), (MaterialKind::Diffuse, Some(0)));
+    assert_eq!(
+        (white.kind, white.albedo, white.emission),
+        (
+            MaterialKind::Diffuse,
+            Vec3::new(0.73, 0.72, 0.71),
+            Vec3::new(0.5, 0.25, 0.125)
+        )
+    );
+    assert_eq!(
+        (mirror.kind, mirror.albedo, mirror.roughness),
+        (MaterialKind::Metal, Vec3::new(0.9, 0.8, 0.7), 0.25)
+    );
+    assert_eq!(
+        (glass.kind, glass.ior, glass.tint),
+        (MaterialKind::Glass, 1.33, Vec3::new(0.9, 1.0, 0.95))
+    );
+    assert_eq!(
+        (wood.kind, wood.albedo_texture),
+        (MaterialKind::Diffuse, Some(0))
+    );
     assert_eq!(s.textures.len(), 1);
     assert_eq!((s.textures[0].width, s.textures[0].height), (2, 2));
-    assert_eq!(s.textures[0].texels[0], [1.0, 0.0, 0.0], "top-left texel is red");
+    assert_eq!(
+        s.textures[0].texels[0],
+        [1.0, 0.0, 0.0],
+        "top-left texel is red"
+    );
 
     // Mesh 1: scale 2, rotate 90 about z, translate +10 x, material override.
     // (1,0,0) -> (2,0,0) -> (0,2,0) -> (10,2,0); (0,1,0) -> (0,2,0) -> (-2,0,0) -> (8,0,0).
-    assert_eq!(s.triangles.len(), 1 + 1 + 2, "two meshes of 1 + a quad of 2");
+    assert_eq!(
+        s.triangles.len(),
+        1 + 1 + 2,
+        "two meshes of 1 + a quad of 2"
+    );
     let t = &s.triangles[0];
     let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() < 1e-5;
     assert!(close(t.positions[0], Vec3::new(10.0, 0.0, 0.0)));
@@ -133,7 +168,14 @@ fn every_key_lands_in_the_scene() {
     assert_eq!(t.material, 0);
     // Normal (0,0,1) is unchanged by a rotation about z and a uniform scale; OBJ v is flipped.
     assert!(close(t.normals.unwrap()[0], Vec3::Z));
-    assert_eq!(t.uvs.unwrap(), [Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 0.0)]);
+    assert_eq!(
+        t.uvs.unwrap(),
+        [
+            Vec2::new(0.0, 1.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(0.0, 0.0)
+        ]
+    );
     // Mesh 2: per-axis scale, no override: OBJ without MTL gets the default grey diffuse.
     let t2 = &s.triangles[1];
     assert!(close(t2.positions[2], Vec3::new(0.0, 3.0, 0.0)));
@@ -141,13 +183,24 @@ fn every_key_lands_in_the_scene() {
     assert_eq!(s.materials[t2.material as usize].albedo, Vec3::splat(0.8));
     // The quad: corner, corner+u, corner+u+v and corner, corner+u+v, corner+v.
     let q = [&s.triangles[2], &s.triangles[3]];
-    let (c0, u, v) = (Vec3::new(-0.25, 1.98, -0.25), Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.5));
+    let (c0, u, v) = (
+        Vec3::new(-0.25, 1.98, -0.25),
+        Vec3::new(0.5, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, 0.5),
+    );
     assert_eq!(q[0].positions, [c0, c0 + u, c0 + u + v]);
     assert_eq!(q[1].positions, [c0, c0 + u + v, c0 + v]);
     assert_eq!(q[0].material, 3);
 
     assert_eq!(s.spheres.len(), 1);
-    assert_eq!((s.spheres[0].center, s.spheres[0].radius, s.spheres[0].material), (Vec3::Y, 0.5, 2));
+    assert_eq!(
+        (
+            s.spheres[0].center,
+            s.spheres[0].radius,
+            s.spheres[0].material
+        ),
+        (Vec3::Y, 0.5, 2)
+    );
     assert_eq!(
         s.post.bloom,
         Some(Bloom {
@@ -161,8 +214,17 @@ fn every_key_lands_in_the_scene() {
 #[test]
 fn environment_map_strength_and_rotation() {
     let d = fixtures();
-    let s = toml(&d.0, &full_scene("[environment]\nmap = \"sky.hdr\"\nstrength = 3.0\nrotation = 45.0")).unwrap();
-    let Environment::Map { image, strength, rotation } = &s.environment else {
+    let s = toml(
+        &d.0,
+        &full_scene("[environment]\nmap = \"sky.hdr\"\nstrength = 3.0\nrotation = 45.0"),
+    )
+    .unwrap();
+    let Environment::Map {
+        image,
+        strength,
+        rotation,
+    } = &s.environment
+    else {
         panic!("{:?}", s.environment)
     };
     assert_eq!((*strength, *rotation), (3.0, 45.0));
@@ -187,7 +249,10 @@ fn defaults_apply_where_keys_are_absent() {
     assert_eq!(s.environment, Environment::Black);
     assert_eq!(s.post.bloom, None);
     let (m, g) = (&s.materials[0], &s.materials[1]);
-    assert_eq!((m.albedo, m.roughness, m.emission), (Vec3::splat(0.8), 0.0, Vec3::ZERO));
+    assert_eq!(
+        (m.albedo, m.roughness, m.emission),
+        (Vec3::splat(0.8), 0.0, Vec3::ZERO)
+    );
     assert_eq!((g.ior, g.tint), (1.5, Vec3::ONE));
 }
 
@@ -209,8 +274,14 @@ fn unknown_keys_are_errors_with_line_and_column() {
     let cases: &[(&str, &str)] = &[
         ("vfov     = 19.5", "vfov     = 19.5\nfov = 20"),
         ("seed = 42", "seed = 42\nsamples = 3"),
-        ("radiance = [1.0, 1.0, 1.0]", "radiance = [1.0, 1.0, 1.0]\nrotate = 1"),
-        ("emission = [0.5, 0.25, 0.125]", "emission = [0.5, 0.25, 0.125]\nalbdo = [1, 1, 1]"),
+        (
+            "radiance = [1.0, 1.0, 1.0]",
+            "radiance = [1.0, 1.0, 1.0]\nrotate = 1",
+        ),
+        (
+            "emission = [0.5, 0.25, 0.125]",
+            "emission = [0.5, 0.25, 0.125]\nalbdo = [1, 1, 1]",
+        ),
         ("scale = 2.0", "scale = 2.0\nrotation = [0, 0, 0]"),
         ("radius = 0.5", "radius = 0.5\nradious = 1"),
         ("u = [0.5, 0.0, 0.0]", "u = [0.5, 0.0, 0.0]\nw = [1, 1, 1]"),
@@ -221,32 +292,65 @@ fn unknown_keys_are_errors_with_line_and_column() {
     for (from, to) in cases {
         assert!(base.contains(from), "{from}");
         let text = base.replacen(from, to, 1);
-        let bad_line = to.lines().nth(if to.starts_with('[') { 0 } else { 1 }).unwrap();
-        let key = bad_line.trim_start_matches('[').split([' ', '.', ']']).find(|k| !k.is_empty() && *k != "post").unwrap();
+        let bad_line = to
+            .lines()
+            .nth(if to.starts_with('[') { 0 } else { 1 })
+            .unwrap();
+        let key = bad_line
+            .trim_start_matches('[')
+            .split([' ', '.', ']'])
+            .find(|k| !k.is_empty() && *k != "post")
+            .unwrap();
         let line = text.lines().position(|l| l == bad_line).unwrap() + 1;
-        let col = if bad_line.starts_with("[post.") { 7 } else if bad_line.starts_with('[') { 2 } else { 1 };
+        let col = if bad_line.starts_with("[post.") {
+            7
+        } else if bad_line.starts_with('[') {
+            2
+        } else {
+            1
+        };
         let e = toml(&d.0, &text).unwrap_err();
         match &e {
-            SceneError::UnknownKey { file, at, key: k, .. } => {
+            SceneError::UnknownKey {
+                file, at, key: k, ..
+            } => {
                 assert_eq!((file.as_str(), k.as_str()), ("scene.toml", key), "{e}");
                 assert_eq!(*at, line_col(line, col), "{e}");
             }
             other => panic!("{to}: expected UnknownKey, got {other}"),
         }
-        assert!(e.to_string().starts_with(&format!("scene.toml:{line}:{col}: unknown key `{key}`")), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with(&format!("scene.toml:{line}:{col}: unknown key `{key}`")),
+            "{e}"
+        );
     }
 }
 
 #[test]
 fn keys_that_do_not_apply_to_a_material_type_are_errors() {
     let d = TempDir::new("toml-matkeys");
-    for (ty, key, value) in [("diffuse", "ior", "1.5"), ("diffuse", "roughness", "0.1"), ("metal", "tint", "[1, 1, 1]"), ("glass", "albedo", "[1, 1, 1]"), ("glass", "texture", "\"a.png\"")] {
-        let text = format!("[materials.m]\ntype = \"{ty}\"\n{key} = {value}\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"m\"\n");
+    for (ty, key, value) in [
+        ("diffuse", "ior", "1.5"),
+        ("diffuse", "roughness", "0.1"),
+        ("metal", "tint", "[1, 1, 1]"),
+        ("glass", "albedo", "[1, 1, 1]"),
+        ("glass", "texture", "\"a.png\""),
+    ] {
+        let text = format!(
+            "[materials.m]\ntype = \"{ty}\"\n{key} = {value}\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"m\"\n"
+        );
         let e = toml(&d.0, &text).unwrap_err();
-        assert!(matches!(&e, SceneError::UnknownKey { key: k, at, .. } if k == key && *at == line_col(3, key.len() + 4)), "{ty}.{key}: {e}");
+        assert!(
+            matches!(&e, SceneError::UnknownKey { key: k, at, .. } if k == key && *at == line_col(3, key.len() + 4)),
+            "{ty}.{key}: {e}"
+        );
     }
     let e = toml(&d.0, "[materials.m]\ntype = \"plastic\"\n").unwrap_err();
-    assert!(matches!(&e, SceneError::InvalidValue { at, .. } if *at == line_col(2, 8)), "{e}");
+    assert!(
+        matches!(&e, SceneError::InvalidValue { at, .. } if *at == line_col(2, 8)),
+        "{e}"
+    );
 }
 
 /// `check(text, expected variant name, line, column)`.
@@ -255,9 +359,16 @@ fn check(text: &str, variant: &str, line: usize, column: usize) {
     d.write("meshes/tri.obj", TRI_OBJ);
     let e = toml(&d.0, text).unwrap_err();
     let name = format!("{e:?}");
-    assert!(name.starts_with(variant), "{text}\nexpected {variant}, got {e}");
+    assert!(
+        name.starts_with(variant),
+        "{text}\nexpected {variant}, got {e}"
+    );
     assert_eq!(e.location(), Some(&line_col(line, column)), "{text}\n{e}");
-    assert!(e.to_string().starts_with(&format!("scene.toml:{line}:{column}: ")), "{e}");
+    assert!(
+        e.to_string()
+            .starts_with(&format!("scene.toml:{line}:{column}: ")),
+        "{e}"
+    );
 }
 
 const SPHERE: &str = "[materials.m]\ntype = \"diffuse\"\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"m\"\n";
@@ -266,35 +377,167 @@ const SPHERE: &str = "[materials.m]\ntype = \"diffuse\"\n[[sphere]]\ncenter = [0
 fn bad_values_are_typed_errors_at_their_place() {
     let cam = |body: &str| format!("{SPHERE}[camera]\n{body}");
     // Line 7 is `[camera]`; its keys follow.
-    check(&cam("position = [0, 0, 1]\nlook_at = [0, 0, 0]\nvfov = 0"), "Vfov", 10, 8);
-    check(&cam("position = [0, 0, 1]\nlook_at = [0, 0, 0]\nvfov = 180"), "Vfov", 10, 8);
-    check(&cam("position = [0, 0, 1]\nlook_at = [0, 0, 0]\nvfov = nan"), "NotFinite", 10, 8);
-    check(&cam("position = [0, inf, 1]\nlook_at = [0, 0, 0]\nvfov = 40"), "NotFinite", 8, 12);
-    check(&cam("position = [0, 0, 1]\nlook_at = [0, 0, 1]\nvfov = 40"), "DegenerateCamera", 7, 1);
-    check(&cam("position = [0, 0, 1]\nlook_at = [0, 0, 0]\nup = [0, 0, 2]\nvfov = 40"), "DegenerateCamera", 10, 6);
-    check(&cam("position = [0, 0, 1]\nlook_at = [0, 0, 0]\nvfov = \"wide\""), "WrongType", 10, 8);
-    check(&cam("position = [0, 0]\nlook_at = [0, 0, 0]\nvfov = 40"), "WrongType", 8, 12);
+    check(
+        &cam("position = [0, 0, 1]\nlook_at = [0, 0, 0]\nvfov = 0"),
+        "Vfov",
+        10,
+        8,
+    );
+    check(
+        &cam("position = [0, 0, 1]\nlook_at = [0, 0, 0]\nvfov = 180"),
+        "Vfov",
+        10,
+        8,
+    );
+    check(
+        &cam("position = [0, 0, 1]\nlook_at = [0, 0, 0]\nvfov = nan"),
+        "NotFinite",
+        10,
+        8,
+    );
+    check(
+        &cam("position = [0, inf, 1]\nlook_at = [0, 0, 0]\nvfov = 40"),
+        "NotFinite",
+        8,
+        12,
+    );
+    check(
+        &cam("position = [0, 0, 1]\nlook_at = [0, 0, 1]\nvfov = 40"),
+        "DegenerateCamera",
+        7,
+        1,
+    );
+    check(
+        &cam("position = [0, 0, 1]\nlook_at = [0, 0, 0]\nup = [0, 0, 2]\nvfov = 40"),
+        "DegenerateCamera",
+        10,
+        6,
+    );
+    check(
+        &cam("position = [0, 0, 1]\nlook_at = [0, 0, 0]\nvfov = \"wide\""),
+        "WrongType",
+        10,
+        8,
+    );
+    check(
+        &cam("position = [0, 0]\nlook_at = [0, 0, 0]\nvfov = 40"),
+        "WrongType",
+        8,
+        12,
+    );
     check(&cam("position = [0, 0, 1]\nvfov = 40"), "MissingKey", 7, 1);
     check(&format!("{SPHERE}[render]\nwidth = 0"), "NonPositive", 8, 9);
     check(&format!("{SPHERE}[render]\nspp = 0"), "NonPositive", 8, 7);
-    check(&format!("{SPHERE}[render]\nheight = -3"), "WrongType", 8, 10);
-    check("[materials.m]\ntype = \"diffuse\"\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 0\nmaterial = \"m\"\n", "NonPositive", 5, 10);
-    check("[materials.m]\ntype = \"diffuse\"\n[[sphere]]\ncenter = [0, 0, 0]\nradius = -2\nmaterial = \"m\"\n", "NonPositive", 5, 10);
-    check("[materials.m]\ntype = \"diffuse\"\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"n\"\n", "UnknownMaterial", 6, 12);
-    check("[materials.m]\ntype = \"diffuse\"\nemission = [1, -1, 1]\n", "Negative", 3, 12);
-    check("[materials.m]\ntype = \"diffuse\"\nalbedo = [1, nan, 1]\n", "NotFinite", 3, 10);
-    check("[materials.m]\ntype = \"metal\"\nroughness = 1.5\n", "InvalidValue", 3, 13);
-    check("[materials.m]\ntype = \"glass\"\nior = 0\n", "NonPositive", 3, 7);
-    check(&format!("{SPHERE}[[quad]]\ncorner = [0, 0, 0]\nu = [1, 0, 0]\nv = [2, 0, 0]\nmaterial = \"m\""), "NonPositive", 7, 1);
-    check(&format!("{SPHERE}[[mesh]]\nfile = \"meshes/tri.obj\"\nscale = [1, 0, 1]"), "NonPositive", 9, 9);
-    check(&format!("{SPHERE}[[mesh]]\nfile = \"meshes/tri.obj\"\nscale = 0"), "NonPositive", 9, 9);
-    check(&format!("{SPHERE}[[mesh]]\nfile = \"meshes/tri.obj\"\nmaterial = \"nope\""), "UnknownMaterial", 9, 12);
-    check(&format!("{SPHERE}[environment]\nradiance = [1, 1, 1]\nmap = \"sky.hdr\""), "InvalidValue", 9, 7);
-    check(&format!("{SPHERE}[environment]\nstrength = 2"), "MissingKey", 7, 1);
-    check(&format!("{SPHERE}[environment]\nradiance = [1, 1, 1]\nstrength = -1"), "Negative", 9, 12);
-    check(&format!("{SPHERE}[post.bloom]\nthreshold = 1\nradius = 0\nstrength = 1"), "NonPositive", 9, 10);
-    check(&format!("{SPHERE}[post.bloom]\nthreshold = 1\nradius = 2"), "MissingKey", 7, 1);
-    check("[materials.m]\ntype = \"diffuse\"\n[[sphere]\n", "Syntax", 3, 10);
+    check(
+        &format!("{SPHERE}[render]\nheight = -3"),
+        "WrongType",
+        8,
+        10,
+    );
+    check(
+        "[materials.m]\ntype = \"diffuse\"\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 0\nmaterial = \"m\"\n",
+        "NonPositive",
+        5,
+        10,
+    );
+    check(
+        "[materials.m]\ntype = \"diffuse\"\n[[sphere]]\ncenter = [0, 0, 0]\nradius = -2\nmaterial = \"m\"\n",
+        "NonPositive",
+        5,
+        10,
+    );
+    check(
+        "[materials.m]\ntype = \"diffuse\"\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"n\"\n",
+        "UnknownMaterial",
+        6,
+        12,
+    );
+    check(
+        "[materials.m]\ntype = \"diffuse\"\nemission = [1, -1, 1]\n",
+        "Negative",
+        3,
+        12,
+    );
+    check(
+        "[materials.m]\ntype = \"diffuse\"\nalbedo = [1, nan, 1]\n",
+        "NotFinite",
+        3,
+        10,
+    );
+    check(
+        "[materials.m]\ntype = \"metal\"\nroughness = 1.5\n",
+        "InvalidValue",
+        3,
+        13,
+    );
+    check(
+        "[materials.m]\ntype = \"glass\"\nior = 0\n",
+        "NonPositive",
+        3,
+        7,
+    );
+    check(
+        &format!(
+            "{SPHERE}[[quad]]\ncorner = [0, 0, 0]\nu = [1, 0, 0]\nv = [2, 0, 0]\nmaterial = \"m\""
+        ),
+        "NonPositive",
+        7,
+        1,
+    );
+    check(
+        &format!("{SPHERE}[[mesh]]\nfile = \"meshes/tri.obj\"\nscale = [1, 0, 1]"),
+        "NonPositive",
+        9,
+        9,
+    );
+    check(
+        &format!("{SPHERE}[[mesh]]\nfile = \"meshes/tri.obj\"\nscale = 0"),
+        "NonPositive",
+        9,
+        9,
+    );
+    check(
+        &format!("{SPHERE}[[mesh]]\nfile = \"meshes/tri.obj\"\nmaterial = \"nope\""),
+        "UnknownMaterial",
+        9,
+        12,
+    );
+    check(
+        &format!("{SPHERE}[environment]\nradiance = [1, 1, 1]\nmap = \"sky.hdr\""),
+        "InvalidValue",
+        9,
+        7,
+    );
+    check(
+        &format!("{SPHERE}[environment]\nstrength = 2"),
+        "MissingKey",
+        7,
+        1,
+    );
+    check(
+        &format!("{SPHERE}[environment]\nradiance = [1, 1, 1]\nstrength = -1"),
+        "Negative",
+        9,
+        12,
+    );
+    check(
+        &format!("{SPHERE}[post.bloom]\nthreshold = 1\nradius = 0\nstrength = 1"),
+        "NonPositive",
+        9,
+        10,
+    );
+    check(
+        &format!("{SPHERE}[post.bloom]\nthreshold = 1\nradius = 2"),
+        "MissingKey",
+        7,
+        1,
+    );
+    check(
+        "[materials.m]\ntype = \"diffuse\"\n[[sphere]\n",
+        "Syntax",
+        3,
+        10,
+    );
     check("a = 1\na = 2\n", "Syntax", 2, 1);
 }
 
@@ -304,42 +547,105 @@ fn files_named_by_the_scene_must_exist_and_be_readable() {
     let text = format!("{SPHERE}[[mesh]]\nfile = \"meshes/gone.obj\"\n");
     let e = toml(&d.0, &text).unwrap_err();
     match &e {
-        SceneError::MissingFile { path, referenced_by } => {
+        SceneError::MissingFile {
+            path,
+            referenced_by,
+        } => {
             assert!(path.ends_with("meshes/gone.obj"));
             assert_eq!(referenced_by.as_deref(), Some("scene.toml:8:8"));
         }
         other => panic!("{other}"),
     }
-    common::err_contains(toml(&d.0, &format!("{SPHERE}[[mesh]]\nfile = \"bunny.ply\"\n")), &["bunny.ply", "unsupported file extension", "scene.toml:8:8"]);
-    common::err_contains(toml(&d.0, &format!("{SPHERE}[environment]\nmap = \"sky.png\"\n")), &["sky.png", "unsupported file extension", ".hdr or .exr"]);
-    let e = common::err_contains(toml(&d.0, &format!("{SPHERE}[environment]\nmap = \"sky.exr\"\n")), &["sky.exr", "file not found", "scene.toml:8:7"]);
+    common::err_contains(
+        toml(&d.0, &format!("{SPHERE}[[mesh]]\nfile = \"bunny.ply\"\n")),
+        &["bunny.ply", "unsupported file extension", "scene.toml:8:8"],
+    );
+    common::err_contains(
+        toml(&d.0, &format!("{SPHERE}[environment]\nmap = \"sky.png\"\n")),
+        &["sky.png", "unsupported file extension", ".hdr or .exr"],
+    );
+    let e = common::err_contains(
+        toml(&d.0, &format!("{SPHERE}[environment]\nmap = \"sky.exr\"\n")),
+        &["sky.exr", "file not found", "scene.toml:8:7"],
+    );
     assert!(matches!(e, SceneError::MissingFile { .. }));
     d.write("broken.png", b"\x89PNG\r\n\x1a\nnot really");
     let text = "[materials.m]\ntype = \"diffuse\"\ntexture = \"broken.png\"\n";
-    let e = err_contains(toml(&d.0, text), &["broken.png", "cannot decode image", "scene.toml:3:11"]);
+    let e = err_contains(
+        toml(&d.0, text),
+        &["broken.png", "cannot decode image", "scene.toml:3:11"],
+    );
     assert!(matches!(e, SceneError::Image { .. }), "{e}");
     // A texture wider than the limit is refused before decoding its pixels.
     let wide = image::RgbImage::new(raylume_scene::limits::MAX_TEXTURE_SIZE + 1, 1);
-    d.write("wide.png", common::encode(image::DynamicImage::ImageRgb8(wide), image::ImageFormat::Png));
-    let e = toml(&d.0, "[materials.m]\ntype = \"diffuse\"\ntexture = \"wide.png\"\n").unwrap_err();
-    assert!(matches!(e, SceneError::TooLarge { .. }), "{e}");
+    d.write(
+        "wide.png",
+        common::encode(
+            image::DynamicImage::ImageRgb8(wide),
+            image::ImageFormat::Png,
+        ),
+    );
+    let e = toml(
+        &d.0,
+        "[materials.m]\ntype = \"diffuse\"\ntexture = \"wide.png\"\n",
+    )
+    .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            SceneError::TooLarge {
+                count: 16385,
+                limit: 16384,
+                ..
+            }
+        ),
+        "{e}"
+    );
 }
 
 #[test]
 fn empty_scene_and_clamped_albedo() {
     let d = TempDir::new("toml-empty");
     let e = toml(&d.0, "[materials.m]\ntype = \"diffuse\"\n").unwrap_err();
-    assert!(matches!(&e, SceneError::EmptyScene { file } if file == "scene.toml"), "{e}");
-    assert_eq!(e.to_string(), "scene.toml: the scene is empty: it has no triangles and no spheres");
+    assert!(
+        matches!(&e, SceneError::EmptyScene { file } if file == "scene.toml"),
+        "{e}"
+    );
+    assert_eq!(
+        e.to_string(),
+        "scene.toml: the scene is empty: it has no triangles and no spheres"
+    );
 
-    let s = toml(&d.0, &SPHERE.replace("type = \"diffuse\"", "type = \"diffuse\"\nalbedo = [1.5, 0.5, 1.0]")).unwrap();
+    let s = toml(
+        &d.0,
+        &SPHERE.replace(
+            "type = \"diffuse\"",
+            "type = \"diffuse\"\nalbedo = [1.5, 0.5, 1.0]",
+        ),
+    )
+    .unwrap();
     assert_eq!(s.materials[0].albedo, Vec3::new(1.0, 0.5, 1.0));
-    assert!(s.warnings.iter().any(|w| w.contains("material 'm'") && w.contains("clamped")), "{:?}", s.warnings);
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w.contains("material 'm'") && w.contains("clamped")),
+        "{:?}",
+        s.warnings
+    );
 }
 
 #[test]
 fn syntax_errors_name_line_and_column() {
     let d = TempDir::new("toml-syntax");
     let e = toml(&d.0, "[camera]\nposition = [0, 0, 1\n").unwrap_err();
-    assert!(matches!(e, SceneError::Syntax { at: Location::LineCol { line: 2 | 3, .. }, .. }), "{e}");
+    assert!(
+        matches!(
+            e,
+            SceneError::Syntax {
+                at: Location::LineCol { line: 2 | 3, .. },
+                ..
+            }
+        ),
+        "{e}"
+    );
 }

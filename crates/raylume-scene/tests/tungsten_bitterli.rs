@@ -14,7 +14,11 @@ use serde_json::Value;
 
 fn dvec3(v: &Value) -> DVec3 {
     match v {
-        Value::Array(a) => DVec3::new(a[0].as_f64().unwrap(), a[1].as_f64().unwrap(), a[2].as_f64().unwrap()),
+        Value::Array(a) => DVec3::new(
+            a[0].as_f64().unwrap(),
+            a[1].as_f64().unwrap(),
+            a[2].as_f64().unwrap(),
+        ),
         n => DVec3::splat(n.as_f64().unwrap()),
     }
 }
@@ -34,7 +38,11 @@ fn tungsten_matrix(t: &Value) -> DMat4 {
 
 /// Every vertex of the triangles with material `name`, deduplicated to 1e-5.
 fn vertices_of(s: &Scene, name: &str) -> Vec<Vec3> {
-    let m = s.materials.iter().position(|m| m.name == name).unwrap_or_else(|| panic!("{name}")) as u32;
+    let m = s
+        .materials
+        .iter()
+        .position(|m| m.name == name)
+        .unwrap_or_else(|| panic!("{name}")) as u32;
     let mut out: Vec<Vec3> = Vec::new();
     for t in s.triangles.iter().filter(|t| t.material == m) {
         for p in t.positions {
@@ -47,7 +55,9 @@ fn vertices_of(s: &Scene, name: &str) -> Vec<Vec3> {
 }
 
 fn same_set(a: &[Vec3], b: &[Vec3]) -> bool {
-    a.len() == b.len() && a.iter().all(|p| b.iter().any(|q| (*p - *q).abs().max_element() < 1e-5))
+    a.len() == b.len()
+        && a.iter()
+            .all(|p| b.iter().any(|q| (*p - *q).abs().max_element() < 1e-5))
 }
 
 #[test]
@@ -65,20 +75,37 @@ fn cornell_box() {
     // (still the square [-1,1]^2) at y = 0; the ceiling the same at y = 2; the back wall at
     // z = -1 and the side walls at x = +-1 span y in [0, 2]. Everything else is inside.
     let b = s.bounds();
-    assert_eq!((b.min, b.max), (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0)));
+    assert_eq!(
+        (b.min, b.max),
+        (Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 1.0))
+    );
 
     // The light: scale (0.47, _, 0.38) makes a 0.47 x 0.38 rectangle; rotation (0, 180, 180)
     // maps (x, z) to (x, -z) and +y to -y, so it is centred at (-0.005, 1.98, -0.03), faces
     // down, and has corners x in {-0.24, 0.23}, z in {-0.22, 0.16}.
     let light = s.materials.iter().find(|m| m.name == "Light").unwrap();
-    assert_eq!((light.emission, light.albedo), (Vec3::new(17.0, 12.0, 4.0), Vec3::ZERO));
+    assert_eq!(
+        (light.emission, light.albedo),
+        (Vec3::new(17.0, 12.0, 4.0), Vec3::ZERO)
+    );
     let want: Vec<Vec3> = [(-0.24, -0.22), (-0.24, 0.16), (0.23, -0.22), (0.23, 0.16)]
         .map(|(x, z)| Vec3::new(x, 1.98, z))
         .to_vec();
-    assert!(same_set(&vertices_of(&s, "Light"), &want), "{:?}", vertices_of(&s, "Light"));
-    for t in s.triangles.iter().filter(|t| s.materials[t.material as usize].name == "Light") {
+    assert!(
+        same_set(&vertices_of(&s, "Light"), &want),
+        "{:?}",
+        vertices_of(&s, "Light")
+    );
+    for t in s
+        .triangles
+        .iter()
+        .filter(|t| s.materials[t.material as usize].name == "Light")
+    {
         let [a, b, c] = t.positions;
-        assert!((b - a).cross(c - a).normalize().abs_diff_eq(-Vec3::Y, 1e-6), "the light faces down");
+        assert!(
+            (b - a).cross(c - a).normalize().abs_diff_eq(-Vec3::Y, 1e-6),
+            "the light faces down"
+        );
     }
 
     // Every quad and cube against glam's composition of Tungsten's transform, corners and
@@ -89,21 +116,49 @@ fn cornell_box() {
         let m = tungsten_matrix(&p["transform"]);
         let name = p["bsdf"].as_str().unwrap();
         let unit: Vec<DVec3> = match p["type"].as_str().unwrap() {
-            "quad" => vec![(-0.5, -0.5), (-0.5, 0.5), (0.5, -0.5), (0.5, 0.5)].into_iter().map(|(x, z)| DVec3::new(x, 0.0, z)).collect(),
-            _ => (0..8).map(|i| DVec3::new([-0.5, 0.5][i & 1], [-0.5, 0.5][(i >> 1) & 1], [-0.5, 0.5][i >> 2])).collect(),
+            "quad" => vec![(-0.5, -0.5), (-0.5, 0.5), (0.5, -0.5), (0.5, 0.5)]
+                .into_iter()
+                .map(|(x, z)| DVec3::new(x, 0.0, z))
+                .collect(),
+            _ => (0..8)
+                .map(|i| {
+                    DVec3::new(
+                        [-0.5, 0.5][i & 1],
+                        [-0.5, 0.5][(i >> 1) & 1],
+                        [-0.5, 0.5][i >> 2],
+                    )
+                })
+                .collect(),
         };
-        let want: Vec<Vec3> = unit.iter().map(|u| m.transform_point3(*u).as_vec3()).collect();
+        let want: Vec<Vec3> = unit
+            .iter()
+            .map(|u| m.transform_point3(*u).as_vec3())
+            .collect();
         assert!(same_set(&vertices_of(&s, name), &want), "{name}");
         if p["type"] == "quad" {
-            let front = m.transform_vector3(DVec3::Z).cross(m.transform_vector3(DVec3::X)).normalize().as_vec3();
-            for t in s.triangles.iter().filter(|t| s.materials[t.material as usize].name == name) {
+            let front = m
+                .transform_vector3(DVec3::Z)
+                .cross(m.transform_vector3(DVec3::X))
+                .normalize()
+                .as_vec3();
+            for t in s
+                .triangles
+                .iter()
+                .filter(|t| s.materials[t.material as usize].name == name)
+            {
                 let [a, b, c] = t.positions;
-                assert!((b - a).cross(c - a).normalize().dot(front) > 0.9999, "{name} faces Tungsten's front");
+                assert!(
+                    (b - a).cross(c - a).normalize().dot(front) > 0.9999,
+                    "{name} faces Tungsten's front"
+                );
             }
         } else {
             let ys: Vec<f32> = vertices_of(&s, name).iter().map(|v| v.y).collect();
             let top = if name == "TallBox" { 1.2 } else { 0.6 };
-            assert!(ys.iter().all(|y| y.abs() < 1e-6 || (y - top).abs() < 1e-6), "{name}: {ys:?}");
+            assert!(
+                ys.iter().all(|y| y.abs() < 1e-6 || (y - top).abs() < 1e-6),
+                "{name}: {ys:?}"
+            );
         }
     }
     let albedo = |n: &str| s.materials.iter().find(|m| m.name == n).unwrap().albedo;
@@ -112,10 +167,27 @@ fn cornell_box() {
 
     // Pinhole camera; 1024 x 1024 makes the horizontal fov 19.5 also the vertical one.
     let c = s.camera;
-    assert_eq!((c.position, c.look_at, c.up), (Vec3::new(0.0, 1.0, 6.8), Vec3::new(0.0, 1.0, 0.0), Vec3::Y));
+    assert_eq!(
+        (c.position, c.look_at, c.up),
+        (Vec3::new(0.0, 1.0, 6.8), Vec3::new(0.0, 1.0, 0.0), Vec3::Y)
+    );
     assert!((c.vfov - 19.5).abs() < 1e-4);
-    assert_eq!((s.render.width, s.render.height, s.render.spp, s.render.max_bounces), (1024, 1024, 16, 64));
-    assert!(s.warnings.iter().any(|w| w == "material 'Light': Tungsten 'null' approximated as black diffuse"), "{:?}", s.warnings);
+    assert_eq!(
+        (
+            s.render.width,
+            s.render.height,
+            s.render.spp,
+            s.render.max_bounces
+        ),
+        (1024, 1024, 16, 64)
+    );
+    assert!(
+        s.warnings
+            .iter()
+            .any(|w| w == "material 'Light': Tungsten 'null' approximated as black diffuse"),
+        "{:?}",
+        s.warnings
+    );
 }
 
 /// The living room's mesh primitives: (OBJ path relative to the scene, translation).
@@ -127,7 +199,10 @@ fn living_room_meshes(scene_json: &Path) -> Vec<(String, Vec3)> {
         .iter()
         .map(|p| {
             assert_eq!(p["type"], "mesh");
-            let pos = p["transform"].get("position").map_or(DVec3::ZERO, dvec3).as_vec3();
+            let pos = p["transform"]
+                .get("position")
+                .map_or(DVec3::ZERO, dvec3)
+                .as_vec3();
             (p["file"].as_str().unwrap().to_string(), pos)
         })
         .collect()
@@ -149,12 +224,14 @@ fn count_obj_triangles(dir: &Path, meshes: &[(String, Vec3)]) -> (usize, usize, 
                     v.push(Vec3::new(c[0], c[1], c[2]) + *offset);
                 }
                 Some("f") => {
-                    let idx: Vec<usize> = w.map(|t| t.split('/').next().unwrap().parse::<usize>().unwrap() - 1).collect();
+                    let idx: Vec<usize> = w
+                        .map(|t| t.split('/').next().unwrap().parse::<usize>().unwrap() - 1)
+                        .collect();
                     for k in 1..idx.len() - 1 {
                         total += 1;
                         let (a, b, c) = (v[idx[0]], v[idx[k]], v[idx[k + 1]]);
                         let n = (b - a).cross(c - a).length();
-                        if !(n > 0.0) || !n.is_finite() {
+                        if n.is_nan() || n <= 0.0 || !n.is_finite() {
                             degenerate += 1;
                         } else {
                             for p in [a, b, c] {
@@ -179,13 +256,20 @@ fn stand_in_copy(original: &Path, leaf: bool, sky: bool) -> TempDir {
     symlink(original.join("models"), d.path("models")).unwrap();
     std::fs::create_dir(d.path("textures")).unwrap();
     for t in ["picture8.jpg", "wood.jpg", "wood5.jpg"] {
-        symlink(original.join("textures").join(t), d.path("textures").join(t)).unwrap();
+        symlink(
+            original.join("textures").join(t),
+            d.path("textures").join(t),
+        )
+        .unwrap();
     }
     if leaf {
         d.write("textures/leaf.png", common::png_2x2());
     }
     if sky {
-        d.write("textures/Sky 19.exr", common::float_image(8, 4, image::ImageFormat::OpenExr));
+        d.write(
+            "textures/Sky 19.exr",
+            common::float_image(8, 4, image::ImageFormat::OpenExr),
+        );
     }
     d
 }
@@ -199,17 +283,28 @@ fn living_room() {
     // As vendored: the leaves' texture is missing (the first file the primitives need).
     let e = Scene::load(dir.join("scene.json")).unwrap_err();
     match &e {
-        SceneError::MissingFile { path, referenced_by } => {
+        SceneError::MissingFile {
+            path,
+            referenced_by,
+        } => {
             assert!(path.ends_with("textures/leaf.png"), "{e}");
             // Named twice, as the transparency's alpha and its base's albedo.
-            assert!(referenced_by.as_deref().is_some_and(|r| r.contains("bsdfs[16].")), "{e}");
+            assert!(
+                referenced_by
+                    .as_deref()
+                    .is_some_and(|r| r.contains("bsdfs[16].")),
+                "{e}"
+            );
         }
         other => panic!("{other}"),
     }
     // With a stand-in leaf texture, the missing environment map is the error.
     let d = stand_in_copy(&dir, true, false);
     let e = Scene::load(d.path("scene.json")).unwrap_err();
-    assert!(matches!(&e, SceneError::MissingFile { path, .. } if path.ends_with("textures/Sky 19.exr")), "{e}");
+    assert!(
+        matches!(&e, SceneError::MissingFile { path, .. } if path.ends_with("textures/Sky 19.exr")),
+        "{e}"
+    );
     assert!(e.to_string().contains("emissions[0].radiance"), "{e}");
 
     // With both stand-ins it loads completely.
@@ -222,26 +317,54 @@ fn living_room() {
     let dropped: usize = s
         .warnings
         .iter()
-        .filter_map(|w| w.strip_prefix("dropped ").and_then(|r| r.split(' ').next()).map(|n| n.parse::<usize>().unwrap()))
+        .filter_map(|w| {
+            w.strip_prefix("dropped ")
+                .and_then(|r| r.split(' ').next())
+                .map(|n| n.parse::<usize>().unwrap())
+        })
         .sum();
     assert_eq!(dropped, degenerate);
     assert_eq!(s.triangles.len(), total - degenerate);
     let b = s.bounds();
-    assert!((b.min - lo).abs().max_element() < 1e-6 && (b.max - hi).abs().max_element() < 1e-6, "{b:?} vs {lo}..{hi}");
+    assert!(
+        (b.min - lo).abs().max_element() < 1e-6 && (b.max - hi).abs().max_element() < 1e-6,
+        "{b:?} vs {lo}..{hi}"
+    );
 
     // Materials: one per BSDF a primitive uses (19 BSDFs, all used), by the documented mapping.
-    let m = |n: &str| s.materials.iter().find(|m| m.name == n).unwrap_or_else(|| panic!("{n}"));
+    let m = |n: &str| {
+        s.materials
+            .iter()
+            .find(|m| m.name == n)
+            .unwrap_or_else(|| panic!("{n}"))
+    };
     assert_eq!(s.materials.len(), 19);
     assert_eq!(m("Floor").kind, MaterialKind::Diffuse);
     assert!(m("Floor").albedo_texture.is_some());
-    assert_eq!((m("Mirror").kind, m("Mirror").roughness), (MaterialKind::Metal, 0.0));
-    assert_eq!((m("Glass").kind, m("Glass").ior), (MaterialKind::Glass, 1.5));
+    assert_eq!(
+        (m("Mirror").kind, m("Mirror").roughness),
+        (MaterialKind::Metal, 0.0)
+    );
+    assert_eq!(
+        (m("Glass").kind, m("Glass").ior),
+        (MaterialKind::Glass, 1.5)
+    );
     // rough_conductor Al, roughness 0.02 (GGX alpha) -> sqrt(0.02); albedo 0.578596 x F0(Al).
     let steel = m("BrushedStainlessSteel");
     assert_eq!(steel.kind, MaterialKind::Metal);
     assert!((steel.roughness - 0.02f32.sqrt()).abs() < 1e-6);
-    assert!((steel.albedo - 0.578596 * Vec3::new(0.913, 0.922, 0.924)).abs().max_element() < 1e-6);
-    assert_eq!(m("Leaves").albedo_texture.map(|t| s.textures[t as usize].name.ends_with("leaf.png")), Some(true));
+    assert!(
+        (steel.albedo - 0.578596 * Vec3::new(0.913, 0.922, 0.924))
+            .abs()
+            .max_element()
+            < 1e-6
+    );
+    assert_eq!(
+        m("Leaves")
+            .albedo_texture
+            .map(|t| s.textures[t as usize].name.ends_with("leaf.png")),
+        Some(true)
+    );
     // 3 JPEGs and the leaf stand-in.
     assert_eq!(s.textures.len(), 4);
     for w in [
@@ -249,9 +372,15 @@ fn living_room() {
         "material 'PlantPot': Tungsten 'oren_nayar' approximated as diffuse",
         "material 'Leaves': Tungsten 'transparency' approximated as its base BSDF (alpha dropped)",
     ] {
-        assert!(s.warnings.iter().any(|x| x == w), "missing warning {w:?} in {:?}", s.warnings);
+        assert!(
+            s.warnings.iter().any(|x| x == w),
+            "missing warning {w:?} in {:?}",
+            s.warnings
+        );
     }
-    assert!(matches!(&s.environment, Environment::Map { image, .. } if (image.width, image.height) == (8, 4)));
+    assert!(
+        matches!(&s.environment, Environment::Map { image, .. } if (image.width, image.height) == (8, 4))
+    );
 
     // fov 90 is horizontal: vfov = 2 atan(tan(45 deg) * 720 / 1280).
     assert_eq!((s.render.width, s.render.height), (1280, 720));

@@ -11,7 +11,10 @@ use serde_json::{Value, json};
 fn load(doc: &Value) -> Result<Scene, SceneError> {
     let d = TempDir::new("tungsten");
     d.write("tex.png", common::png_2x2());
-    d.write("sky.hdr", common::float_image(4, 2, image::ImageFormat::Hdr));
+    d.write(
+        "sky.hdr",
+        common::float_image(4, 2, image::ImageFormat::Hdr),
+    );
     Scene::load(d.write("scene.json", doc.to_string()))
 }
 
@@ -51,41 +54,91 @@ fn every_bsdf_type_maps_to_the_documented_material() {
         { "name": "cst", "type": "lambert", "albedo": { "type": "constant", "value": 0.375 } }
     ]);
     let s = load(&quads_with(bsdfs)).unwrap();
-    let m = |n: &str| s.materials.iter().find(|m| m.name == n).unwrap_or_else(|| panic!("{n}"));
+    let m = |n: &str| {
+        s.materials
+            .iter()
+            .find(|m| m.name == n)
+            .unwrap_or_else(|| panic!("{n}"))
+    };
     let kind = |n: &str| m(n).kind;
     use MaterialKind::*;
-    assert_eq!((kind("lam"), m("lam").albedo), (Diffuse, Vec3::new(0.2, 0.4, 0.6)));
+    assert_eq!(
+        (kind("lam"), m("lam").albedo),
+        (Diffuse, Vec3::new(0.2, 0.4, 0.6))
+    );
     for n in ["on", "pl", "rp", "ph", "bm", "cst"] {
         assert_eq!(kind(n), Diffuse, "{n}");
     }
-    assert_eq!(m("rp").albedo_texture, m("bm").albedo_texture, "one texture file, loaded once");
+    assert_eq!(
+        m("rp").albedo_texture,
+        m("bm").albedo_texture,
+        "one texture file, loaded once"
+    );
     assert_eq!(s.textures.len(), 1);
     assert_eq!(m("cst").albedo, Vec3::splat(0.375));
-    assert_eq!((kind("mir"), m("mir").albedo, m("mir").roughness), (Metal, Vec3::splat(0.9), 0.0));
+    assert_eq!(
+        (kind("mir"), m("mir").albedo, m("mir").roughness),
+        (Metal, Vec3::splat(0.9), 0.0)
+    );
     // Tungsten's default conductor is copper, albedo 1: F0(Cu).
-    assert_eq!((kind("cu"), m("cu").albedo), (Metal, Vec3::new(0.955, 0.638, 0.538)));
+    assert_eq!(
+        (kind("cu"), m("cu").albedo),
+        (Metal, Vec3::new(0.955, 0.638, 0.538))
+    );
     // Gold, GGX alpha 0.04 -> roughness 0.2.
     assert_eq!(m("au").albedo, Vec3::new(1.0, 0.782, 0.344));
     assert!((m("au").roughness - 0.2).abs() < 1e-6);
     // eta 1.5, k 0: F0 = ((1.5-1)/(1.5+1))^2 = 0.04.
     assert!((m("ek").albedo - Vec3::splat(0.04)).abs().max_element() < 1e-6);
-    assert_eq!((kind("die"), m("die").ior, m("die").tint), (Glass, 1.33, Vec3::new(0.9, 0.95, 1.0)));
+    assert_eq!(
+        (kind("die"), m("die").ior, m("die").tint),
+        (Glass, 1.33, Vec3::new(0.9, 0.95, 1.0))
+    );
     assert_eq!((kind("rd"), m("rd").ior), (Glass, 1.6));
     assert_eq!((kind("ts"), m("ts").ior), (Glass, 1.5));
     assert_eq!((kind("tr"), m("tr").albedo), (Diffuse, Vec3::splat(0.25)));
-    assert_eq!((kind("trn"), m("trn").albedo), (Diffuse, Vec3::new(0.2, 0.4, 0.6)));
+    assert_eq!(
+        (kind("trn"), m("trn").albedo),
+        (Diffuse, Vec3::new(0.2, 0.4, 0.6))
+    );
     // ratio 0.25 is bsdf0's weight: bsdf1 (lambert) is heavier.
     assert_eq!(kind("mix"), Diffuse);
-    assert_eq!((kind("coat"), m("coat").albedo), (Diffuse, Vec3::splat(0.125)));
+    assert_eq!(
+        (kind("coat"), m("coat").albedo),
+        (Diffuse, Vec3::splat(0.125))
+    );
     assert_eq!((kind("nul"), m("nul").albedo), (Diffuse, Vec3::ZERO));
 
     // Approximations are named, exact mappings are not.
-    let warned = |n: &str, ty: &str| s.warnings.iter().any(|w| w.starts_with(&format!("material '{n}': Tungsten '{ty}' approximated as")));
-    for (n, ty) in [("on", "oren_nayar"), ("pl", "plastic"), ("rp", "rough_plastic"), ("ph", "phong"), ("cu", "conductor"), ("au", "rough_conductor"), ("rd", "rough_dielectric"), ("ts", "thinsheet"), ("tr", "transparency"), ("mix", "mixed"), ("coat", "smooth_coat"), ("nul", "null")] {
+    let warned = |n: &str, ty: &str| {
+        s.warnings
+            .iter()
+            .any(|w| w.starts_with(&format!("material '{n}': Tungsten '{ty}' approximated as")))
+    };
+    for (n, ty) in [
+        ("on", "oren_nayar"),
+        ("pl", "plastic"),
+        ("rp", "rough_plastic"),
+        ("ph", "phong"),
+        ("cu", "conductor"),
+        ("au", "rough_conductor"),
+        ("rd", "rough_dielectric"),
+        ("ts", "thinsheet"),
+        ("tr", "transparency"),
+        ("mix", "mixed"),
+        ("coat", "smooth_coat"),
+        ("nul", "null"),
+    ] {
         assert!(warned(n, ty), "no warning for {n} in {:?}", s.warnings);
     }
     for n in ["lam", "mir", "die", "bm"] {
-        assert!(!s.warnings.iter().any(|w| w.starts_with(&format!("material '{n}'"))), "{n}: {:?}", s.warnings);
+        assert!(
+            !s.warnings
+                .iter()
+                .any(|w| w.starts_with(&format!("material '{n}'"))),
+            "{n}: {:?}",
+            s.warnings
+        );
     }
 }
 
@@ -109,7 +162,12 @@ fn power_becomes_radiance_over_area_times_pi() {
     assert!((e(0) - Vec3::ONE).abs().max_element() < 1e-5, "{}", e(0));
     let sp = s.spheres[0];
     assert_eq!((sp.center, sp.radius), (Vec3::new(0.0, 5.0, 0.0), 2.0));
-    assert!((s.materials[sp.material as usize].emission - Vec3::splat(pi)).abs().max_element() < 1e-4);
+    assert!(
+        (s.materials[sp.material as usize].emission - Vec3::splat(pi))
+            .abs()
+            .max_element()
+            < 1e-4
+    );
     assert_eq!(e(2), Vec3::ZERO);
     assert_eq!(e(14), Vec3::new(1.0, 2.0, 3.0));
     // The shared BSDF appears once plain and once per distinct emission; names stay apart.
@@ -132,23 +190,46 @@ fn environments_and_matrix_transforms() {
             ]
         })
     };
-    let s = load(&base(json!({ "type": "infinite_sphere", "emission": [0.5, 0.5, 1.0] }))).unwrap();
-    assert_eq!(s.environment, Environment::Constant(Vec3::new(0.5, 0.5, 1.0)));
+    let s = load(&base(
+        json!({ "type": "infinite_sphere", "emission": [0.5, 0.5, 1.0] }),
+    ))
+    .unwrap();
+    assert_eq!(
+        s.environment,
+        Environment::Constant(Vec3::new(0.5, 0.5, 1.0))
+    );
     let b = s.bounds();
-    assert_eq!((b.min, b.max), (Vec3::new(0.5, 2.0, 2.5), Vec3::new(1.5, 2.0, 3.5)));
-    let s = load(&base(json!({ "type": "infinite_sphere", "emission": "sky.hdr" }))).unwrap();
-    assert!(matches!(&s.environment, Environment::Map { image, strength, .. } if image.width == 4 && *strength == 1.0));
+    assert_eq!(
+        (b.min, b.max),
+        (Vec3::new(0.5, 2.0, 2.5), Vec3::new(1.5, 2.0, 3.5))
+    );
+    let s = load(&base(
+        json!({ "type": "infinite_sphere", "emission": "sky.hdr" }),
+    ))
+    .unwrap();
+    assert!(
+        matches!(&s.environment, Environment::Map { image, strength, .. } if image.width == 4 && *strength == 1.0)
+    );
     let s = load(&base(json!({ "type": "skydome", "intensity": 3.0 }))).unwrap();
     assert_eq!(s.environment, Environment::Constant(Vec3::splat(3.0)));
     assert!(s.warnings.iter().any(|w| w.contains("skydome")));
-    let e = load(&base(json!({ "type": "infinite_sphere", "emission": "gone.exr" }))).unwrap_err();
-    assert!(matches!(&e, SceneError::MissingFile { path, referenced_by } if path.ends_with("gone.exr") && referenced_by.as_deref().is_some_and(|r| r.ends_with("primitives[1].emission"))), "{e}");
+    let e = load(&base(
+        json!({ "type": "infinite_sphere", "emission": "gone.exr" }),
+    ))
+    .unwrap_err();
+    assert!(
+        matches!(&e, SceneError::MissingFile { path, referenced_by } if path.ends_with("gone.exr") && referenced_by.as_deref().is_some_and(|r| r.ends_with("primitives[1].emission"))),
+        "{e}"
+    );
 }
 
 /// `check(document, variant, JSON path in the message)`.
 fn check(doc: Value, variant: &str, path: &str) {
     let e = load(&doc).unwrap_err();
-    assert!(format!("{e:?}").starts_with(variant), "expected {variant}, got {e}");
+    assert!(
+        format!("{e:?}").starts_with(variant),
+        "expected {variant}, got {e}"
+    );
     assert!(e.to_string().contains(path), "{e} lacks {path}");
 }
 
@@ -156,30 +237,122 @@ fn check(doc: Value, variant: &str, path: &str) {
 fn errors_name_the_json_path() {
     let w = || json!([{ "name": "w", "type": "lambert" }]);
     let one = |p: Value| json!({ "bsdfs": w(), "primitives": [p] });
-    check(one(json!({ "type": "quad", "bsdf": "nope" })), "UnknownMaterial", "primitives[0].bsdf");
-    check(one(json!({ "type": "disk", "bsdf": "w" })), "Unsupported", "primitives[0].type");
-    check(one(json!({ "type": "quad", "bsdf": "w", "transform": { "scale": "big" } })), "WrongType", "primitives[0].transform.scale");
-    check(one(json!({ "type": "quad", "bsdf": "w", "transform": { "position": [0, 0] } })), "WrongType", "primitives[0].transform.position");
-    check(one(json!({ "type": "quad", "bsdf": "w", "transform": { "position": [0, 1e39, 0] } })), "NotFinite", "primitives[0].transform.position");
-    check(one(json!({ "type": "quad", "bsdf": "w", "emission": [1, -1, 1] })), "Negative", "material");
-    check(one(json!({ "type": "mesh", "bsdf": "w", "file": "m.wo3" })), "UnsupportedExtension", "primitives[0].file");
-    check(one(json!({ "type": "mesh", "bsdf": "w", "file": "gone.obj" })), "MissingFile", "primitives[0].file");
-    check(one(json!({ "type": "mesh", "bsdf": "w" })), "MissingKey", "primitives[0]");
-    check(one(json!({ "type": "quad", "bsdf": "w", "power": 1.0, "transform": { "scale": 0 } })), "NonPositive", "primitives[0].power");
-    check(json!({ "bsdfs": [{ "name": "h", "type": "hair" }], "primitives": [{ "type": "quad", "bsdf": "h" }] }), "Unsupported", "bsdfs[0].type");
-    check(json!({ "bsdfs": [{ "name": "c", "type": "lambert", "albedo": { "type": "checker" } }], "primitives": [{ "type": "quad", "bsdf": "c" }] }), "Unsupported", "bsdfs[0].albedo");
-    check(json!({ "bsdfs": [w()[0].clone(), w()[0].clone()], "primitives": [] }), "InvalidValue", "bsdfs[1].name");
-    check(json!({ "bsdfs": [{ "name": "a", "type": "transparency", "base": "a" }], "primitives": [{ "type": "quad", "bsdf": "a" }] }), "InvalidValue", "nested too deeply");
-    check(json!({ "bsdfs": w(), "primitives": [] }), "EmptyScene", "scene.json");
-    check(json!({ "bsdfs": w(), "primitives": [{ "type": "quad", "bsdf": "w" }], "camera": { "fov": 200 } }), "Vfov", "camera.fov");
-    check(json!({ "bsdfs": w(), "primitives": [{ "type": "quad", "bsdf": "w" }], "camera": { "resolution": [0, 10] } }), "NonPositive", "camera.resolution");
-    check(json!({ "bsdfs": w(), "primitives": [{ "type": "quad", "bsdf": "w" }], "camera": { "transform": { "position": [0, 0, 0], "look_at": [0, 0, 0] } } }), "DegenerateCamera", "camera");
-    check(json!({ "bsdfs": w(), "primitives": [{ "type": "quad", "bsdf": "w" }], "renderer": { "spp": -1 } }), "WrongType", "renderer.spp");
+    check(
+        one(json!({ "type": "quad", "bsdf": "nope" })),
+        "UnknownMaterial",
+        "primitives[0].bsdf",
+    );
+    check(
+        one(json!({ "type": "disk", "bsdf": "w" })),
+        "Unsupported",
+        "primitives[0].type",
+    );
+    check(
+        one(json!({ "type": "quad", "bsdf": "w", "transform": { "scale": "big" } })),
+        "WrongType",
+        "primitives[0].transform.scale",
+    );
+    check(
+        one(json!({ "type": "quad", "bsdf": "w", "transform": { "position": [0, 0] } })),
+        "WrongType",
+        "primitives[0].transform.position",
+    );
+    check(
+        one(json!({ "type": "quad", "bsdf": "w", "transform": { "position": [0, 1e39, 0] } })),
+        "NotFinite",
+        "primitives[0].transform.position",
+    );
+    check(
+        one(json!({ "type": "quad", "bsdf": "w", "emission": [1, -1, 1] })),
+        "Negative",
+        "material",
+    );
+    check(
+        one(json!({ "type": "mesh", "bsdf": "w", "file": "m.wo3" })),
+        "UnsupportedExtension",
+        "primitives[0].file",
+    );
+    check(
+        one(json!({ "type": "mesh", "bsdf": "w", "file": "gone.obj" })),
+        "MissingFile",
+        "primitives[0].file",
+    );
+    check(
+        one(json!({ "type": "mesh", "bsdf": "w" })),
+        "MissingKey",
+        "primitives[0]",
+    );
+    check(
+        one(json!({ "type": "quad", "bsdf": "w", "power": 1.0, "transform": { "scale": 0 } })),
+        "NonPositive",
+        "primitives[0].power",
+    );
+    check(
+        json!({ "bsdfs": [{ "name": "h", "type": "hair" }], "primitives": [{ "type": "quad", "bsdf": "h" }] }),
+        "Unsupported",
+        "bsdfs[0].type",
+    );
+    check(
+        json!({ "bsdfs": [{ "name": "c", "type": "lambert", "albedo": { "type": "checker" } }], "primitives": [{ "type": "quad", "bsdf": "c" }] }),
+        "Unsupported",
+        "bsdfs[0].albedo",
+    );
+    check(
+        json!({ "bsdfs": [w()[0].clone(), w()[0].clone()], "primitives": [] }),
+        "InvalidValue",
+        "bsdfs[1].name",
+    );
+    check(
+        json!({ "bsdfs": [{ "name": "a", "type": "transparency", "base": "a" }], "primitives": [{ "type": "quad", "bsdf": "a" }] }),
+        "InvalidValue",
+        "nested too deeply",
+    );
+    check(
+        json!({ "bsdfs": w(), "primitives": [] }),
+        "EmptyScene",
+        "scene.json",
+    );
+    check(
+        json!({ "bsdfs": w(), "primitives": [{ "type": "quad", "bsdf": "w" }], "camera": { "fov": 200 } }),
+        "Vfov",
+        "camera.fov",
+    );
+    check(
+        json!({ "bsdfs": w(), "primitives": [{ "type": "quad", "bsdf": "w" }], "camera": { "resolution": [0, 10] } }),
+        "NonPositive",
+        "camera.resolution",
+    );
+    check(
+        json!({ "bsdfs": w(), "primitives": [{ "type": "quad", "bsdf": "w" }], "camera": { "transform": { "position": [0, 0, 0], "look_at": [0, 0, 0] } } }),
+        "DegenerateCamera",
+        "camera",
+    );
+    check(
+        json!({ "bsdfs": w(), "primitives": [{ "type": "quad", "bsdf": "w" }], "renderer": { "spp": -1 } }),
+        "WrongType",
+        "renderer.spp",
+    );
     check(json!([1, 2]), "WrongType", "scene.json");
 
     let d = TempDir::new("tungsten-syntax");
-    let e = Scene::load(d.write("scene.json", "{\n  \"bsdfs\": [\n    {\"name\": }\n  ]\n}\n")).unwrap_err();
-    assert!(matches!(&e, SceneError::Syntax { at: Location::LineCol { line: 3, column: 14 }, .. }), "{e}");
+    let e = Scene::load(d.write(
+        "scene.json",
+        "{\n  \"bsdfs\": [\n    {\"name\": }\n  ]\n}\n",
+    ))
+    .unwrap_err();
+    assert!(
+        matches!(
+            &e,
+            SceneError::Syntax {
+                at: Location::LineCol {
+                    line: 3,
+                    column: 14
+                },
+                ..
+            }
+        ),
+        "{e}"
+    );
 }
 
 #[test]
@@ -191,7 +364,12 @@ fn unread_keys_are_reported_not_silently_dropped() {
     });
     let s = load(&doc).unwrap();
     let all = s.warnings.join("\n");
-    for part in ["primitives[0].sampled_side", "primitives[0].backface_culling = true", "media", "bump map ignored"] {
+    for part in [
+        "primitives[0].sampled_side",
+        "primitives[0].backface_culling = true",
+        "media",
+        "bump map ignored",
+    ] {
         assert!(all.contains(part), "{part} not in {all}");
     }
 }

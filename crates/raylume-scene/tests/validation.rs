@@ -4,7 +4,8 @@
 
 use glam::{Vec2, Vec3};
 use raylume_scene::{
-    Bloom, Camera, Environment, Feature, Features, Location, Material, Scene, SceneError, Sphere, Texture, Triangle,
+    Bloom, Camera, Environment, Feature, Features, Location, Material, Scene, SceneError, Sphere,
+    Texture, Triangle,
 };
 
 /// A valid scene: one triangle, one sphere, two materials, a texture.
@@ -18,7 +19,8 @@ fn good() -> Scene {
         },
         ..Scene::default()
     };
-    s.materials.push(Material::diffuse("white", Vec3::splat(0.7)));
+    s.materials
+        .push(Material::diffuse("white", Vec3::splat(0.7)));
     s.materials.push(Material::glass("glass", 1.5, Vec3::ONE));
     s.textures.push(Texture {
         name: "t.png".into(),
@@ -47,9 +49,15 @@ fn check(f: impl FnOnce(&mut Scene), variant: &str, place: &str) {
     let mut s = good();
     f(&mut s);
     let e = s.validate().unwrap_err();
-    assert!(format!("{e:?}").starts_with(variant), "expected {variant}, got {e}");
+    assert!(
+        format!("{e:?}").starts_with(variant),
+        "expected {variant}, got {e}"
+    );
     let msg = e.to_string();
-    assert!(msg.starts_with("<scene>") && msg.contains(place), "{msg} lacks {place}");
+    assert!(
+        msg.starts_with("<scene>") && msg.contains(place),
+        "{msg} lacks {place}"
+    );
 }
 
 #[test]
@@ -60,39 +68,127 @@ fn a_good_scene_validates() {
 #[test]
 fn every_invariant_has_its_error() {
     let nan = f32::NAN;
-    check(|s| s.triangles[0].positions[1].y = nan, "NotFinite", "triangle 0");
-    check(|s| s.triangles[0].normals = Some([Vec3::new(0.0, f32::INFINITY, 0.0); 3]), "NotFinite", "triangle 0");
-    check(|s| s.triangles[0].uvs = Some([Vec2::new(nan, 0.0); 3]), "NotFinite", "triangle 0");
-    check(|s| s.triangles[0].normals = Some([Vec3::new(0.0, 0.0, 2.0); 3]), "InvalidValue", "unit length");
-    check(|s| s.triangles[0].material = 2, "IndexOutOfRange", "triangle 0: material index 2 is out of range (there are 2)");
-    check(|s| s.triangles[0].positions[2] = Vec3::new(2.0, 0.0, 0.0), "InvalidValue", "zero area");
+    check(
+        |s| s.triangles[0].positions[1].y = nan,
+        "NotFinite",
+        "triangle 0",
+    );
+    check(
+        |s| s.triangles[0].normals = Some([Vec3::new(0.0, f32::INFINITY, 0.0); 3]),
+        "NotFinite",
+        "triangle 0",
+    );
+    check(
+        |s| s.triangles[0].uvs = Some([Vec2::new(nan, 0.0); 3]),
+        "NotFinite",
+        "triangle 0",
+    );
+    check(
+        |s| s.triangles[0].normals = Some([Vec3::new(0.0, 0.0, 2.0); 3]),
+        "InvalidValue",
+        "unit length",
+    );
+    check(
+        |s| s.triangles[0].material = 2,
+        "IndexOutOfRange",
+        "triangle 0: material index 2 is out of range (there are 2)",
+    );
+    check(
+        |s| s.triangles[0].positions[2] = Vec3::new(2.0, 0.0, 0.0),
+        "InvalidValue",
+        "zero area",
+    );
     check(|s| s.spheres[0].radius = 0.0, "NonPositive", "sphere 0");
-    check(|s| s.spheres[0].radius = -1.0, "NonPositive", "sphere radius must be positive, got -1");
+    check(
+        |s| s.spheres[0].radius = -1.0,
+        "NonPositive",
+        "sphere radius must be positive, got -1",
+    );
     check(|s| s.spheres[0].center.x = nan, "NotFinite", "sphere 0");
     check(|s| s.spheres[0].material = 7, "IndexOutOfRange", "sphere 0");
-    check(|s| s.materials[0].albedo_texture = Some(3), "IndexOutOfRange", "material 0 `white`: texture index 3");
-    check(|s| s.materials[0].albedo.x = -0.1, "Negative", "material 0 `white`");
+    check(
+        |s| s.materials[0].albedo_texture = Some(3),
+        "IndexOutOfRange",
+        "material 0 `white`: texture index 3",
+    );
+    check(
+        |s| s.materials[0].albedo.x = -0.1,
+        "Negative",
+        "material 0 `white`",
+    );
     check(|s| s.materials[0].albedo.x = 1.5, "InvalidValue", "above 1");
-    check(|s| s.materials[0].emission.y = nan, "NotFinite", "material 0 `white`");
+    check(
+        |s| s.materials[0].emission.y = nan,
+        "NotFinite",
+        "material 0 `white`",
+    );
     check(|s| s.materials[0].emission.y = -1.0, "Negative", "emission");
-    check(|s| s.materials[1].ior = 0.0, "NonPositive", "material 1 `glass`: ior");
-    check(|s| s.materials[1].tint = Vec3::splat(-1.0), "Negative", "tint");
-    check(|s| s.materials[0].roughness = 2.0, "InvalidValue", "roughness 2 is outside [0, 1]");
-    check(|s| s.textures[0].texels.clear(), "InvalidValue", "texture 0 `t.png`");
-    check(|s| s.textures[0].texels[0][1] = nan, "NotFinite", "texel (0, 0)");
+    check(
+        |s| s.materials[1].ior = 0.0,
+        "NonPositive",
+        "material 1 `glass`: ior",
+    );
+    check(
+        |s| s.materials[1].tint = Vec3::splat(-1.0),
+        "Negative",
+        "tint",
+    );
+    check(
+        |s| s.materials[0].roughness = 2.0,
+        "InvalidValue",
+        "roughness 2 is outside [0, 1]",
+    );
+    check(
+        |s| s.textures[0].texels.clear(),
+        "InvalidValue",
+        "texture 0 `t.png`",
+    );
+    check(
+        |s| s.textures[0].texels[0][1] = nan,
+        "NotFinite",
+        "texel (0, 0)",
+    );
     check(|s| s.textures[0].width = 0, "NonPositive", "texture width");
-    check(|s| s.camera.vfov = 0.0, "Vfov", "camera: vfov 0 degrees is outside (0, 180)");
+    check(
+        |s| s.camera.vfov = 0.0,
+        "Vfov",
+        "camera: vfov 0 degrees is outside (0, 180)",
+    );
     check(|s| s.camera.vfov = 180.0, "Vfov", "camera");
     check(|s| s.camera.vfov = nan, "NotFinite", "camera");
-    check(|s| s.camera.position.z = f32::INFINITY, "NotFinite", "camera position");
-    check(|s| s.camera.look_at = s.camera.position, "DegenerateCamera", "position equals look_at");
-    check(|s| s.camera.up = Vec3::new(0.0, 0.0, -3.0), "DegenerateCamera", "parallel");
-    check(|s| s.camera.up = Vec3::ZERO, "DegenerateCamera", "up is zero");
-    check(|s| s.render.width = 0, "NonPositive", "render: render width");
+    check(
+        |s| s.camera.position.z = f32::INFINITY,
+        "NotFinite",
+        "camera position",
+    );
+    check(
+        |s| s.camera.look_at = s.camera.position,
+        "DegenerateCamera",
+        "position equals look_at",
+    );
+    check(
+        |s| s.camera.up = Vec3::new(0.0, 0.0, -3.0),
+        "DegenerateCamera",
+        "parallel",
+    );
+    check(
+        |s| s.camera.up = Vec3::ZERO,
+        "DegenerateCamera",
+        "up is zero",
+    );
+    check(
+        |s| s.render.width = 0,
+        "NonPositive",
+        "render: render width",
+    );
     check(|s| s.render.height = 0, "NonPositive", "render height");
     check(|s| s.render.spp = 0, "NonPositive", "render spp");
     check(|s| s.render.width = 100_000, "TooLarge", "render width");
-    check(|s| s.environment = Environment::Constant(Vec3::new(1.0, -1.0, 1.0)), "Negative", "environment");
+    check(
+        |s| s.environment = Environment::Constant(Vec3::new(1.0, -1.0, 1.0)),
+        "Negative",
+        "environment",
+    );
     check(
         |s| {
             s.environment = Environment::Map {
@@ -168,18 +264,54 @@ fn features_follow_the_materials_that_are_used() {
     let glass = Material::glass("g", 1.5, Vec3::ONE);
     let lamp = Material::emissive("l", Vec3::splat(3.0));
 
-    let s = with(vec![white.clone(), mirror.clone(), rough.clone(), glass.clone(), lamp.clone()], vec![tri(0)]);
-    assert_eq!(s.features(), Features::NONE.with(Feature::Diffuse).with(Feature::Triangles), "unused materials do not count");
-    let s = with(vec![white.clone(), mirror, rough, glass.clone(), lamp], (0..5).map(tri).collect());
-    assert_eq!(s.features().names(), ["diffuse", "metal", "rough_metal", "glass", "emission", "triangles"]);
+    let s = with(
+        vec![
+            white.clone(),
+            mirror.clone(),
+            rough.clone(),
+            glass.clone(),
+            lamp.clone(),
+        ],
+        vec![tri(0)],
+    );
+    assert_eq!(
+        s.features(),
+        Features::NONE
+            .with(Feature::Diffuse)
+            .with(Feature::Triangles),
+        "unused materials do not count"
+    );
+    let s = with(
+        vec![white.clone(), mirror, rough, glass.clone(), lamp],
+        (0..5).map(tri).collect(),
+    );
+    assert_eq!(
+        s.features().names(),
+        [
+            "diffuse",
+            "metal",
+            "rough_metal",
+            "glass",
+            "emission",
+            "triangles"
+        ]
+    );
 
     // Textures count on diffuse and metal, not on glass.
     let mut textured = white.clone();
     textured.albedo_texture = Some(0);
     let mut tinted_glass = glass;
     tinted_glass.albedo_texture = Some(0);
-    assert!(with(vec![textured], vec![tri(0)]).features().contains(Feature::Textures));
-    assert!(!with(vec![tinted_glass], vec![tri(0)]).features().contains(Feature::Textures));
+    assert!(
+        with(vec![textured], vec![tri(0)])
+            .features()
+            .contains(Feature::Textures)
+    );
+    assert!(
+        !with(vec![tinted_glass], vec![tri(0)])
+            .features()
+            .contains(Feature::Textures)
+    );
 
     // Shading normals, spheres, environments, bloom.
     let mut s = with(vec![white], vec![tri(0)]);
@@ -187,22 +319,41 @@ fn features_follow_the_materials_that_are_used() {
     s.triangles[0].normals = Some([Vec3::Z; 3]);
     assert!(s.features().contains(Feature::ShadingNormals));
     assert!(!s.features().contains(Feature::Spheres));
-    s.spheres.push(Sphere { center: Vec3::ZERO, radius: 1.0, material: 0 });
+    s.spheres.push(Sphere {
+        center: Vec3::ZERO,
+        radius: 1.0,
+        material: 0,
+    });
     assert!(s.features().contains(Feature::Spheres));
     s.triangles.clear();
     assert!(!s.features().contains(Feature::Triangles));
     s.environment = Environment::Constant(Vec3::ZERO);
-    assert!(!s.features().contains(Feature::ConstantEnvironment), "a black constant is no environment");
+    assert!(
+        !s.features().contains(Feature::ConstantEnvironment),
+        "a black constant is no environment"
+    );
     s.environment = Environment::Constant(Vec3::ONE);
     assert!(s.features().contains(Feature::ConstantEnvironment));
     s.environment = Environment::Map {
-        image: Texture { name: "e".into(), width: 1, height: 1, texels: vec![[1.0; 3]] },
+        image: Texture {
+            name: "e".into(),
+            width: 1,
+            height: 1,
+            texels: vec![[1.0; 3]],
+        },
         strength: 1.0,
         rotation: 0.0,
     };
-    assert!(s.features().contains(Feature::EnvironmentMap) && !s.features().contains(Feature::ConstantEnvironment));
+    assert!(
+        s.features().contains(Feature::EnvironmentMap)
+            && !s.features().contains(Feature::ConstantEnvironment)
+    );
     assert!(!s.features().contains(Feature::Bloom));
-    s.post.bloom = Some(Bloom { threshold: 1.0, radius: 4, strength: 0.5 });
+    s.post.bloom = Some(Bloom {
+        threshold: 1.0,
+        radius: 4,
+        strength: 0.5,
+    });
     assert!(s.features().contains(Feature::Bloom));
 }
 
@@ -212,11 +363,16 @@ fn features_of_loaded_scenes() {
     let d = std::env::temp_dir().join(format!("raylume-scene-features-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
     let hdr = image::Rgb32FImage::from_pixel(2, 1, image::Rgb([1.0, 1.0, 1.0]));
-    image::DynamicImage::ImageRgb32F(hdr).save(d.join("sky.hdr")).unwrap();
+    image::DynamicImage::ImageRgb32F(hdr)
+        .save(d.join("sky.hdr"))
+        .unwrap();
     let text = "[environment]\nmap = \"sky.hdr\"\n[materials.g]\ntype = \"glass\"\n\
                 [[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"g\"\n\
                 [post.bloom]\nthreshold = 1\nradius = 2\nstrength = 0.5\n";
     let s = Scene::from_toml_str(text, &d, "f.toml").unwrap();
     std::fs::remove_dir_all(&d).unwrap();
-    assert_eq!(s.features().names(), ["glass", "spheres", "environment_map", "bloom"]);
+    assert_eq!(
+        s.features().names(),
+        ["glass", "spheres", "environment_map", "bloom"]
+    );
 }

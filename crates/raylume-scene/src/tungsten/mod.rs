@@ -240,7 +240,7 @@ impl<'a> Tungsten<'a> {
                 return Err(pw.j().unsupported("textured power on a primitive"));
             }
             let a = area();
-            if !(a > 0.0) {
+            if a.is_nan() || a <= 0.0 {
                 return Err(SceneError::NonPositive {
                     file: self.file.into(),
                     at: pw.j().at(),
@@ -340,6 +340,12 @@ impl<'a> Tungsten<'a> {
                         None => return Err(p.invalid("infinite_sphere without `emission`")),
                     }
                 };
+                if m != DMat4::IDENTITY {
+                    ignored.push(format!(
+                        "{}.transform (environments are not rotated)",
+                        p.path
+                    ));
+                }
                 self.set_environment(b, env, p.path);
                 return Ok(());
             }

@@ -97,7 +97,8 @@ pub fn float_image(w: u32, h: u32, format: image::ImageFormat) -> Vec<u8> {
 
 pub fn encode(img: image::DynamicImage, format: image::ImageFormat) -> Vec<u8> {
     let mut bytes = Vec::new();
-    img.write_to(&mut std::io::Cursor::new(&mut bytes), format).unwrap();
+    img.write_to(&mut std::io::Cursor::new(&mut bytes), format)
+        .unwrap();
     bytes
 }
 
@@ -106,7 +107,11 @@ pub fn base64(data: &[u8]) -> String {
     const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut out = String::new();
     for chunk in data.chunks(3) {
-        let b = [chunk[0], *chunk.get(1).unwrap_or(&0), *chunk.get(2).unwrap_or(&0)];
+        let b = [
+            chunk[0],
+            *chunk.get(1).unwrap_or(&0),
+            *chunk.get(2).unwrap_or(&0),
+        ];
         let n = (u32::from(b[0]) << 16) | (u32::from(b[1]) << 8) | u32::from(b[2]);
         for i in 0..4 {
             if i <= chunk.len() {
@@ -122,11 +127,11 @@ pub fn base64(data: &[u8]) -> String {
 /// A GLB container around `json` and `bin`.
 pub fn glb(json: &str, bin: &[u8]) -> Vec<u8> {
     let mut j = json.as_bytes().to_vec();
-    while j.len() % 4 != 0 {
+    while !j.len().is_multiple_of(4) {
         j.push(b' ');
     }
     let mut b = bin.to_vec();
-    while b.len() % 4 != 0 {
+    while !b.len().is_multiple_of(4) {
         b.push(0);
     }
     let total = 12 + 8 + j.len() + if b.is_empty() { 0 } else { 8 + b.len() };
@@ -153,7 +158,7 @@ pub fn f32_bytes(v: &[f32]) -> Vec<u8> {
 /// Little-endian bytes of u16s, padded to 4 bytes.
 pub fn u16_bytes(v: &[u16]) -> Vec<u8> {
     let mut out: Vec<u8> = v.iter().flat_map(|x| x.to_le_bytes()).collect();
-    while out.len() % 4 != 0 {
+    while !out.len().is_multiple_of(4) {
         out.push(0);
     }
     out
