@@ -1,0 +1,29 @@
+use std::path::PathBuf;
+
+use thiserror::Error;
+
+/// Everything a render can fail with. Each variant wraps the crate that knows the details.
+#[derive(Debug, Error)]
+pub enum Error {
+    /// The scene file could not be loaded or is invalid.
+    #[error(transparent)]
+    Scene(#[from] raylume_scene::SceneError),
+    /// The BVH could not be built.
+    #[error(transparent)]
+    Bvh(#[from] raylume_bvh::BvhError),
+    /// A GPU failure outside the kernels (choosing an adapter, creating the device).
+    #[error(transparent)]
+    Gpu(#[from] raylume_gpu::GpuError),
+    /// The tracer failed (GPU errors during tracing, a scene too large for the adapter).
+    #[error(transparent)]
+    Kernels(#[from] raylume_kernels::KernelError),
+    /// Post-processing failed.
+    #[error(transparent)]
+    Post(#[from] raylume_post::PostError),
+    /// Settings that cannot render (zero sizes, absurd sizes, ...).
+    #[error("invalid render settings: {0}")]
+    Settings(String),
+    /// Writing the output failed; nothing was left at `path`.
+    #[error("cannot write {path}: {reason}")]
+    Output { path: PathBuf, reason: String },
+}

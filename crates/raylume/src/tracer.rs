@@ -1,0 +1,346 @@
+//! The batched tracer: backend choice, settings checks, BVH, kernels, post, stats.
+
+use std::path::Path;
+use std::time::Instant;
+
+use raylume_bvh::{BvhQuality, GpuBvh};
+use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, GpuError};
+use raylume_kernels::{CpuTracer, GpuTracer, Schedule, TraceOutput, TraceSettings};
+use raylume_scene::Scene;
+
+use crate::{Error, ImageFormat, RenderStats};
+
+/// Where rays are traced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Backend {
+    /// A hardware GPU if there is one (discrete first, Vulkan over GL), else the CPU. A
+    /// software Vulkan adapter (lavapipe) is not picked: raylume's own CPU path is faster.
+    #[default]
+    Auto,
+    /// The best GPU adapter, software adapters included; an error if there is none.
+    Gpu,
+    /// The Rust CPU path (rayon), the reference the GPU kernels mirror.
+    Cpu,
+}
+
+impl std::str::FromStr for Backend {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Backend::Auto),
+            "gpu" => Ok(Backend::Gpu),
+            "cpu" => Ok(Backend::Cpu),
+            _ => Err(format!("unknown backend `{s}`: use auto, gpu or cpu")),
+        }
+    }
+}
+
+/// Ray reordering between bounces (GPU only; the CPU path never sorts, as in the paper).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ReorderPolicy {
+    #[default]
+    Off,
+    On,
+    /// Decide per scene from measurement.
+    Auto,
+}
+
+impl std::str::FromStr for ReorderPolicy {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "off" => Ok(ReorderPolicy::Off),
+            "on" => Ok(ReorderPolicy::On),
+            "auto" => Ok(ReorderPolicy::Auto),
+            _ => Err(format!("unknown reorder policy `{s}`: use off, on or auto")),
+        }
+    }
+}
+
+/// Progress of a render, reported after every batch.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Progress {
+    /// Samples per pixel finished so far.
+    pub done_spp: u32,
+    /// Samples per pixel in total.
+    pub total_spp: u32,
+}
+
+/// The largest image side, and the most pixels, a render accepts: beyond that the HDR image
+/// alone (12 bytes a pixel) would not fit a GPU binding or sensible memory.
+pub const MAX_IMAGE_SIDE: u32 = 32_768;
+/// See [`MAX_IMAGE_SIDE`]: 2^27 pixels, 1.5 GiB of HDR radiance.
+pub const MAX_IMAGE_PIXELS: u64 = 1 << 27;
+/// The most samples per pixel one render accepts.
+pub const MAX_SPP: u32 = 1 << 20;
+/// The most bounces a path may take.
+pub const MAX_BOUNCES: u32 = 1024;
+
+/// A finished render: linear HDR radiance per pixel (after bloom, before tone mapping).
+#[derive(Clone, Debug)]
+pub struct Render {
+    pub width: u32,
+    pub height: u32,
+    /// Row-major, top row first, mean linear radiance per pixel.
+    pub pixels: Vec<[f32; 3]>,
+    pub stats: RenderStats,
+    /// How [`Render::save`] turns radiance into 8-bit sRGB.
+    pub tone: raylume_post::ToneMap,
+}
+
+impl Render {
+    /// Saves as `.png` (tone-mapped sRGB) or `.exr` (linear radiance), by extension. Nothing
+    /// is left at `path` if it fails.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<(), Error> {
+        let path = path.as_ref();
+        match ImageFormat::from_path(path)? {
+            ImageFormat::Png => {
+                crate::save_png(path, &self.pixels, self.width, self.height, &self.tone)
+            }
+            ImageFormat::Exr => crate::save_exr(path, &self.pixels, self.width, self.height),
+        }
+    }
+}
+
+type ProgressFn = Box<dyn FnMut(Progress) + Send>;
+
+/// The batched tracer. Configure the public fields, then call [`Tracer::render`]; a GPU
+/// context, once created, is kept for later renders.
+pub struct Tracer {
+    pub backend: Backend,
+    /// Samples per pixel per batch (the paper used 20). Reduced automatically to fit the
+    /// adapter's buffer limits.
+    pub batch_spp: u32,
+    /// Overrides the scene's seed.
+    pub seed: Option<u32>,
+    pub reorder: ReorderPolicy,
+    pub schedule: Schedule,
+    pub bvh_quality: BvhQuality,
+    /// Run the scene's bloom, if it has one (`--no-bloom` clears this).
+    pub bloom: bool,
+    /// Exposure, tone curve and encoding for `.png` output.
+    pub tone: raylume_post::ToneMap,
+    progress: Option<ProgressFn>,
+    gpu: Option<GpuContext>,
+}
+
+impl std::fmt::Debug for Tracer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Tracer")
+            .field("backend", &self.backend)
+            .field("batch_spp", &self.batch_spp)
+            .field("seed", &self.seed)
+            .field("reorder", &self.reorder)
+            .field("schedule", &self.schedule)
+            .field("bloom", &self.bloom)
+            .finish()
+    }
+}
+
+impl Tracer {
+    /// The paper's batch size: 20 samples per pixel per batch.
+    pub const DEFAULT_BATCH_SPP: u32 = 20;
+
+    pub fn new(backend: Backend) -> Self {
+        Self {
+            backend,
+            batch_spp: Self::DEFAULT_BATCH_SPP,
+            seed: None,
+            reorder: ReorderPolicy::Off,
+            schedule: Schedule::default(),
+            bvh_quality: BvhQuality::default(),
+            bloom: true,
+            tone: raylume_post::ToneMap::default(),
+            progress: None,
+            gpu: None,
+        }
+    }
+
+    /// Calls `f` after every batch.
+    pub fn on_progress(&mut self, f: impl FnMut(Progress) + Send + 'static) -> &mut Self {
+        self.progress = Some(Box::new(f));
+        self
+    }
+
+    /// Uses an existing GPU context (and its adapter) for GPU renders.
+    pub fn with_gpu_context(mut self, ctx: GpuContext) -> Self {
+        self.gpu = Some(ctx);
+        self
+    }
+
+    /// Checks the scene's render settings against what a render accepts.
+    pub fn check_settings(scene: &Scene) -> Result<(), Error> {
+        let r = &scene.render;
+        if r.width == 0 || r.height == 0 {
+            return Err(Error::Settings(format!(
+                "image size {}x{}: width and height must be at least 1",
+                r.width, r.height
+            )));
+        }
+        if r.width > MAX_IMAGE_SIDE
+            || r.height > MAX_IMAGE_SIDE
+            || u64::from(r.width) * u64::from(r.height) > MAX_IMAGE_PIXELS
+        {
+            return Err(Error::Settings(format!(
+                "image size {}x{} is too large: at most {MAX_IMAGE_SIDE} pixels a side and \
+                 {MAX_IMAGE_PIXELS} pixels in all",
+                r.width, r.height
+            )));
+        }
+        if r.spp == 0 || r.spp > MAX_SPP {
+            return Err(Error::Settings(format!(
+                "{} samples per pixel: use 1 to {MAX_SPP}",
+                r.spp
+            )));
+        }
+        if r.max_bounces > MAX_BOUNCES {
+            return Err(Error::Settings(format!(
+                "{} bounces: use 0 to {MAX_BOUNCES}",
+                r.max_bounces
+            )));
+        }
+        Ok(())
+    }
+
+    /// Picks the backend; returns the GPU context to use (None: CPU) and why.
+    fn choose_backend(&mut self) -> Result<(bool, String), Error> {
+        match self.backend {
+            Backend::Cpu => Ok((false, "requested".into())),
+            Backend::Gpu => {
+                if self.gpu.is_none() {
+                    self.gpu = Some(GpuContext::new(&ContextOptions {
+                        choice: AdapterChoice::Any,
+                        adapter_name: None,
+                    })?);
+                }
+                Ok((true, "requested".into()))
+            }
+            Backend::Auto => {
+                if self.gpu.as_ref().is_some_and(|g| !g.info.is_software) {
+                    return Ok((true, "a hardware GPU adapter was found".into()));
+                }
+                match GpuContext::new(&ContextOptions {
+                    choice: AdapterChoice::HardwareOnly,
+                    adapter_name: None,
+                }) {
+                    Ok(ctx) => {
+                        self.gpu = Some(ctx);
+                        Ok((true, "a hardware GPU adapter was found".into()))
+                    }
+                    Err(GpuError::NoAdapter { tried }) => Ok((
+                        false,
+                        format!("no hardware GPU adapter ({tried}); using the CPU"),
+                    )),
+                    Err(e) => Ok((
+                        false,
+                        format!("the GPU could not be used ({e}); using the CPU"),
+                    )),
+                }
+            }
+        }
+    }
+
+    /// Renders `scene` with its `[render]` settings (override them on a clone of the scene).
+    pub fn render(&mut self, scene: &Scene) -> Result<Render, Error> {
+        let t_total = Instant::now();
+        Self::check_settings(scene)?;
+        let (use_gpu, reason) = self.choose_backend()?;
+        let r = scene.render;
+        let settings = TraceSettings {
+            width: r.width,
+            height: r.height,
+            spp: r.spp,
+            max_bounces: r.max_bounces,
+            seed: self.seed.unwrap_or(r.seed),
+            batch_spp: self.batch_spp.clamp(1, r.spp),
+            schedule: self.schedule,
+        };
+        let mut stats = RenderStats {
+            backend: if use_gpu { "gpu" } else { "cpu" }.into(),
+            backend_reason: reason,
+            width: r.width,
+            height: r.height,
+            spp: r.spp,
+            max_bounces: r.max_bounces,
+            batch_spp: settings.batch_spp,
+            seed: settings.seed,
+            triangles: scene.triangles.len(),
+            spheres: scene.spheres.len(),
+            features: scene.features().names(),
+            schedule: format!("{:?}", self.schedule).to_lowercase(),
+            reorder: match self.reorder {
+                ReorderPolicy::Off => "off".into(),
+                p => format!("{p:?} requested; not implemented yet, ran off").to_lowercase(),
+            },
+            ..Default::default()
+        };
+
+        let t = Instant::now();
+        let bvh = GpuBvh::from_scene(scene, self.bvh_quality)?;
+        stats.seconds.bvh = t.elapsed().as_secs_f64();
+        stats.bvh_nodes = bvh.nodes.len();
+
+        let mut progress = self.progress.take();
+        let mut report = |done: u32, total: u32| {
+            if let Some(p) = progress.as_mut() {
+                p(Progress {
+                    done_spp: done,
+                    total_spp: total,
+                });
+            }
+        };
+        let result = if use_gpu {
+            let ctx = self.gpu.as_ref().expect("chosen above");
+            stats.adapter = ctx.describe();
+            let t = Instant::now();
+            let mut tracer = GpuTracer::new(ctx, scene, &bvh)?;
+            stats.seconds.upload = t.elapsed().as_secs_f64();
+            tracer.render(&settings, &mut report)
+        } else {
+            stats.adapter = format!("CPU, {} threads", rayon::current_num_threads());
+            let mut tracer = CpuTracer::new(scene, &bvh)?;
+            tracer.render(&settings, &mut report)
+        };
+        self.progress = progress;
+        let out: TraceOutput = result?;
+
+        let mut pixels = out.radiance;
+        stats.rays_traced = out.rays_traced;
+        stats.dropped_samples = out.dropped_samples;
+        for (name, secs) in &out.timings {
+            match *name {
+                "trace" => stats.seconds.trace = *secs,
+                "sort" => stats.seconds.sort = *secs,
+                _ => {}
+            }
+            stats.kernel_seconds.push((name.to_string(), *secs));
+        }
+
+        let t = Instant::now();
+        if let (true, Some(b)) = (self.bloom, scene.post.bloom) {
+            let params = raylume_post::BloomParams {
+                threshold: b.threshold,
+                radius: b.radius,
+                strength: b.strength,
+            };
+            match (use_gpu, self.gpu.as_ref()) {
+                (true, Some(ctx)) => {
+                    pixels = raylume_post::bloom_gpu(ctx, &pixels, r.width, r.height, params)?;
+                }
+                _ => raylume_post::bloom_cpu(&mut pixels, r.width, r.height, params)?,
+            }
+        }
+        stats.seconds.post = t.elapsed().as_secs_f64();
+        stats.seconds.total = t_total.elapsed().as_secs_f64();
+        if stats.seconds.trace > 0.0 {
+            stats.mrays_per_s = stats.rays_traced as f64 / stats.seconds.trace / 1e6;
+        }
+        Ok(Render {
+            width: r.width,
+            height: r.height,
+            pixels,
+            stats,
+            tone: self.tone,
+        })
+    }
+}

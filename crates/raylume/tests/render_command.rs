@@ -1,0 +1,336 @@
+//! The `render` example is the command users run: its flags, its `--stats` JSON and its error
+//! paths. Cargo builds examples before integration tests, so the binary sits in
+//! `target/<profile>/examples/` beside this test's `deps/` folder.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn render_exe() -> PathBuf {
+    let exe = std::env::current_exe().expect("test binary path");
+    let profile_dir = exe
+        .parent()
+        .and_then(Path::parent)
+        .expect("target/<profile>");
+    let p = profile_dir
+        .join("examples")
+        .join(format!("render{}", std::env::consts::EXE_SUFFIX));
+    assert!(
+        p.exists(),
+        "{} not built; run through `cargo test`",
+        p.display()
+    );
+    p
+}
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(render_exe())
+        .args(args)
+        .current_dir(repo())
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .output()
+        .expect("run render")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("raylume-cli-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// Every key the issue names is present, with values that follow from the flags and scene.
+fn check_stats(v: &serde_json::Value, backend: &str) {
+    assert_eq!(v["backend"], backend);
+    assert!(v["adapter"].as_str().is_some_and(|s| !s.is_empty()));
+    assert_eq!(v["width"], 24);
+    assert_eq!(v["height"], 16);
+    assert_eq!(v["spp"], 3);
+    assert_eq!(v["max_bounces"], 2);
+    assert_eq!(v["triangles"], 36);
+    let features: Vec<&str> = v["features"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f.as_str().unwrap())
+        .collect();
+    assert!(
+        features.contains(&"diffuse") && features.contains(&"emission"),
+        "{features:?}"
+    );
+    assert!(
+        !features.contains(&"glass"),
+        "the Cornell box has no glass: {features:?}"
+    );
+    // Every camera ray is traced, and no path traces more than 1 + max_bounces rays.
+    let rays = v["rays_traced"].as_u64().unwrap();
+    let samples = 24 * 16 * 3;
+    assert!(rays >= samples && rays <= samples * 3, "{rays}");
+    let s = &v["seconds"];
+    for k in ["load", "bvh", "upload", "trace", "sort", "post", "total"] {
+        let t = s[k]
+            .as_f64()
+            .unwrap_or_else(|| panic!("seconds.{k} missing"));
+        assert!(t >= 0.0, "seconds.{k} = {t}");
+    }
+    assert!(s["trace"].as_f64().unwrap() > 0.0);
+    assert!(s["total"].as_f64().unwrap() >= s["trace"].as_f64().unwrap());
+    let mrays = v["mrays_per_s"].as_f64().unwrap();
+    let expect = rays as f64 / s["trace"].as_f64().unwrap() / 1e6;
+    assert!(
+        (mrays - expect).abs() <= 1e-9 * expect.max(1.0),
+        "{mrays} vs {expect}"
+    );
+}
+
+const SMALL: [&str; 8] = [
+    "--size",
+    "24x16",
+    "--spp",
+    "3",
+    "--bounces",
+    "2",
+    "-q",
+    "--seed",
+];
+
+#[test]
+fn cpu_render_writes_png_and_stats() {
+    let d = tmp("cpu");
+    let (png, stats) = (d.join("out.png"), d.join("stats.json"));
+    let mut args = vec![
+        "scenes/cornell-box.toml",
+        "-o",
+        png.to_str().unwrap(),
+        "--backend",
+        "cpu",
+    ];
+    args.extend(SMALL);
+    args.extend(["7", "--stats", stats.to_str().unwrap()]);
+    let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("on CPU"),
+        "says which backend: {}",
+        stderr(&o)
+    );
+    let img = image::open(&png).unwrap();
+    assert_eq!((img.width(), img.height()), (24, 16));
+    check_stats(&json(&stats), "cpu");
+}
+
+#[test]
+fn gpu_render_writes_exr_and_stats() {
+    if raylume_gpu::testing::context_or_skip("gpu_render_writes_exr_and_stats").is_none() {
+        return;
+    }
+    let d = tmp("gpu");
+    let (exr, stats) = (d.join("out.exr"), d.join("stats.json"));
+    let mut args = vec![
+        "scenes/cornell-box.toml",
+        "-o",
+        exr.to_str().unwrap(),
+        "--backend",
+        "gpu",
+    ];
+    args.extend(SMALL);
+    args.extend(["7", "--stats", stats.to_str().unwrap()]);
+    let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("on GPU"), "{}", stderr(&o));
+    let img = image::open(&exr).unwrap().into_rgb32f();
+    assert_eq!(img.dimensions(), (24, 16));
+    // Linear radiance: the light's own pixels exceed 1 (its emission is 17, 12, 4); a PNG
+    // could not hold that.
+    assert!(
+        img.pixels().any(|p| p[0] > 1.0),
+        "EXR keeps radiance above 1"
+    );
+    check_stats(&json(&stats), "gpu");
+}
+
+/// Runs a failing command and checks its message, its exit code and that no file was left.
+fn check_failure(args: &[&str], out: &Path, message_parts: &[&str]) {
+    let o = run(args);
+    assert!(!o.status.success(), "should fail: {args:?}");
+    let err = stderr(&o);
+    for part in message_parts {
+        assert!(err.contains(part), "message lacks `{part}`: {err}");
+    }
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!out.exists(), "{} left behind", out.display());
+}
+
+#[test]
+fn missing_scene_file_is_named() {
+    let out = tmp("missing").join("out.png");
+    check_failure(
+        &["scenes/no-such-scene.toml", "-o", out.to_str().unwrap()],
+        &out,
+        &["no-such-scene.toml"],
+    );
+}
+
+#[test]
+fn bad_flags_are_rejected() {
+    let out = tmp("flags").join("out.png");
+    let o = out.to_str().unwrap();
+    check_failure(
+        &["scenes/cornell-box.toml", "-o", o, "--frobnicate"],
+        &out,
+        &["--frobnicate"],
+    );
+    check_failure(
+        &["scenes/cornell-box.toml", "-o", o, "--backend", "tpu"],
+        &out,
+        &["tpu"],
+    );
+    check_failure(
+        &["scenes/cornell-box.toml", "-o", o, "--size", "12by12"],
+        &out,
+        &["12by12"],
+    );
+    check_failure(
+        &["scenes/cornell-box.toml", "-o", o, "--spp", "-3"],
+        &out,
+        &["-3"],
+    );
+    check_failure(
+        &["scenes/cornell-box.toml", "-o", o, "--reorder", "sometimes"],
+        &out,
+        &["sometimes"],
+    );
+}
+
+#[test]
+fn absurd_sizes_are_rejected_before_rendering() {
+    let out = tmp("sizes").join("out.png");
+    let o = out.to_str().unwrap();
+    check_failure(
+        &[
+            "scenes/cornell-box.toml",
+            "-o",
+            o,
+            "--size",
+            "0x0",
+            "--backend",
+            "cpu",
+        ],
+        &out,
+        &["0x0"],
+    );
+    check_failure(
+        &[
+            "scenes/cornell-box.toml",
+            "-o",
+            o,
+            "--size",
+            "100000x100000",
+            "--backend",
+            "cpu",
+        ],
+        &out,
+        &["100000x100000", "too large"],
+    );
+    check_failure(
+        &[
+            "scenes/cornell-box.toml",
+            "-o",
+            o,
+            "--spp",
+            "0",
+            "--backend",
+            "cpu",
+        ],
+        &out,
+        &["0 samples"],
+    );
+}
+
+#[test]
+fn unwritable_outputs_fail_before_rendering() {
+    let d = tmp("unwritable");
+    let missing_dir = d.join("no/such/folder/out.png");
+    check_failure(
+        &[
+            "scenes/cornell-box.toml",
+            "-o",
+            missing_dir.to_str().unwrap(),
+            "--backend",
+            "cpu",
+        ],
+        &missing_dir,
+        &["does not exist"],
+    );
+    let wrong_ext = d.join("out.bmp");
+    check_failure(
+        &[
+            "scenes/cornell-box.toml",
+            "-o",
+            wrong_ext.to_str().unwrap(),
+            "--backend",
+            "cpu",
+        ],
+        &wrong_ext,
+        &[".png or .exr"],
+    );
+    // The output path is an existing directory: the final rename fails, nothing is left
+    // behind (no temporary file either).
+    let dir_as_file = d.join("taken.png");
+    std::fs::create_dir_all(&dir_as_file).unwrap();
+    let o = run(&[
+        "scenes/cornell-box.toml",
+        "-o",
+        dir_as_file.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--size",
+        "8x8",
+        "--spp",
+        "1",
+        "-q",
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("taken.png"), "{}", stderr(&o));
+    let leftovers: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().contains("raylume-tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+}
+
+#[test]
+fn invalid_scene_leaves_no_output() {
+    let d = tmp("invalid");
+    let scene = d.join("bad.toml");
+    std::fs::write(
+        &scene,
+        "[camera]\nposition = [0.0, 1.0, nan]\nlook_at = [0.0, 0.0, 0.0]\nvfov = 40.0\n\n\
+         [materials.white]\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n\n\
+         [[sphere]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"white\"\n",
+    )
+    .unwrap();
+    let out = d.join("out.png");
+    check_failure(
+        &[
+            scene.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--backend",
+            "cpu",
+        ],
+        &out,
+        &["bad.toml"],
+    );
+}

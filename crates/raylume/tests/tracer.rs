@@ -1,0 +1,131 @@
+//! The facade's contract: backend choice, progress, bloom only when asked, output files.
+
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+
+use raylume::{Backend, Progress, Scene, Tracer};
+use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext};
+
+fn cornell(w: u32, h: u32, spp: u32) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box.toml");
+    let mut s = Scene::load(path).unwrap();
+    s.render.width = w;
+    s.render.height = h;
+    s.render.spp = spp;
+    s.render.max_bounces = 3;
+    s
+}
+
+#[test]
+fn auto_picks_a_hardware_gpu_or_says_why_it_did_not() {
+    let hardware = GpuContext::new(&ContextOptions {
+        choice: AdapterChoice::HardwareOnly,
+        adapter_name: None,
+    })
+    .is_ok();
+    let r = Tracer::new(Backend::Auto)
+        .render(&cornell(8, 8, 1))
+        .unwrap();
+    if hardware {
+        assert_eq!(r.stats.backend, "gpu");
+    } else {
+        assert_eq!(r.stats.backend, "cpu");
+        assert!(
+            r.stats.backend_reason.contains("no hardware GPU"),
+            "{}",
+            r.stats.backend_reason
+        );
+    }
+}
+
+#[test]
+fn progress_reports_every_batch_up_to_the_total() {
+    let seen: Arc<Mutex<Vec<Progress>>> = Arc::default();
+    let mut t = Tracer::new(Backend::Cpu);
+    t.batch_spp = 2;
+    let s = seen.clone();
+    t.on_progress(move |p| s.lock().unwrap().push(p));
+    t.render(&cornell(8, 8, 5)).unwrap();
+    let seen = seen.lock().unwrap();
+    let done: Vec<u32> = seen.iter().map(|p| p.done_spp).collect();
+    assert_eq!(done, vec![2, 4, 5], "batches of 2 spp up to 5");
+    assert!(seen.iter().all(|p| p.total_spp == 5));
+}
+
+#[test]
+fn seed_changes_the_noise_and_is_reproducible() {
+    let scene = cornell(16, 16, 2);
+    let mut t = Tracer::new(Backend::Cpu);
+    t.seed = Some(1);
+    let a = t.render(&scene).unwrap().pixels;
+    let b = t.render(&scene).unwrap().pixels;
+    t.seed = Some(2);
+    let c = t.render(&scene).unwrap().pixels;
+    assert_eq!(a, b, "same seed, same image, bit for bit");
+    assert_ne!(a, c, "another seed, other paths");
+}
+
+#[test]
+fn bloom_runs_only_when_the_scene_asks_and_the_flag_allows() {
+    let mut scene = cornell(16, 16, 2);
+    let mut t = Tracer::new(Backend::Cpu);
+    let plain = t.render(&scene).unwrap();
+    scene.post.bloom = Some(raylume_scene::Bloom {
+        threshold: 1.0,
+        radius: 2,
+        strength: 0.5,
+    });
+    let bloomed = t.render(&scene).unwrap();
+    assert_ne!(
+        plain.pixels, bloomed.pixels,
+        "the light blooms onto the ceiling"
+    );
+    // Bloom only adds light.
+    for (p, b) in plain.pixels.iter().zip(&bloomed.pixels) {
+        for c in 0..3 {
+            assert!(b[c] >= p[c]);
+        }
+    }
+    t.bloom = false;
+    assert_eq!(t.render(&scene).unwrap().pixels, plain.pixels, "--no-bloom");
+}
+
+#[test]
+fn exr_holds_the_linear_radiance_exactly() {
+    let r = Tracer::new(Backend::Cpu)
+        .render(&cornell(12, 10, 2))
+        .unwrap();
+    let dir = std::env::temp_dir().join(format!("raylume-facade-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join("img.exr");
+    r.save(&p).unwrap();
+    let back = image::open(&p).unwrap().into_rgb32f();
+    assert_eq!(back.dimensions(), (12, 10));
+    for (a, b) in back.pixels().zip(&r.pixels) {
+        assert_eq!([a[0], a[1], a[2]], *b, "32-bit float EXR is lossless");
+    }
+    let png = dir.join("img.png");
+    r.save(&png).unwrap();
+    assert_eq!(image::open(&png).unwrap().width(), 12);
+    assert!(r.save(dir.join("img.tiff")).is_err());
+}
+
+#[test]
+fn gpu_and_cpu_facades_agree() {
+    let Some(ctx) = raylume_gpu::testing::context_or_skip("gpu_and_cpu_facades_agree") else {
+        return;
+    };
+    let _ = ctx;
+    let scene = cornell(16, 16, 2);
+    let cpu = Tracer::new(Backend::Cpu).render(&scene).unwrap();
+    let gpu = Tracer::new(Backend::Gpu).render(&scene).unwrap();
+    assert_eq!(gpu.stats.backend, "gpu");
+    assert_eq!(
+        cpu.stats.rays_traced, gpu.stats.rays_traced,
+        "the same paths, ray for ray"
+    );
+    let rel = raylume_post::relative_mse(&gpu.pixels, &cpu.pixels).unwrap();
+    // Same random numbers, same functions: only float rounding (FMA contraction on the GPU)
+    // separates them, far below the noise of 2 spp.
+    assert!(rel < 1e-6, "relative MSE {rel}");
+}

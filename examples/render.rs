@@ -1,0 +1,236 @@
+//! Renders a scene file to an image: the command a user runs.
+//!
+//! ```text
+//! cargo run --release --example render -- scenes/cornell-box.toml -o cornell.png
+//! ```
+//! GPU if a hardware adapter is present, else the CPU (it says which). Flags override the
+//! scene's `[render]` values. On any error: a message, a non-zero exit, no output file.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use clap::Parser;
+use raylume::{Backend, ReorderPolicy, Scene, Schedule, Tracer};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "render",
+    about = "Render a raylume scene (.toml, .obj, .gltf/.glb, Tungsten scene.json) to .png or .exr"
+)]
+struct Args {
+    /// Scene file: .toml, .obj, .gltf, .glb or a Tungsten scene.json.
+    scene: PathBuf,
+    /// Output image: .png (tone-mapped sRGB) or .exr (linear radiance).
+    #[arg(short = 'o', long = "output")]
+    output: PathBuf,
+    /// auto (hardware GPU, else CPU), gpu (any adapter, software included) or cpu.
+    #[arg(long, default_value = "auto")]
+    backend: Backend,
+    /// Samples per pixel.
+    #[arg(long)]
+    spp: Option<u32>,
+    /// Maximum bounces per path.
+    #[arg(long)]
+    bounces: Option<u32>,
+    /// Image size as WIDTHxHEIGHT, e.g. 1000x1000.
+    #[arg(long, value_parser = parse_size)]
+    size: Option<(u32, u32)>,
+    /// Random seed.
+    #[arg(long)]
+    seed: Option<u32>,
+    /// Samples per pixel per batch (default 20, the paper's).
+    #[arg(long)]
+    batch_spp: Option<u32>,
+    /// Ray reordering between bounces: off, on or auto.
+    #[arg(long, default_value = "off")]
+    reorder: ReorderPolicy,
+    /// GPU schedule: megakernel (bounces in registers) or wavefront (the paper's kernels).
+    #[arg(long, value_parser = parse_schedule)]
+    schedule: Option<Schedule>,
+    /// Skip the scene's bloom pass.
+    #[arg(long)]
+    no_bloom: bool,
+    /// Write render statistics as JSON to this file.
+    #[arg(long)]
+    stats: Option<PathBuf>,
+    /// Exposure in stops for .png output.
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    exposure: f32,
+    /// No progress bar.
+    #[arg(long, short = 'q')]
+    quiet: bool,
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("`{s}` is not WIDTHxHEIGHT (e.g. 1000x1000)"))?;
+    let w: u32 = w
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad width in `{s}`"))?;
+    let h: u32 = h
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad height in `{s}`"))?;
+    Ok((w, h))
+}
+
+fn parse_schedule(s: &str) -> Result<Schedule, String> {
+    match s {
+        "megakernel" => Ok(Schedule::Megakernel),
+        "wavefront" => Ok(Schedule::Wavefront),
+        _ => Err(format!(
+            "unknown schedule `{s}`: use megakernel or wavefront"
+        )),
+    }
+}
+
+/// Fails early, before any rendering, if an output path cannot be written.
+fn check_output_path(path: &Path, what: &str, allowed: &[&str]) -> Result<(), String> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        .unwrap_or_default();
+    if !allowed.contains(&ext.as_str()) {
+        return Err(format!(
+            "{what} {}: use a file name ending in {}",
+            path.display(),
+            allowed
+                .iter()
+                .map(|e| format!(".{e}"))
+                .collect::<Vec<_>>()
+                .join(" or ")
+        ));
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(format!(
+            "{what} {}: the folder {} does not exist",
+            path.display(),
+            dir.display()
+        ));
+    }
+    let meta = std::fs::metadata(dir).map_err(|e| format!("{what} {}: {e}", path.display()))?;
+    if meta.permissions().readonly() {
+        return Err(format!(
+            "{what} {}: the folder {} is read-only",
+            path.display(),
+            dir.display()
+        ));
+    }
+    Ok(())
+}
+
+fn run(args: Args) -> Result<(), String> {
+    check_output_path(&args.output, "output", &["png", "exr"])?;
+    if let Some(s) = &args.stats {
+        check_output_path(s, "stats file", &["json"])?;
+    }
+
+    let t_load = Instant::now();
+    let mut scene = Scene::load(&args.scene).map_err(|e| e.to_string())?;
+    let load_s = t_load.elapsed().as_secs_f64();
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    if let Some((w, h)) = args.size {
+        scene.render.width = w;
+        scene.render.height = h;
+    }
+    if let Some(spp) = args.spp {
+        scene.render.spp = spp;
+    }
+    if let Some(b) = args.bounces {
+        scene.render.max_bounces = b;
+    }
+
+    let mut tracer = Tracer::new(args.backend);
+    tracer.seed = args.seed;
+    tracer.reorder = args.reorder;
+    tracer.bloom = !args.no_bloom;
+    tracer.tone.exposure = args.exposure;
+    if let Some(b) = args.batch_spp {
+        tracer.batch_spp = b;
+    }
+    if let Some(s) = args.schedule {
+        tracer.schedule = s;
+    }
+    let bar = if args.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        let bar = indicatif::ProgressBar::new(u64::from(scene.render.spp));
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} spp ({eta} left)",
+            )
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        bar
+    };
+    let bar_cb = bar.clone();
+    tracer.on_progress(move |p| {
+        bar_cb.set_length(u64::from(p.total_spp));
+        bar_cb.set_position(u64::from(p.done_spp));
+    });
+    let mut render = tracer.render(&scene).map_err(|e| e.to_string())?;
+    bar.finish_and_clear();
+    render.stats.seconds.load = load_s;
+    render.stats.seconds.total += load_s;
+
+    let s = &render.stats;
+    eprintln!(
+        "raylume: rendered {} ({}x{}, {} spp, {} bounces) on {} [{}]: {} ({})",
+        args.scene.display(),
+        s.width,
+        s.height,
+        s.spp,
+        s.max_bounces,
+        s.backend.to_uppercase(),
+        s.adapter,
+        s.backend_reason,
+        s.reorder
+    );
+    eprintln!(
+        "raylume: trace {:.3} s, {:.1} Mrays/s, total {:.3} s (load {:.3}, bvh {:.3}, upload {:.3}, post {:.3})",
+        s.seconds.trace,
+        s.mrays_per_s,
+        s.seconds.total,
+        s.seconds.load,
+        s.seconds.bvh,
+        s.seconds.upload,
+        s.seconds.post
+    );
+    if s.dropped_samples > 0 {
+        eprintln!(
+            "warning: {} samples had non-finite radiance and were dropped",
+            s.dropped_samples
+        );
+    }
+
+    render.save(&args.output).map_err(|e| e.to_string())?;
+    if let Some(path) = &args.stats {
+        if let Err(e) = std::fs::write(path, render.stats.to_json()) {
+            let _ = std::fs::remove_file(&args.output);
+            return Err(format!("cannot write stats file {}: {e}", path.display()));
+        }
+    }
+    eprintln!("raylume: wrote {}", args.output.display());
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let args = Args::parse();
+    match run(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
