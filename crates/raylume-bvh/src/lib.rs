@@ -13,9 +13,12 @@
 //!   their parents, and the primitives copied out in leaf order as 48-byte [`Primitive`]s.
 //! - [`GpuBvh::validate`]: every invariant the traversal relies on; tests call it after every
 //!   build.
-//! - [`traverse`]: the CPU traversal of that layout ([`trace_closest`], [`trace_any`],
-//!   [`intersect_aabb`], [`intersect_triangle`], [`intersect_sphere`]), the reference for
-//!   [`TRAVERSE_WGSL`], the same functions in WGSL.
+//! - [`traverse`]: the CPU traversal of that layout ([`trace_closest`], [`trace_any`]: explicit
+//!   fixed-size stack, nearer child first), over the tests in [`intersect`]
+//!   ([`intersect_aabb`], a NaN-safe, rounding-conservative slab test after Ize, JCGT 2013;
+//!   [`intersect_triangle`], watertight after Woop, Benthin & Wald, JCGT 2013;
+//!   [`intersect_sphere`]). They are the reference for [`TRAVERSE_WGSL`], the same functions
+//!   in WGSL, bit-identical on lavapipe.
 //!
 //! ```
 //! use glam::Vec3;
@@ -53,6 +56,7 @@ mod stats;
 mod validate;
 
 pub mod gpu_types;
+pub mod intersect;
 pub mod traverse;
 
 pub use error::BvhError;
@@ -60,12 +64,13 @@ pub use gpu_bvh::GpuBvh;
 pub use gpu_types::{
     BvhNode, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE, PRIM_TRIANGLE, Primitive,
 };
+pub use intersect::{
+    AABB_T_FAR_SCALE, Ray, ShearedRay, T_MISS, intersect_aabb, intersect_primitive,
+    intersect_sphere, intersect_triangle, shear_ray,
+};
 pub use quality::BvhQuality;
 pub use stats::{BvhStats, Fallback, SAH_NODE_COST, SAH_PRIMITIVE_COST};
-pub use traverse::{
-    AABB_T_FAR_SCALE, Hit, Ray, ShearedRay, T_MAX_LIMIT, T_MISS, intersect_aabb,
-    intersect_primitive, intersect_sphere, intersect_triangle, shear_ray, trace_any, trace_closest,
-};
+pub use traverse::{Hit, T_MAX_LIMIT, trace_any, trace_closest};
 
 /// The WGSL of [`traverse`]: the structs [`BvhNode`], [`Primitive`], `Hit`, `Ray`, the
 /// constants (`INVALID_INDEX`, `MAX_STACK_DEPTH`, `PRIM_TRIANGLE`, `PRIM_SPHERE`, `T_MISS`,
@@ -83,4 +88,10 @@ pub use traverse::{
 ///
 /// (any group and binding numbers), filled with [`GpuBvh::nodes`] and [`GpuBvh::primitives`].
 /// `trace_closest(ray, t_min, t_max) -> Hit` reports a miss as `prim == INVALID_INDEX`.
-pub const TRAVERSE_WGSL: &str = include_str!("traverse.wgsl");
+pub const TRAVERSE_WGSL: &str = concat!(
+    include_str!("gpu_types.wgsl"),
+    "\n",
+    include_str!("intersect.wgsl"),
+    "\n",
+    include_str!("traverse.wgsl"),
+);

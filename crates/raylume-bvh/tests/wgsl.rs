@@ -1,0 +1,165 @@
+//! `TRAVERSE_WGSL` without a GPU: it parses and validates with naga (the compiler wgpu uses)
+//! inside a shader that declares the two globals it expects, its structs have the Rust
+//! layouts, its constants the Rust values, and it has every function the Rust side names.
+
+use std::mem::{offset_of, size_of};
+
+use raylume_bvh::{
+    AABB_T_FAR_SCALE, BvhNode, Hit, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE, PRIM_TRIANGLE,
+    Primitive, T_MAX_LIMIT, T_MISS, TRAVERSE_WGSL,
+};
+use raylume_gpu::wgpu::naga;
+
+/// The smallest shader that includes `TRAVERSE_WGSL` as its contract asks.
+const KERNEL: &str = r#"
+@group(0) @binding(0) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(1) var<storage, read> bvh_primitives: array<Primitive>;
+@group(0) @binding(2) var<storage, read_write> out: array<Hit>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let ray = Ray(vec3<f32>(f32(id.x), 0.0, 0.0), vec3<f32>(0.0, 0.0, 1.0));
+    var hit = trace_closest(ray, 0.0, 1e30);
+    if trace_any(ray, 0.0, 1e30) {
+        hit.u += 1.0;
+    }
+    out[id.x] = hit;
+}
+"#;
+
+fn parse() -> (naga::Module, String) {
+    let src = format!("{TRAVERSE_WGSL}\n{KERNEL}");
+    match naga::front::wgsl::parse_str(&src) {
+        Ok(m) => (m, src),
+        Err(e) => panic!("{}", e.emit_to_string(&src)),
+    }
+}
+
+#[test]
+fn traverse_wgsl_validates_inside_a_kernel() {
+    let (module, src) = parse();
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::empty(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)));
+    for f in [
+        "intersect_aabb",
+        "shear_ray",
+        "intersect_triangle",
+        "intersect_sphere",
+        "intersect_primitive",
+        "intersect_leaf_closest",
+        "intersect_leaf_any",
+        "trace_closest",
+        "trace_any",
+    ] {
+        assert!(
+            module
+                .functions
+                .iter()
+                .any(|(_, g)| g.name.as_deref() == Some(f)),
+            "TRAVERSE_WGSL has no function {f}"
+        );
+    }
+    // No bindings of its own: only the kernel's three globals exist.
+    let mut globals: Vec<_> = module
+        .global_variables
+        .iter()
+        .filter_map(|(_, g)| g.name.clone())
+        .collect();
+    globals.sort();
+    assert_eq!(globals, ["bvh_nodes", "bvh_primitives", "out"]);
+}
+
+#[test]
+fn structs_have_the_rust_layouts() {
+    let (module, _) = parse();
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).expect("layout");
+    let expected: [(&str, usize, Vec<(&str, usize)>); 3] = [
+        (
+            "BvhNode",
+            size_of::<BvhNode>(),
+            vec![
+                ("left_min", offset_of!(BvhNode, left_min)),
+                ("left_index", offset_of!(BvhNode, left_index)),
+                ("left_max", offset_of!(BvhNode, left_max)),
+                ("left_count", offset_of!(BvhNode, left_count)),
+                ("right_min", offset_of!(BvhNode, right_min)),
+                ("right_index", offset_of!(BvhNode, right_index)),
+                ("right_max", offset_of!(BvhNode, right_max)),
+                ("right_count", offset_of!(BvhNode, right_count)),
+            ],
+        ),
+        (
+            "Primitive",
+            size_of::<Primitive>(),
+            vec![
+                ("a", offset_of!(Primitive, a)),
+                ("b", offset_of!(Primitive, b)),
+                ("c", offset_of!(Primitive, c)),
+            ],
+        ),
+        (
+            "Hit",
+            size_of::<Hit>(),
+            vec![
+                ("t", offset_of!(Hit, t)),
+                ("prim", offset_of!(Hit, prim)),
+                ("u", offset_of!(Hit, u)),
+                ("v", offset_of!(Hit, v)),
+            ],
+        ),
+    ];
+    for (name, size, fields) in expected {
+        let (handle, ty) = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("WGSL has no struct {name}"));
+        let naga::TypeInner::Struct { members, span } = &ty.inner else {
+            panic!("{name} is not a struct in WGSL");
+        };
+        assert_eq!(*span as usize, size, "size of {name}");
+        assert_eq!(
+            layouter[handle].size as usize, size,
+            "layout size of {name}"
+        );
+        let wgsl: Vec<(&str, usize)> = members
+            .iter()
+            .map(|m| (m.name.as_deref().unwrap_or(""), m.offset as usize))
+            .collect();
+        assert_eq!(wgsl, fields, "members and offsets of {name}");
+    }
+}
+
+#[test]
+fn constants_have_the_rust_values() {
+    let (module, _) = parse();
+    let value = |name: &str| -> naga::Literal {
+        let (_, c) = module
+            .constants
+            .iter()
+            .find(|(_, c)| c.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("WGSL has no constant {name}"));
+        match module.global_expressions[c.init] {
+            naga::Expression::Literal(l) => l,
+            ref e => panic!("{name} is not a literal: {e:?}"),
+        }
+    };
+    assert_eq!(value("INVALID_INDEX"), naga::Literal::U32(INVALID_INDEX));
+    assert_eq!(
+        value("MAX_STACK_DEPTH"),
+        naga::Literal::U32(MAX_STACK_DEPTH as u32)
+    );
+    assert_eq!(value("PRIM_TRIANGLE"), naga::Literal::U32(PRIM_TRIANGLE));
+    assert_eq!(value("PRIM_SPHERE"), naga::Literal::U32(PRIM_SPHERE));
+    assert_eq!(value("T_MISS"), naga::Literal::F32(T_MISS));
+    assert_eq!(value("T_MAX_LIMIT"), naga::Literal::F32(T_MAX_LIMIT));
+    assert_eq!(
+        value("AABB_T_FAR_SCALE"),
+        naga::Literal::F32(AABB_T_FAR_SCALE)
+    );
+}
