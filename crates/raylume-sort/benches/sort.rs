@@ -9,9 +9,12 @@
 //! A plain binary: copy it from `target/release/deps/sort-*` and run `./sort-... --bench`.
 //! Environment:
 //! - `RAYLUME_SORT_BENCH_SIZES`: comma-separated pair counts (default `1048576,4194304,16777216`);
-//! - `RAYLUME_SORT_BENCH_VARIANTS`: any of `r8` (default options: 8-bit digits, 4 passes),
-//!   `r10` (10-bit digits, 3 passes), `r8-shared` (no subgroups), `r8-wg128`, `r8-i8`
-//!   (8 keys per thread) (default `r8,r10,r8-shared`);
+//! - `RAYLUME_SORT_BENCH_VARIANTS`: comma-separated variants `r{digit bits}` followed by any
+//!   of `-wg{threads}`, `-i{keys per thread}` (else the defaults), `-shared` (no subgroups),
+//!   `-indirect` (the length read from a GPU buffer, as the tracer does), `-sorted` (input
+//!   already sorted), and `+stages` at the end (each kernel timed in its own pass; the table
+//!   then lists the time per stage), e.g. `r8,r10,r8-shared,r8-wg128-i8,r8-indirect+stages`
+//!   (default `r8,r10,r8-shared`);
 //! - `RAYLUME_SORT_BENCH_CPU=0` skips the CPU reference.
 
 use std::time::{Duration, Instant};
@@ -28,26 +31,55 @@ fn sizes() -> Vec<u32> {
         .collect()
 }
 
-fn variants() -> Vec<(String, SortOptions)> {
-    let base = SortOptions::ray_keys();
+/// A variant: options, whether the length is indirect, whether the input is pre-sorted.
+type Variant = (String, SortOptions, bool, bool);
+
+fn variants() -> Vec<Variant> {
     std::env::var("RAYLUME_SORT_BENCH_VARIANTS")
         .unwrap_or_else(|_| "r8,r10,r8-shared".into())
         .split(',')
-        .filter_map(|name| {
-            let opts = match name.trim() {
-                "r8" => base,
-                "r10" => base.with_radix_bits(10),
-                "r8-shared" => base.with_subgroups(false),
-                "r8-wg128" => base.with_tile(128, 16),
-                "r8-i8" => base.with_tile(256, 8),
-                other => {
-                    eprintln!("unknown variant {other:?}, skipped");
-                    return None;
-                }
-            };
-            Some((name.trim().to_string(), opts))
+        .filter_map(|full| {
+            let full = full.trim();
+            let parsed = parse_variant(full);
+            if parsed.is_none() {
+                eprintln!("unknown variant {full:?}, skipped");
+            }
+            parsed
         })
         .collect()
+}
+
+/// `r{bits}` then any of `-wg{threads}`, `-i{keys per thread}`, `-shared`, `-indirect`,
+/// `-sorted`, `+stages`.
+fn parse_variant(full: &str) -> Option<Variant> {
+    let (name, stages) = match full.strip_suffix("+stages") {
+        Some(n) => (n, true),
+        None => (full, false),
+    };
+    let mut parts = name.split('-');
+    let bits: u32 = parts.next()?.strip_prefix('r')?.parse().ok()?;
+    let mut opts = SortOptions::ray_keys()
+        .with_radix_bits(bits)
+        .with_stage_timestamps(stages);
+    let (mut wg, mut items) = (None, None);
+    let (mut indirect, mut sorted) = (false, false);
+    for part in parts {
+        match part {
+            "shared" => opts = opts.with_subgroups(false),
+            "indirect" => indirect = true,
+            "sorted" => sorted = true,
+            p if p.starts_with("wg") => wg = Some(p[2..].parse().ok()?),
+            p if p.starts_with('i') => items = Some(p[1..].parse().ok()?),
+            _ => return None,
+        }
+    }
+    if let Some(i) = items {
+        opts.items_per_thread = i;
+    }
+    if wg.is_some() {
+        opts.workgroup_size = wg;
+    }
+    Some((full.to_string(), opts, indirect, sorted))
 }
 
 /// splitmix64 keys in the 30-bit range of ray keys.
@@ -70,6 +102,8 @@ struct Row {
     passes: u32,
     times: Vec<f64>,
     clock: &'static str,
+    /// Per stage label, the time of each run (stage timestamps only).
+    stages: Vec<(&'static str, Vec<f64>)>,
 }
 
 /// One sort of `n` pairs, restored from pristine copies first; returns the sort's GPU time.
@@ -81,7 +115,10 @@ struct GpuCase<'a> {
     src_values: wgpu::Buffer,
     keys: wgpu::Buffer,
     values: wgpu::Buffer,
+    /// Holds `n` when the length is read on the GPU.
+    count: Option<wgpu::Buffer>,
     timestamps: Option<Timestamps>,
+    stages: Vec<(&'static str, Vec<f64>)>,
 }
 
 impl GpuCase<'_> {
@@ -100,7 +137,13 @@ impl GpuCase<'_> {
                 &mut encoder,
                 &self.keys,
                 &self.values,
-                SortLen::Fixed(self.n),
+                match &self.count {
+                    Some(count_buffer) => SortLen::Indirect {
+                        count_buffer,
+                        offset: 0,
+                    },
+                    None => SortLen::Fixed(self.n),
+                },
                 self.timestamps.as_mut(),
             )
             .expect("encode");
@@ -110,7 +153,26 @@ impl GpuCase<'_> {
         let start = Instant::now();
         self.ctx.queue.submit([encoder.finish()]);
         match &mut self.timestamps {
-            Some(ts) => ts.read(self.ctx).expect("timestamps")[0].1,
+            Some(ts) => {
+                let times = ts.read(self.ctx).expect("timestamps");
+                // Sum per label over the passes of this run.
+                let mut per_label: Vec<(&'static str, f64)> = Vec::new();
+                for &(label, t) in &times {
+                    match per_label.iter_mut().find(|(l, _)| *l == label) {
+                        Some(e) => e.1 += t,
+                        None => per_label.push((label, t)),
+                    }
+                }
+                if times.len() > 1 {
+                    for (label, t) in per_label {
+                        match self.stages.iter_mut().find(|(l, _)| *l == label) {
+                            Some(e) => e.1.push(t),
+                            None => self.stages.push((label, vec![t])),
+                        }
+                    }
+                }
+                times.iter().map(|(_, t)| t).sum()
+            }
             None => {
                 self.ctx.wait("bench sort").expect("sort");
                 start.elapsed().as_secs_f64()
@@ -121,7 +183,7 @@ impl GpuCase<'_> {
 
 fn bench_gpu(c: &mut Criterion, ctx: &GpuContext, rows: &mut Vec<Row>) {
     let max = (ctx.max_binding_bytes() / 4) as u32;
-    for (name, opts) in variants() {
+    for (name, opts, indirect, presorted) in variants() {
         let mut group = c.benchmark_group(format!("gpu_sort/{name}"));
         group.sample_size(10);
         for n in sizes() {
@@ -138,7 +200,10 @@ fn bench_gpu(c: &mut Criterion, ctx: &GpuContext, rows: &mut Vec<Row>) {
             };
             eprintln!("{name}, {n} pairs: {:?}", sorter.plan());
             let passes = sorter.plan().passes;
-            let keys = random_keys(n, u64::from(n));
+            let mut keys = random_keys(n, u64::from(n));
+            if presorted {
+                keys.sort_unstable();
+            }
             let values: Vec<u32> = (0..n).collect();
             let copy = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
             let mut case = GpuCase {
@@ -150,7 +215,9 @@ fn bench_gpu(c: &mut Criterion, ctx: &GpuContext, rows: &mut Vec<Row>) {
                     .unwrap(),
                 keys: ctx.storage_buffer("bench keys", &keys, copy).unwrap(),
                 values: ctx.storage_buffer("bench values", &values, copy).unwrap(),
-                timestamps: Timestamps::new(ctx, 1),
+                count: indirect.then(|| ctx.storage_buffer("bench count", &[n], copy).unwrap()),
+                timestamps: Timestamps::new(ctx, 3 + 3 * passes),
+                stages: Vec::new(),
                 sorter,
             };
             // Once, checked, so that a broken sort is never timed.
@@ -184,6 +251,7 @@ fn bench_gpu(c: &mut Criterion, ctx: &GpuContext, rows: &mut Vec<Row>) {
                 passes,
                 times,
                 clock,
+                stages: std::mem::take(&mut case.stages),
             });
         }
         group.finish();
@@ -243,6 +311,13 @@ fn main() {
                 bytes / median * 1e-9,
                 r.clock
             );
+            for (label, times) in &mut r.stages {
+                times.sort_by(f64::total_cmp);
+                println!(
+                    "    {label:<16} median {:.3} ms (all passes)",
+                    times[times.len() / 2] * 1e3
+                );
+            }
         }
     }
 }

@@ -16,11 +16,10 @@ fn sort_copy(@builtin(workgroup_id) wg: vec3<u32>, @builtin(num_workgroups) nwg:
     }
     let start = tile * TILE;
     let valid = min(TILE, params.len - start);
-    for (var i = 0u; i < ITEMS; i++) {
-        let idx = i * WG + local_index;
-        if (idx < valid) {
-            keys_out[start + idx] = keys_in[start + idx];
-            vals_out[start + idx] = vals_in[start + idx];
-        }
+    //#unroll i ITEMS
+    if ({i}u * WG + local_index < valid) {
+        keys_out[start + {i}u * WG + local_index] = keys_in[start + {i}u * WG + local_index];
+        vals_out[start + {i}u * WG + local_index] = vals_in[start + {i}u * WG + local_index];
     }
+    //#end
 }

@@ -36,7 +36,15 @@ fn wg_exclusive_scan(x: u32) -> vec2<u32> {
     return vec2<u32>(incl - x, total);
 }
 
-/// In the upsweep: 1 for a key (d < RADIX), 0 for "no key"; every thread counts for itself.
-fn digit_leader_count(d: u32) -> u32 {
-    return select(0u, 1u, d < RADIX);
+/// Without subgroups every thread is its own group: never "agreeing" with others.
+fn lanes_agree(v: u32) -> bool {
+    return false;
+}
+
+fn lane_leads() -> bool {
+    return true;
+}
+
+fn lanes_active() -> u32 {
+    return 1u;
 }

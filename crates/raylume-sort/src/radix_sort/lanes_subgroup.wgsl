@@ -74,24 +74,17 @@ fn wg_exclusive_scan(x: u32) -> vec2<u32> {
     return vec2<u32>(before + incl - x, total);
 }
 
-/// The lanes of this subgroup whose `v` agrees with mine in the low `bits` bits (one ballot
-/// per bit: the "warp-level multi-split" of Onesweep). Uniform control flow only.
-fn match_peers(v: u32, bits: u32) -> LaneMask {
-    var peers = ballot(true);
-    for (var b = 0u; b < bits; b++) {
-        let bit = ((v >> b) & 1u) == 1u;
-        let bal = ballot(bit);
-        peers &= select(~bal, bal, bit);
-    }
-    return peers;
+/// True when every active lane of this subgroup holds the same `v`. Uniform control flow only.
+fn lanes_agree(v: u32) -> bool {
+    return subgroupAll(subgroupBroadcastFirst(v) == v);
 }
 
-/// In the upsweep: how many lanes of my subgroup share my digit `d` (0..=RADIX, RADIX meaning
-/// "no key") if I am the lowest of them, else 0. Uniform control flow only.
-fn digit_leader_count(d: u32) -> u32 {
-    let peers = match_peers(d, RADIX_BITS + 1u);
-    if (mask_count(peers & lt_mask) == 0u) {
-        return mask_count(peers);
-    }
-    return 0u;
+/// True for one lane of each subgroup.
+fn lane_leads() -> bool {
+    return sg_rank == 0u;
+}
+
+/// Active lanes in this subgroup.
+fn lanes_active() -> u32 {
+    return sg_lanes;
 }

@@ -261,7 +261,9 @@ impl RadixSorter {
     }
 
     /// Records the sort of the first `len` pairs of `keys` and `values` into `encoder`, as one
-    /// compute pass labelled `sort_keys` (timestamped when `timestamps` is given). The sorted
+    /// compute pass labelled `sort_keys` (timestamped when `timestamps` is given; with
+    /// [`SortOptions::stage_timestamps`], one pass and timestamp per kernel instead, labelled
+    /// by its entry point, `2 + 3 * passes` of them plus `sort_copy` after an odd count). The sorted
     /// pairs end up back in `keys` and `values` (after an odd number of passes a final
     /// `sort_copy` kernel moves them back from the scratch buffers).
     ///
@@ -404,32 +406,56 @@ impl RadixSorter {
             SortLen::Fixed(n) => Some(self.grid(n)),
             SortLen::Indirect { .. } => None,
         };
-        let dispatch_tiles = |pass: &mut wgpu::ComputePass<'_>| match grid {
-            Some((x, y)) => pass.dispatch_workgroups(x, y, 1),
-            None => pass.dispatch_workgroups_indirect(&self.dispatch_args, 0),
-        };
-        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("sort_keys"),
-            timestamp_writes: timestamps.and_then(|t| t.writes("sort_keys")),
-        });
-        pass.set_pipeline(setup);
-        pass.set_bind_group(0, &self.setup_bind_group, &[]);
-        pass.dispatch_workgroups(1, 1, 1);
+        enum Size {
+            One,
+            Tiles,
+            Digits,
+        }
+        let mut steps: Vec<(Stage, &wgpu::ComputePipeline, &wgpu::BindGroup, Size)> =
+            vec![(Stage::Setup, setup, &self.setup_bind_group, Size::One)];
         for (up, down) in &groups {
-            pass.set_pipeline(upsweep);
-            pass.set_bind_group(0, up, &[]);
-            dispatch_tiles(&mut pass);
-            pass.set_pipeline(scan);
-            pass.set_bind_group(0, &self.scan_bind_group, &[]);
-            pass.dispatch_workgroups(self.plan.radix, 1, 1);
-            pass.set_pipeline(downsweep);
-            pass.set_bind_group(0, down, &[]);
-            dispatch_tiles(&mut pass);
+            steps.push((Stage::Upsweep, upsweep, up, Size::Tiles));
+            steps.push((Stage::Scan, scan, &self.scan_bind_group, Size::Digits));
+            steps.push((Stage::Downsweep, downsweep, down, Size::Tiles));
         }
         if let Some(group) = &copy_group {
-            pass.set_pipeline(copy);
-            pass.set_bind_group(0, group, &[]);
-            dispatch_tiles(&mut pass);
+            steps.push((Stage::Copy, copy, group, Size::Tiles));
+        }
+        let record = |pass: &mut wgpu::ComputePass<'_>,
+                      (_, pipeline, group, size): &(
+            Stage,
+            &wgpu::ComputePipeline,
+            &wgpu::BindGroup,
+            Size,
+        )| {
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, *group, &[]);
+            match (size, grid) {
+                (Size::One, _) => pass.dispatch_workgroups(1, 1, 1),
+                (Size::Digits, _) => pass.dispatch_workgroups(self.plan.radix, 1, 1),
+                (Size::Tiles, Some((x, y))) => pass.dispatch_workgroups(x, y, 1),
+                (Size::Tiles, None) => pass.dispatch_workgroups_indirect(&self.dispatch_args, 0),
+            }
+        };
+        match timestamps {
+            Some(ts) if self.plan.stage_timestamps => {
+                for step in &steps {
+                    let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some(step.0.entry_point()),
+                        timestamp_writes: ts.writes(step.0.entry_point()),
+                    });
+                    record(&mut pass, step);
+                }
+            }
+            ts => {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("sort_keys"),
+                    timestamp_writes: ts.and_then(|t| t.writes("sort_keys")),
+                });
+                for step in &steps {
+                    record(&mut pass, step);
+                }
+            }
         }
         Ok(())
     }

@@ -16,10 +16,12 @@ pub struct SortOptions {
     /// the crate docs).
     pub radix_bits: u32,
     /// Threads per workgroup. `None` picks the largest of 256, 128, 64, 32 whose shared memory
-    /// fits the adapter (lavapipe's 32 KiB with its 8-wide subgroups takes 128).
+    /// fits the adapter (256 on an H100; lavapipe's 32 KiB with its 8-wide subgroups takes 128;
+    /// on the H100, 128 and 512 threads were 10-40% slower than 256).
     pub workgroup_size: Option<u32>,
     /// Keys per thread, 1..=32; a tile is `workgroup_size * items_per_thread` keys (at most
-    /// 65536). Default 16.
+    /// 65536). Default 12: on an H100 (256 threads, 16M pairs) 12 took 1.14 ms, 8 took 1.37,
+    /// 10 took 1.23, 14 took 1.57 and 16 took 1.45 (`benches/sort.rs`, 2026-11-23).
     pub items_per_thread: u32,
     /// Use subgroup operations (ballots, shuffles, subgroup scans) when the device has
     /// `Features::SUBGROUP`. `false` forces the shared-memory path. Default true.
@@ -31,6 +33,10 @@ pub struct SortOptions {
     /// when every subgroup has at most 32 lanes, where one word suffices. For tests. Default
     /// false.
     pub wide_ballot_masks: bool,
+    /// With timestamps, time every kernel in its own compute pass (labelled `sort_setup`,
+    /// `sort_upsweep`, `sort_scan`, `sort_downsweep`, `sort_copy`) rather than the whole sort
+    /// as one `sort_keys` pass. For profiling. Default false.
+    pub stage_timestamps: bool,
 }
 
 impl Default for SortOptions {
@@ -40,16 +46,17 @@ impl Default for SortOptions {
 }
 
 impl SortOptions {
-    /// 30-bit ray sort keys, 8-bit digits (4 passes), 16 keys per thread, subgroups when present.
+    /// 30-bit ray sort keys, 8-bit digits (4 passes), 12 keys per thread, subgroups when present.
     pub const fn ray_keys() -> Self {
         Self {
             key_bits: 30,
             radix_bits: 8,
             workgroup_size: None,
-            items_per_thread: 16,
+            items_per_thread: 12,
             use_subgroups: true,
             max_grid_x: None,
             wide_ballot_masks: false,
+            stage_timestamps: false,
         }
     }
 
@@ -92,6 +99,12 @@ impl SortOptions {
         self
     }
 
+    /// These options with one timestamped pass per kernel (or not).
+    pub const fn with_stage_timestamps(mut self, on: bool) -> Self {
+        self.stage_timestamps = on;
+        self
+    }
+
     /// These options with at most `x` workgroups per row of the tile grid.
     pub const fn with_max_grid_x(mut self, x: u32) -> Self {
         self.max_grid_x = Some(x);
@@ -118,6 +131,8 @@ pub struct SortPlan {
     pub max_subgroups: u32,
     /// Ballot masks of four words (subgroups of up to 128 lanes) rather than one (up to 32).
     pub wide_ballot_masks: bool,
+    /// One timestamped pass per kernel.
+    pub stage_timestamps: bool,
     /// Tile counts per thread in `sort_scan`.
     pub scan_items: u32,
     pub max_grid_x: u32,
@@ -176,6 +191,7 @@ impl SortPlan {
                 subgroups,
                 max_subgroups,
                 wide_ballot_masks: opts.wide_ballot_masks || info.subgroup_max_size > 32,
+                stage_timestamps: opts.stage_timestamps,
                 scan_items: 4,
                 max_grid_x,
                 shared_bytes: words * 4,

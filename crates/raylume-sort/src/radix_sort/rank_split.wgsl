@@ -3,15 +3,16 @@
 // "bit is 0" counts, Blelloch's split primitive as in Satish, Harris & Garland 2009) over
 // entries (digit << 16 | index in tile); the sorted entry at position q then goes to
 // s_base[digit] + q - (first position of its digit in the tile), gathering its key and value
-// from the tile in global memory.
+// from the tile in global memory. Per-entry state lives in unrolled scalars.
 
 var<workgroup> s_stage: array<u32, TILE>;
 /// First position of each digit present in the sorted tile.
 var<workgroup> s_first: array<u32, RADIX>;
 
 fn rank_and_scatter(start: u32, valid: u32) {
-    for (var i = 0u; i < ITEMS; i++) {
-        let idx = i * WG + lin;
+    //#unroll i ITEMS
+    {
+        let idx = {i}u * WG + lin;
         // Past the end: the largest digit and the largest indices, so these sort last.
         var d = RADIX - 1u;
         if (idx < valid) {
@@ -19,48 +20,51 @@ fn rank_and_scatter(start: u32, valid: u32) {
         }
         s_stage[idx] = (d << 16u) | idx;
     }
+    //#end
     workgroupBarrier();
 
     // Each thread holds ITEMS consecutive entries of the current order.
-    var items: array<u32, ITEMS>;
     let mine = lin * ITEMS;
-    for (var j = 0u; j < ITEMS; j++) {
-        items[j] = s_stage[mine + j];
-    }
+    //#unroll j ITEMS
+    var item_{j} = s_stage[mine + {j}u];
+    //#end
     for (var b = 16u; b < 16u + RADIX_BITS; b++) {
         var zeros = 0u;
-        for (var j = 0u; j < ITEMS; j++) {
-            zeros += 1u - ((items[j] >> b) & 1u);
-        }
+        //#unroll j ITEMS
+        zeros += 1u - ((item_{j} >> b) & 1u);
+        //#end
         // Barriers inside: every thread has read s_stage before anyone writes it below.
         let sc = wg_exclusive_scan(zeros);
         var z = sc.x;
         var o = sc.y + mine - sc.x;
-        for (var j = 0u; j < ITEMS; j++) {
-            if (((items[j] >> b) & 1u) == 0u) {
-                s_stage[z] = items[j];
-                z++;
-            } else {
-                s_stage[o] = items[j];
-                o++;
-            }
+        //#unroll j ITEMS
+        if (((item_{j} >> b) & 1u) == 0u) {
+            s_stage[z] = item_{j};
+            z++;
+        } else {
+            s_stage[o] = item_{j};
+            o++;
         }
+        //#end
         workgroupBarrier();
-        for (var j = 0u; j < ITEMS; j++) {
-            items[j] = s_stage[mine + j];
-        }
+        //#unroll j ITEMS
+        item_{j} = s_stage[mine + {j}u];
+        //#end
     }
 
-    for (var j = 0u; j < ITEMS; j++) {
-        let q = j * WG + lin;
+    //#unroll j ITEMS
+    {
+        let q = {j}u * WG + lin;
         let d = s_stage[q] >> 16u;
         if (q == 0u || (s_stage[q - 1u] >> 16u) != d) {
             s_first[d] = q;
         }
     }
+    //#end
     workgroupBarrier();
-    for (var j = 0u; j < ITEMS; j++) {
-        let q = j * WG + lin;
+    //#unroll j ITEMS
+    {
+        let q = {j}u * WG + lin;
         if (q < valid) {
             let e = s_stage[q];
             let d = e >> 16u;
@@ -70,4 +74,5 @@ fn rank_and_scatter(start: u32, valid: u32) {
             vals_out[dst] = vals_in[src];
         }
     }
+    //#end
 }

@@ -5,6 +5,7 @@
 // (a workgroup atomic whose old value is shuffled to the peers), so each key learns how many
 // keys of its digit precede it in its subgroup's run. An exclusive scan over subgroups and
 // then over digits turns that into the key's position in the stably digit-sorted tile.
+// Per-key state lives in unrolled scalars (key_0, rank_0, ...), never in indexed arrays.
 
 /// Per subgroup and digit: count, then exclusive prefix over earlier subgroups.
 var<workgroup> s_sg_hist: array<atomic<u32>, MAX_SG * RADIX>;
@@ -13,37 +14,52 @@ var<workgroup> s_stage: array<u32, TILE>;
 /// Per digit: the tile's count, then the digit's first position in the sorted tile.
 var<workgroup> s_count: array<u32, RADIX>;
 
+/// The lanes of this subgroup whose digit equals mine (one ballot per digit bit).
+/// Uniform control flow only.
+fn match_peers(d: u32) -> LaneMask {
+    var peers = ballot(true);
+    //#unroll b RADIX_BITS
+    {
+        let bit = ((d >> {b}u) & 1u) == 1u;
+        let bal = ballot(bit);
+        peers &= select(~bal, bal, bit);
+    }
+    //#end
+    return peers;
+}
+
 fn rank_and_scatter(start: u32, valid: u32) {
     for (var i = lin; i < num_sg * RADIX; i += WG) {
         atomicStore(&s_sg_hist[i], 0u);
     }
-    workgroupBarrier();
-
-    var keys: array<u32, ITEMS>;
-    // digit << 16 | rank within the subgroup's run; later the position in the tile.
-    var rank: array<u32, ITEMS>;
     let first = sg_base * ITEMS + sg_rank;
     let hist_row = sg_id * RADIX;
-    for (var i = 0u; i < ITEMS; i++) {
-        let idx = first + i * sg_lanes;
-        // Past the end: the largest digit; such keys have the largest indices of the tile,
-        // so they land after every real key and are never written out.
-        var key = 0xFFFFFFFFu;
-        var d = RADIX - 1u;
-        if (idx < valid) {
-            key = keys_in[start + idx];
-            d = digit_of(key);
-        }
-        keys[i] = key;
-        let peers = match_peers(d, RADIX_BITS);
+    // Loads first, all in flight together. Past the end: the largest digit; such keys have
+    // the largest indices of the tile, so they sort after every real key and are never written.
+    //#unroll i ITEMS
+    var key_{i} = 0xFFFFFFFFu;
+    var rank_{i} = RADIX - 1u;
+    if (first + {i}u * sg_lanes < valid) {
+        key_{i} = keys_in[start + first + {i}u * sg_lanes];
+        rank_{i} = digit_of(key_{i});
+    }
+    //#end
+    workgroupBarrier();
+
+    // rank_i: digit, then digit << 16 | keys of that digit before it in the subgroup's run.
+    //#unroll i ITEMS
+    {
+        let d = rank_{i};
+        let peers = match_peers(d);
         let below = mask_count(peers & lt_mask);
         var old = 0u;
         if (below == 0u) {
             old = atomicAdd(&s_sg_hist[hist_row + d], mask_count(peers));
         }
         old = subgroupShuffle(old, first_lane(peers));
-        rank[i] = (d << 16u) | (old + below);
+        rank_{i} = (d << 16u) | (old + below);
     }
+    //#end
     workgroupBarrier();
 
     // Per digit: exclusive prefix over subgroups, and the tile's count.
@@ -78,36 +94,40 @@ fn rank_and_scatter(start: u32, valid: u32) {
     }
     workgroupBarrier();
 
-    for (var i = 0u; i < ITEMS; i++) {
-        let d = rank[i] >> 16u;
-        let p = s_count[d] + atomicLoad(&s_sg_hist[hist_row + d]) + (rank[i] & 0xFFFFu);
-        rank[i] = p;
-        s_stage[p] = keys[i];
+    // rank_i: position in the sorted tile.
+    //#unroll i ITEMS
+    {
+        let d = rank_{i} >> 16u;
+        rank_{i} = s_count[d] + atomicLoad(&s_sg_hist[hist_row + d]) + (rank_{i} & 0xFFFFu);
+        s_stage[rank_{i}] = key_{i};
     }
+    //#end
     workgroupBarrier();
 
-    var dest: array<u32, ITEMS>;
-    for (var j = 0u; j < ITEMS; j++) {
-        let q = j * WG + lin;
-        if (q < valid) {
-            let k = s_stage[q];
-            let dst = s_base[digit_of(k)] + q;
-            keys_out[dst] = k;
-            dest[j] = dst;
-        }
+    // Keys out in sorted order: consecutive threads, consecutive addresses within a digit.
+    //#unroll j ITEMS
+    var dest_{j} = 0u;
+    if ({j}u * WG + lin < valid) {
+        let k = s_stage[{j}u * WG + lin];
+        dest_{j} = s_base[digit_of(k)] + {j}u * WG + lin;
+        keys_out[dest_{j}] = k;
     }
+    //#end
+    // Values: loaded (all in flight), staged in sorted order, written like the keys.
+    //#unroll i ITEMS
+    var val_{i} = 0u;
+    if (first + {i}u * sg_lanes < valid) {
+        val_{i} = vals_in[start + first + {i}u * sg_lanes];
+    }
+    //#end
     workgroupBarrier();
-    for (var i = 0u; i < ITEMS; i++) {
-        let idx = first + i * sg_lanes;
-        if (idx < valid) {
-            s_stage[rank[i]] = vals_in[start + idx];
-        }
-    }
+    //#unroll i ITEMS
+    s_stage[rank_{i}] = val_{i};
+    //#end
     workgroupBarrier();
-    for (var j = 0u; j < ITEMS; j++) {
-        let q = j * WG + lin;
-        if (q < valid) {
-            vals_out[dest[j]] = s_stage[q];
-        }
+    //#unroll j ITEMS
+    if ({j}u * WG + lin < valid) {
+        vals_out[dest_{j}] = s_stage[{j}u * WG + lin];
     }
+    //#end
 }

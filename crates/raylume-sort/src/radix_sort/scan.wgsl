@@ -14,25 +14,23 @@ fn sort_scan(ids: LaneIds) {
     let row = d * n;
     var carry = 0u;
     for (var base = 0u; base < n; base += WG * SCAN_ITEMS) {
-        var v: array<u32, SCAN_ITEMS>;
-        var sum = 0u;
         let first = base + lin * SCAN_ITEMS;
-        for (var k = 0u; k < SCAN_ITEMS; k++) {
-            var c = 0u;
-            if (first + k < n) {
-                c = tile_hist[row + first + k];
-            }
-            v[k] = c;
-            sum += c;
+        var sum = 0u;
+        //#unroll k SCAN_ITEMS
+        var v_{k} = 0u;
+        if (first + {k}u < n) {
+            v_{k} = tile_hist[row + first + {k}u];
         }
+        sum += v_{k};
+        //#end
         let sc = wg_exclusive_scan(sum);
         var run = carry + sc.x;
-        for (var k = 0u; k < SCAN_ITEMS; k++) {
-            if (first + k < n) {
-                tile_hist[row + first + k] = run;
-            }
-            run += v[k];
+        //#unroll k SCAN_ITEMS
+        if (first + {k}u < n) {
+            tile_hist[row + first + {k}u] = run;
         }
+        run += v_{k};
+        //#end
         carry += sc.y;
     }
     if (lin == 0u) {

@@ -1,5 +1,7 @@
 // raylume-sort radix sort, stage `sort_upsweep` (one workgroup per tile of TILE keys): the
 // tile's histogram of this pass's digit, stored digit-major: tile_hist[digit * num_tiles + tile].
+// Counting is one workgroup atomic per key, except that a subgroup whose keys all share a digit
+// (sorted or coherent input) adds its count once, so coherent keys cost no contention.
 
 @group(0) @binding(0) var<uniform> params: SortParams;
 @group(0) @binding(1) var<uniform> pass_info: SortPass;
@@ -18,20 +20,25 @@ fn sort_upsweep(ids: LaneIds) {
     for (var d = lin; d < RADIX; d += WG) {
         atomicStore(&s_hist[d], 0u);
     }
-    workgroupBarrier();
     let start = tile * TILE;
     let valid = min(TILE, params.len - start);
-    for (var i = 0u; i < ITEMS; i++) {
-        let idx = i * WG + lin;
-        var d = RADIX; // no key
-        if (idx < valid) {
-            d = (keys_in[start + idx] >> pass_info.shift) & pass_info.mask;
-        }
-        let c = digit_leader_count(d);
-        if (c != 0u && d < RADIX) {
-            atomicAdd(&s_hist[d], c);
-        }
+    // Loads first, all in flight together.
+    //#unroll i ITEMS
+    var d_{i} = RADIX; // no key
+    if ({i}u * WG + lin < valid) {
+        d_{i} = (keys_in[start + {i}u * WG + lin] >> pass_info.shift) & pass_info.mask;
     }
+    //#end
+    workgroupBarrier();
+    //#unroll i ITEMS
+    if (lanes_agree(d_{i})) {
+        if (lane_leads() && d_{i} < RADIX) {
+            atomicAdd(&s_hist[d_{i}], lanes_active());
+        }
+    } else if (d_{i} < RADIX) {
+        atomicAdd(&s_hist[d_{i}], 1u);
+    }
+    //#end
     workgroupBarrier();
     for (var d = lin; d < RADIX; d += WG) {
         tile_hist[d * params.num_tiles + tile] = atomicLoad(&s_hist[d]);
