@@ -469,6 +469,13 @@ impl Loader<'_> {
                 len: n as u64,
             });
         }
+        if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
+            b.warn(format!(
+                "{file}: {at}: {} indices is not a multiple of 3: the last {} ignored",
+                indices.len(),
+                indices.len() % 3
+            ));
+        }
         let tris: Vec<[u32; 3]> = match mode {
             Mode::Triangles => indices
                 .chunks_exact(3)

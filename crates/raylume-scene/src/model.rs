@@ -168,7 +168,8 @@ pub struct Triangle {
     pub positions: [Vec3; 3],
     /// Per-vertex shading normals (unit length), if the source had them.
     pub normals: Option<[Vec3; 3]>,
-    /// Per-vertex texture coordinates, if the source had them.
+    /// Per-vertex texture coordinates, if the source had them. `(0, 0)` is the top-left
+    /// texel, `v` grows downwards (glTF's convention; the OBJ loader flips OBJ's `v`).
     pub uvs: Option<[Vec2; 3]>,
     /// Index into [`Scene::materials`].
     pub material: u32,

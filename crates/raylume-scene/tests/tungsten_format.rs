@@ -207,8 +207,11 @@ fn environments_and_matrix_transforms() {
         json!({ "type": "infinite_sphere", "emission": "sky.hdr" }),
     ))
     .unwrap();
+    // Tungsten's u = 0.5 + atan2(z, x) / 2 pi; raylume's u = 0.5 + atan2(x, -z) / 2 pi + r / 360.
+    // For +x Tungsten reads u = 0.5 and raylume 0.75 + r / 360: r = -90 makes them agree.
     assert!(
-        matches!(&s.environment, Environment::Map { image, strength, .. } if image.width == 4 && *strength == 1.0)
+        matches!(&s.environment, Environment::Map { image, strength, rotation }
+        if image.width == 4 && *strength == 1.0 && *rotation == -90.0)
     );
     let s = load(&base(json!({ "type": "skydome", "intensity": 3.0 }))).unwrap();
     assert_eq!(s.environment, Environment::Constant(Vec3::splat(3.0)));

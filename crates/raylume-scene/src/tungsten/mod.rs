@@ -21,7 +21,8 @@
 //! - `power` on an emitter becomes radiance = power / (area * pi).
 //! - `infinite_sphere` and `skydome` primitives, and the top-level `emissions` list (the
 //!   111116/toyray-scenes variant, `{"type": "envmap", "radiance": "sky.exr"}`), become the
-//!   environment. A missing map file is an error. `skydome` (a procedural sky) becomes a
+//!   environment (a map gets [`TUNGSTEN_ENV_ROTATION`] so that it is oriented as in Tungsten).
+//!   A missing map file is an error. `skydome` (a procedural sky) becomes a
 //!   constant environment of its `intensity`, with a warning.
 //! - Render settings: `camera.resolution`, `renderer.spp`, `integrator.max_bounces` are
 //!   taken as they are.
@@ -43,6 +44,12 @@ use crate::image_io;
 use crate::model::{Camera, Environment, Material, Scene, Sphere, Triangle};
 use crate::transform::{Xform, sin_cos_deg};
 use json::{J, Owned};
+
+/// Rotation (degrees about +y) that makes raylume's equirectangular lookup (`raylume-kernels`:
+/// `u = 0.5 + atan2(d.x, -d.z) / 2 pi + rotation / 360`) read the texel Tungsten's
+/// `InfiniteSphere` reads (`u = 0.5 + atan2(d.z, d.x) / 2 pi`): the two angles differ by a
+/// quarter turn, `atan2(x, -z) = atan2(z, x) + pi / 2`. Both put the top row at +y.
+pub(crate) const TUNGSTEN_ENV_ROTATION: f32 = -90.0;
 
 /// The document being imported.
 pub(crate) struct Tungsten<'a> {
@@ -268,7 +275,7 @@ impl<'a> Tungsten<'a> {
             return Ok(Environment::Map {
                 image,
                 strength: 1.0,
-                rotation: 0.0,
+                rotation: TUNGSTEN_ENV_ROTATION,
             });
         }
         if e.v.is_object() {
