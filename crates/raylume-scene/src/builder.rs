@@ -11,6 +11,7 @@ use crate::error::{Location, SceneError};
 use crate::image_io;
 use crate::limits::{MAX_MATERIALS, MAX_TEXTURES, MAX_TRIANGLES};
 use crate::model::{Material, Scene, Texture, Triangle};
+use crate::validate::{Provenance, check_triangle_finite, is_degenerate, validate_with};
 
 /// A triangle source: the first triangle index it produced and a label (a mesh file).
 #[derive(Clone, Debug)]
@@ -187,7 +188,7 @@ impl SceneBuilder {
     /// warning per material), then validates. NaN/Inf are errors, found before anything is
     /// dropped so that the index in the message is the index in the source file.
     pub fn finish(mut self) -> Result<Scene, SceneError> {
-        crate::validate::finish(&mut self)?;
+        sanitize_and_validate(&mut self)?;
         Ok(self.scene)
     }
 }
@@ -246,4 +247,73 @@ pub(crate) fn line_of_offset(bytes: &[u8], offset: usize) -> usize {
         .filter(|&&b| b == b'\n')
         .count()
         + 1
+}
+
+/// The loaders' last step (see [`SceneBuilder::finish`]): NaN/Inf errors, degenerate triangles
+/// dropped, albedo/tint clamped, then [`validate_with`].
+fn sanitize_and_validate(b: &mut SceneBuilder) -> Result<(), SceneError> {
+    let prov = Provenance {
+        file: &b.file,
+        sources: &b.sources,
+        sphere_labels: &b.sphere_labels,
+    };
+    // 1. Non-finite data is an error, reported with the index it has in its source file.
+    for (i, t) in b.scene.triangles.iter().enumerate() {
+        check_triangle_finite(t, &prov, i)?;
+    }
+    // 2. Degenerate triangles go, counted per source.
+    let n = b.scene.triangles.len();
+    let sources = std::mem::take(&mut b.sources);
+    let mut runs: Vec<(usize, usize, String)> = Vec::with_capacity(sources.len() + 1);
+    let first = sources.first().map_or(n, |s| s.start);
+    if first > 0 {
+        runs.push((0, first, b.file.clone()));
+    }
+    for (k, s) in sources.iter().enumerate() {
+        let end = sources.get(k + 1).map_or(n, |next| next.start);
+        runs.push((s.start, end, s.label.clone()));
+    }
+    let mut kept: Vec<Triangle> = Vec::with_capacity(n);
+    for (start, end, label) in runs {
+        let new_start = kept.len();
+        let mut dropped = 0usize;
+        for t in &b.scene.triangles[start..end] {
+            if is_degenerate(t) {
+                dropped += 1;
+            } else {
+                kept.push(*t);
+            }
+        }
+        if dropped > 0 {
+            b.scene.warnings.push(format!(
+                "dropped {dropped} degenerate triangles from {label}"
+            ));
+        }
+        b.sources.push(Source {
+            start: new_start,
+            label,
+        });
+    }
+    b.scene.triangles = kept;
+    // 3. Albedo and tint above 1 are clamped (negative stays an error below).
+    for m in &mut b.scene.materials {
+        for (what, c) in [("albedo", &mut m.albedo), ("tint", &mut m.tint)] {
+            if c.is_finite() && c.max_element() > 1.0 {
+                b.scene.warnings.push(format!(
+                    "material '{}': {what} {:?} clamped to [0, 1]",
+                    m.name,
+                    c.to_array()
+                ));
+                *c = c.min(Vec3::ONE);
+            }
+        }
+    }
+    validate_with(
+        &b.scene,
+        &Provenance {
+            file: &b.file,
+            sources: &b.sources,
+            sphere_labels: &b.sphere_labels,
+        },
+    )
 }

@@ -8,7 +8,7 @@
 
 use glam::Vec3;
 
-use crate::builder::{SceneBuilder, Source};
+use crate::builder::Source;
 use crate::error::{Location, SceneError};
 use crate::limits::{
     MAX_BLOOM_RADIUS, MAX_IMAGE_SIZE, MAX_MATERIALS, MAX_SPHERES, MAX_TEXTURE_SIZE, MAX_TEXTURES,
@@ -60,74 +60,6 @@ fn finite3(v: Vec3) -> bool {
     v.is_finite()
 }
 
-/// The loaders' last step (see [`SceneBuilder::finish`]).
-pub(crate) fn finish(b: &mut SceneBuilder) -> Result<(), SceneError> {
-    let prov = Provenance {
-        file: &b.file,
-        sources: &b.sources,
-        sphere_labels: &b.sphere_labels,
-    };
-    // 1. Non-finite data is an error, reported with the index it has in its source file.
-    for (i, t) in b.scene.triangles.iter().enumerate() {
-        check_triangle_finite(t, &prov, i)?;
-    }
-    // 2. Degenerate triangles go, counted per source.
-    let n = b.scene.triangles.len();
-    let sources = std::mem::take(&mut b.sources);
-    let mut runs: Vec<(usize, usize, String)> = Vec::with_capacity(sources.len() + 1);
-    let first = sources.first().map_or(n, |s| s.start);
-    if first > 0 {
-        runs.push((0, first, b.file.clone()));
-    }
-    for (k, s) in sources.iter().enumerate() {
-        let end = sources.get(k + 1).map_or(n, |next| next.start);
-        runs.push((s.start, end, s.label.clone()));
-    }
-    let mut kept: Vec<Triangle> = Vec::with_capacity(n);
-    for (start, end, label) in runs {
-        let new_start = kept.len();
-        let mut dropped = 0usize;
-        for t in &b.scene.triangles[start..end] {
-            if is_degenerate(t) {
-                dropped += 1;
-            } else {
-                kept.push(*t);
-            }
-        }
-        if dropped > 0 {
-            b.scene.warnings.push(format!(
-                "dropped {dropped} degenerate triangles from {label}"
-            ));
-        }
-        b.sources.push(Source {
-            start: new_start,
-            label,
-        });
-    }
-    b.scene.triangles = kept;
-    // 3. Albedo and tint above 1 are clamped (negative stays an error below).
-    for m in &mut b.scene.materials {
-        for (what, c) in [("albedo", &mut m.albedo), ("tint", &mut m.tint)] {
-            if c.is_finite() && c.max_element() > 1.0 {
-                b.scene.warnings.push(format!(
-                    "material '{}': {what} {:?} clamped to [0, 1]",
-                    m.name,
-                    c.to_array()
-                ));
-                *c = c.min(Vec3::ONE);
-            }
-        }
-    }
-    validate_with(
-        &b.scene,
-        &Provenance {
-            file: &b.file,
-            sources: &b.sources,
-            sphere_labels: &b.sphere_labels,
-        },
-    )
-}
-
 /// Zero area, or a normal that is not finite once normalised (finite positions assumed).
 pub(crate) fn is_degenerate(t: &Triangle) -> bool {
     let [a, b, c] = t.positions;
@@ -136,7 +68,11 @@ pub(crate) fn is_degenerate(t: &Triangle) -> bool {
     len.is_nan() || len <= 0.0 || !len.is_finite() || !(n / len).is_finite()
 }
 
-fn check_triangle_finite(t: &Triangle, prov: &Provenance, i: usize) -> Result<(), SceneError> {
+pub(crate) fn check_triangle_finite(
+    t: &Triangle,
+    prov: &Provenance,
+    i: usize,
+) -> Result<(), SceneError> {
     let bad = |what: &str| SceneError::NotFinite {
         file: prov.file.to_string(),
         at: prov.triangle(i),

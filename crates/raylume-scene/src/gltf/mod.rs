@@ -25,16 +25,18 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-use ::gltf::accessor::{DataType, Dimensions};
-use ::gltf::mesh::Mode;
-use glam::{Mat4, Vec2, Vec3};
+use glam::{Mat4, Vec3};
 
-use crate::builder::{MeshOptions, SceneBuilder, ShadingNormals, read_file};
+use crate::builder::{MeshOptions, SceneBuilder, read_file};
 use crate::error::{Location, SceneError};
 use crate::image_io;
 use crate::limits::MAX_NODE_DEPTH;
-use crate::model::{Camera, Material, Triangle};
+use crate::model::{Camera, Material};
 use crate::transform::Xform;
+use uri::{UriData, resolve_uri};
+
+mod primitive;
+mod uri;
 
 /// A camera found in a glTF file.
 #[derive(Clone, Copy, Debug)]
@@ -52,90 +54,12 @@ fn syntax(file: &str, at: Location, message: impl Into<String>) -> SceneError {
     }
 }
 
-fn invalid(file: &str, at: impl Into<String>, message: impl Into<String>) -> SceneError {
+pub(super) fn invalid(file: &str, at: impl Into<String>, message: impl Into<String>) -> SceneError {
     SceneError::InvalidValue {
         file: file.to_string(),
         at: Location::path(at),
         message: message.into(),
     }
-}
-
-/// Standard base64 (RFC 4648, padding optional) for `data:` URIs.
-pub(crate) fn base64_decode(s: &str) -> Option<Vec<u8>> {
-    let mut out = Vec::with_capacity(s.len() / 4 * 3);
-    let (mut acc, mut bits) = (0u32, 0u32);
-    for c in s.bytes() {
-        let v = match c {
-            b'A'..=b'Z' => c - b'A',
-            b'a'..=b'z' => c - b'a' + 26,
-            b'0'..=b'9' => c - b'0' + 52,
-            b'+' => 62,
-            b'/' => 63,
-            b'=' => break,
-            b' ' | b'\n' | b'\r' | b'\t' => continue,
-            _ => return None,
-        };
-        acc = (acc << 6) | u32::from(v);
-        bits += 6;
-        if bits >= 8 {
-            bits -= 8;
-            out.push((acc >> bits) as u8);
-            acc &= (1 << bits) - 1;
-        }
-    }
-    Some(out)
-}
-
-/// `%20` and friends in relative URIs.
-fn percent_decode(s: &str) -> String {
-    let b = s.as_bytes();
-    let mut out = Vec::with_capacity(b.len());
-    let mut i = 0;
-    while i < b.len() {
-        if b[i] == b'%' && i + 2 < b.len() {
-            let hex = |c: u8| (c as char).to_digit(16);
-            if let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2])) {
-                out.push((h * 16 + l) as u8);
-                i += 3;
-                continue;
-            }
-        }
-        out.push(b[i]);
-        i += 1;
-    }
-    String::from_utf8_lossy(&out).into_owned()
-}
-
-/// Bytes of a `data:` URI, or the path of a relative one.
-enum UriData {
-    Bytes(Vec<u8>),
-    File(PathBuf),
-}
-
-fn resolve_uri(uri: &str, dir: &Path, file: &str, at: &str) -> Result<UriData, SceneError> {
-    if let Some(rest) = uri.strip_prefix("data:") {
-        let Some((meta, data)) = rest.split_once(',') else {
-            return Err(invalid(file, at, "malformed data URI"));
-        };
-        if !meta.ends_with(";base64") {
-            return Err(SceneError::Unsupported {
-                file: file.into(),
-                at: Location::path(at),
-                message: "data URI that is not base64".into(),
-            });
-        }
-        return base64_decode(data)
-            .map(UriData::Bytes)
-            .ok_or_else(|| invalid(file, at, "data URI is not valid base64"));
-    }
-    if uri.contains("://") {
-        return Err(SceneError::Unsupported {
-            file: file.into(),
-            at: Location::path(at),
-            message: format!("URI scheme of `{uri}` (only relative paths and data URIs)"),
-        });
-    }
-    Ok(UriData::File(dir.join(percent_decode(uri))))
 }
 
 fn map_gltf_error(file: &str, e: ::gltf::Error) -> SceneError {
@@ -155,82 +79,6 @@ fn map_gltf_error(file: &str, e: ::gltf::Error) -> SceneError {
         ::gltf::Error::Binary(b) => syntax(file, Location::None, format!("GLB: {b}")),
         other => syntax(file, Location::None, other.to_string()),
     }
-}
-
-/// Checks an accessor so that the `gltf` reader cannot panic on it. `Ok(false)`: empty.
-fn check_accessor(
-    acc: &::gltf::Accessor,
-    buffers: &[Vec<u8>],
-    types: &[DataType],
-    dims: Dimensions,
-    file: &str,
-    at: &str,
-) -> Result<bool, SceneError> {
-    let at = format!("{at} accessor {}", acc.index());
-    if acc.sparse().is_some() {
-        return Err(SceneError::Unsupported {
-            file: file.into(),
-            at: Location::path(at),
-            message: "sparse accessors".into(),
-        });
-    }
-    if !types.contains(&acc.data_type()) || acc.dimensions() != dims {
-        return Err(SceneError::WrongType {
-            file: file.into(),
-            at: Location::path(at),
-            message: format!(
-                "{:?} {:?}, expected {dims:?} of {types:?}",
-                acc.dimensions(),
-                acc.data_type()
-            ),
-        });
-    }
-    if acc.count() == 0 {
-        return Ok(false);
-    }
-    let Some(view) = acc.view() else {
-        return Err(SceneError::Unsupported {
-            file: file.into(),
-            at: Location::path(at),
-            message: "accessors without a buffer view".into(),
-        });
-    };
-    let elem = acc.size();
-    let stride = view.stride().unwrap_or(elem);
-    if stride < elem {
-        return Err(invalid(
-            file,
-            at,
-            format!("byteStride {stride} is smaller than an element ({elem} bytes)"),
-        ));
-    }
-    let end = stride
-        .checked_mul(acc.count() - 1)
-        .and_then(|x| x.checked_add(elem))
-        .and_then(|x| x.checked_add(acc.offset()));
-    if end.is_none_or(|e| e > view.length()) {
-        return Err(invalid(
-            file,
-            at,
-            format!("reads past the end of buffer view {}", view.index()),
-        ));
-    }
-    let buf_len = buffers.get(view.buffer().index()).map_or(0, Vec::len);
-    if view
-        .offset()
-        .checked_add(view.length())
-        .is_none_or(|e| e > buf_len)
-    {
-        return Err(invalid(
-            file,
-            format!("bufferViews[{}]", view.index()),
-            format!(
-                "reaches past the end of buffer {} ({buf_len} bytes)",
-                view.buffer().index()
-            ),
-        ));
-    }
-    Ok(true)
 }
 
 struct Loader<'a> {
@@ -346,177 +194,6 @@ impl Loader<'_> {
         )?;
         self.materials.insert(index, i);
         Ok(i)
-    }
-
-    fn primitive(
-        &mut self,
-        b: &mut SceneBuilder,
-        prim: &::gltf::Primitive,
-        xform: &Xform,
-        at: &str,
-    ) -> Result<(), SceneError> {
-        let file = self.file.clone();
-        let mode = prim.mode();
-        if !matches!(
-            mode,
-            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
-        ) {
-            b.warn(format!(
-                "{file}: {at}: {mode:?} primitive skipped (only triangles are rendered)"
-            ));
-            return Ok(());
-        }
-        let Some(pos_acc) = prim.get(&::gltf::Semantic::Positions) else {
-            return Err(SceneError::MissingKey {
-                file,
-                at: Location::path(at),
-                key: "POSITION".into(),
-            });
-        };
-        if !check_accessor(
-            &pos_acc,
-            &self.buffers,
-            &[DataType::F32],
-            Dimensions::Vec3,
-            &file,
-            at,
-        )? {
-            return Ok(());
-        }
-        let material = match self.opts.material {
-            Some(m) => m,
-            None => self.material(b, &prim.material())?,
-        };
-        let uv_set = if self.opts.material.is_none() {
-            prim.material()
-                .pbr_metallic_roughness()
-                .base_color_texture()
-                .map_or(0, |i| i.tex_coord())
-        } else {
-            0
-        };
-        let normals_acc = prim.get(&::gltf::Semantic::Normals);
-        let has_normals = match &normals_acc {
-            Some(a) => check_accessor(
-                a,
-                &self.buffers,
-                &[DataType::F32],
-                Dimensions::Vec3,
-                &file,
-                at,
-            )?,
-            None => false,
-        };
-        let uv_acc = prim.get(&::gltf::Semantic::TexCoords(uv_set));
-        let has_uvs = match &uv_acc {
-            Some(a) => check_accessor(
-                a,
-                &self.buffers,
-                &[DataType::F32, DataType::U8, DataType::U16],
-                Dimensions::Vec2,
-                &file,
-                at,
-            )?,
-            None => false,
-        };
-        let index_acc = prim.indices();
-        if let Some(a) = &index_acc {
-            if !check_accessor(
-                a,
-                &self.buffers,
-                &[DataType::U8, DataType::U16, DataType::U32],
-                Dimensions::Scalar,
-                &file,
-                at,
-            )? {
-                return Ok(());
-            }
-        }
-        let buffers = &self.buffers;
-        let reader = prim.reader(|buf| buffers.get(buf.index()).map(Vec::as_slice));
-        let positions: Vec<Vec3> = reader
-            .read_positions()
-            .map(|it| it.map(Vec3::from).collect())
-            .unwrap_or_default();
-        let n = positions.len();
-        let normals: Option<Vec<Vec3>> = if has_normals {
-            reader.read_normals().map(|it| it.map(Vec3::from).collect())
-        } else {
-            None
-        };
-        let uvs: Option<Vec<Vec2>> = if has_uvs {
-            reader
-                .read_tex_coords(uv_set)
-                .map(|it| it.into_f32().map(Vec2::from).collect())
-        } else {
-            None
-        };
-        let normals = normals.filter(|v| v.len() == n);
-        let uvs = uvs.filter(|v| v.len() == n);
-        let indices: Vec<u32> = match index_acc {
-            Some(_) => reader
-                .read_indices()
-                .map(|r| r.into_u32().collect())
-                .unwrap_or_default(),
-            None => (0..n as u32).collect(),
-        };
-        if let Some(bad) = indices.iter().find(|&&i| i as usize >= n) {
-            return Err(SceneError::IndexOutOfRange {
-                file,
-                at: Location::path(format!("{at} indices")),
-                what: "vertex".into(),
-                index: u64::from(*bad),
-                len: n as u64,
-            });
-        }
-        if mode == Mode::Triangles && !indices.len().is_multiple_of(3) {
-            b.warn(format!(
-                "{file}: {at}: {} indices is not a multiple of 3: the last {} ignored",
-                indices.len(),
-                indices.len() % 3
-            ));
-        }
-        let tris: Vec<[u32; 3]> = match mode {
-            Mode::Triangles => indices
-                .chunks_exact(3)
-                .map(|c| [c[0], c[1], c[2]])
-                .collect(),
-            Mode::TriangleStrip => (0..indices.len().saturating_sub(2))
-                .map(|i| {
-                    if i % 2 == 0 {
-                        [indices[i], indices[i + 1], indices[i + 2]]
-                    } else {
-                        [indices[i + 1], indices[i], indices[i + 2]]
-                    }
-                })
-                .collect(),
-            _ => (1..indices.len().saturating_sub(1))
-                .map(|i| [indices[0], indices[i], indices[i + 1]])
-                .collect(),
-        };
-        b.reserve_triangles(tris.len(), &file, Location::path(at))?;
-        for [i0, i1, i2] in tris {
-            let idx = [i0 as usize, i1 as usize, i2 as usize];
-            let normals = match &normals {
-                Some(ns) => match ShadingNormals::check(idx.map(|i| ns[i])) {
-                    ShadingNormals::Unit(v) | ShadingNormals::NonFinite(v) => Some(v),
-                    ShadingNormals::Zero => {
-                        self.zero_normals += 1;
-                        None
-                    }
-                },
-                None => None,
-            };
-            let mut t = Triangle {
-                positions: idx.map(|i| positions[i]),
-                normals,
-                uvs: uvs.as_ref().map(|u| idx.map(|i| u[i])),
-                material,
-            };
-            xform.apply(&mut t);
-            b.push_triangle(t);
-        }
-        Ok(())
     }
 }
 
@@ -678,27 +355,4 @@ pub(crate) fn load_into(
         ));
     }
     Ok(loader.camera)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn base64_round_trips_known_vectors() {
-        // RFC 4648 test vectors.
-        assert_eq!(base64_decode("").unwrap(), b"");
-        assert_eq!(base64_decode("Zg==").unwrap(), b"f");
-        assert_eq!(base64_decode("Zm8=").unwrap(), b"fo");
-        assert_eq!(base64_decode("Zm9v").unwrap(), b"foo");
-        assert_eq!(base64_decode("Zm9vYmFy").unwrap(), b"foobar");
-        assert!(base64_decode("Zm9v!").is_none());
-    }
-
-    #[test]
-    fn percent_escapes_decode() {
-        assert_eq!(percent_decode("a%20b.bin"), "a b.bin");
-        assert_eq!(percent_decode("100%"), "100%");
-        assert_eq!(percent_decode("x%2"), "x%2");
-    }
 }

@@ -12,204 +12,20 @@
 //! Beyond the keys in `DESIGN.md`: `texture = "file.png"` on a diffuse or metal material is an
 //! albedo texture (png/jpg, sRGB; multiplied with `albedo`).
 
-use std::collections::{BTreeMap, HashMap};
-use std::fmt;
+use std::collections::HashMap;
 use std::path::Path;
 
 use ::toml::Spanned;
 use glam::Vec3;
-use serde::Deserialize;
-use serde::de::{self, Deserializer, SeqAccess, Visitor};
 
 use crate::builder::{MeshOptions, SceneBuilder};
 use crate::error::{Location, SceneError};
 use crate::model::{Bloom, Camera, Environment, Material, MaterialKind, Scene, Sphere, Triangle};
 use crate::transform::{Xform, frame_bounds};
 use crate::validate::{check_camera_frame, check_vfov};
+use schema::{MaterialToml, SceneToml, V3, map_toml_error};
 
-type V3 = Spanned<[f32; 3]>;
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SceneToml {
-    camera: Option<Spanned<CameraToml>>,
-    render: Option<RenderToml>,
-    environment: Option<Spanned<EnvironmentToml>>,
-    #[serde(default)]
-    materials: BTreeMap<Spanned<String>, Spanned<MaterialToml>>,
-    #[serde(default)]
-    mesh: Vec<Spanned<MeshToml>>,
-    #[serde(default)]
-    sphere: Vec<Spanned<SphereToml>>,
-    #[serde(default)]
-    quad: Vec<Spanned<QuadToml>>,
-    post: Option<PostToml>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct CameraToml {
-    position: V3,
-    look_at: V3,
-    up: Option<V3>,
-    vfov: Spanned<f32>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RenderToml {
-    width: Option<Spanned<u32>>,
-    height: Option<Spanned<u32>>,
-    spp: Option<Spanned<u32>>,
-    max_bounces: Option<u32>,
-    seed: Option<u32>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct EnvironmentToml {
-    radiance: Option<V3>,
-    map: Option<Spanned<String>>,
-    strength: Option<Spanned<f32>>,
-    rotation: Option<Spanned<f32>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct MaterialToml {
-    #[serde(rename = "type")]
-    kind: Spanned<String>,
-    albedo: Option<V3>,
-    emission: Option<V3>,
-    roughness: Option<Spanned<f32>>,
-    ior: Option<Spanned<f32>>,
-    tint: Option<V3>,
-    texture: Option<Spanned<String>>,
-}
-
-/// `scale = 2.0` or `scale = [1, 2, 3]`.
-struct Scale(Vec3);
-
-impl<'de> Deserialize<'de> for Scale {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
-        struct V;
-        impl<'de> Visitor<'de> for V {
-            type Value = Scale;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a number or an array of 3 numbers")
-            }
-            fn visit_f64<E: de::Error>(self, v: f64) -> Result<Scale, E> {
-                Ok(Scale(Vec3::splat(v as f32)))
-            }
-            fn visit_i64<E: de::Error>(self, v: i64) -> Result<Scale, E> {
-                Ok(Scale(Vec3::splat(v as f32)))
-            }
-            fn visit_u64<E: de::Error>(self, v: u64) -> Result<Scale, E> {
-                Ok(Scale(Vec3::splat(v as f32)))
-            }
-            fn visit_seq<A: SeqAccess<'de>>(self, mut seq: A) -> Result<Scale, A::Error> {
-                let mut out = [0.0f32; 3];
-                for (i, o) in out.iter_mut().enumerate() {
-                    *o = seq
-                        .next_element()?
-                        .ok_or_else(|| de::Error::invalid_length(i, &self))?;
-                }
-                if seq.next_element::<f32>()?.is_some() {
-                    return Err(de::Error::invalid_length(4, &self));
-                }
-                Ok(Scale(Vec3::from_array(out)))
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct MeshToml {
-    file: Spanned<String>,
-    material: Option<Spanned<String>>,
-    translate: Option<V3>,
-    rotate: Option<V3>,
-    scale: Option<Spanned<Scale>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct SphereToml {
-    center: V3,
-    radius: Spanned<f32>,
-    material: Spanned<String>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct QuadToml {
-    corner: V3,
-    u: V3,
-    v: V3,
-    material: Spanned<String>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct PostToml {
-    bloom: Option<Spanned<BloomToml>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct BloomToml {
-    threshold: Spanned<f32>,
-    radius: Spanned<u32>,
-    strength: Spanned<f32>,
-}
-
-/// The text between the first pair of backquotes (serde names keys that way).
-fn quoted(msg: &str) -> Option<&str> {
-    let a = msg.find('`')? + 1;
-    let b = msg[a..].find('`')? + a;
-    Some(&msg[a..b])
-}
-
-/// Sorts a `toml` error into the right variant.
-fn map_toml_error(text: &str, file: &str, e: &::toml::de::Error) -> SceneError {
-    let at = e
-        .span()
-        .map_or(Location::None, |s| Location::from_offset(text, s.start));
-    let msg = e.message().trim().to_string();
-    let file = file.to_string();
-    if msg.starts_with("unknown field") {
-        let key = quoted(&msg).unwrap_or("?").to_string();
-        let message = msg
-            .split_once(", ")
-            .map_or(msg.clone(), |(_, rest)| rest.to_string());
-        SceneError::UnknownKey {
-            file,
-            at,
-            key,
-            message,
-        }
-    } else if msg.starts_with("missing field") {
-        let key = quoted(&msg).unwrap_or("?").to_string();
-        SceneError::MissingKey { file, at, key }
-    } else if msg.starts_with("invalid type")
-        || msg.starts_with("invalid length")
-        || msg.starts_with("invalid value")
-    {
-        SceneError::WrongType {
-            file,
-            at,
-            message: msg,
-        }
-    } else {
-        SceneError::InvalidValue {
-            file,
-            at,
-            message: msg,
-        }
-    }
-}
+mod schema;
 
 /// Conversion state: the text (for spans), the label, the folder paths are relative to.
 struct Ctx<'a> {
@@ -668,18 +484,4 @@ pub(crate) fn parse(text: &str, base_dir: &Path, file: &str) -> Result<Scene, Sc
         None => frame_bounds(b.scene.bounds()),
     };
     b.finish()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn quoted_takes_the_first_backquoted_word() {
-        assert_eq!(
-            quoted("unknown field `wdth`, expected one of `width`"),
-            Some("wdth")
-        );
-        assert_eq!(quoted("no quotes"), None);
-    }
 }
