@@ -11,6 +11,12 @@
 //!
 //! Beyond the keys in `DESIGN.md`: `texture = "file.png"` on a diffuse or metal material is an
 //! albedo texture (png/jpg, sRGB; multiplied with `albedo`).
+//!
+//! Geometry conventions: a `[[quad]]` becomes the triangles (corner, corner+u, corner+u+v) and
+//! (corner, corner+u+v, corner+v), so its front side is `u x v`; `[[mesh]]` `rotate` is in
+//! degrees about X, then Y, then Z (fixed axes, `R = Rz Ry Rx`), exact at right angles; a
+//! negative `scale` component mirrors the mesh (winding is swapped so fronts stay fronts), a
+//! zero one is an error. Materials are numbered in file order.
 
 use std::collections::HashMap;
 use std::path::Path;
