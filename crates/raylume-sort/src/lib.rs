@@ -33,7 +33,7 @@
 //!   a fraction of a 32-byte sector, per bucket), needs 4x the tile counters, and its
 //!   per-subgroup counters do not fit 48 KiB of workgroup memory at 256 threads; 9-bit digits
 //!   (still 4 passes) took 2.1 ms, 7-bit (5 passes) 1.4 ms. On lavapipe 8 bits were also the
-//!   fastest (1M pairs: 0.26 s against 0.87 s for 10 bits). An even pass count also leaves the
+//!   fastest (1M pairs: 0.42 s against 0.61 s for 10 bits, 0.88 s without subgroups). An even pass count also leaves the
 //!   result in the caller's buffers without a copy.
 //! - **Tiles of 256 threads x 12 keys.** Per-key state is kept in unrolled scalars: the WGSL
 //!   is generated with `//#unroll` blocks expanded ([`Stage`] lists the kernels), because

@@ -482,6 +482,9 @@ fn misuse_gives_typed_errors() {
     // Exactly the maximum is accepted (the scratch buffers fit one binding each).
     let at_max = RadixSorter::new(ctx, max, SortOptions::ray_keys()).unwrap();
     assert_eq!(at_max.max_len(), max);
+    // ... and its full-size scratch buffers bind (a sort of a few pairs binds them whole).
+    let (k, v) = at_max.sort_pairs(ctx, &[3, 1, 2], &[0, 1, 2]).unwrap();
+    assert_eq!((k, v), (vec![1, 2, 3], vec![1, 2, 0]));
     drop(at_max);
     // Buffers: too small, no STORAGE, count without COPY_SRC.
     let small = ctx

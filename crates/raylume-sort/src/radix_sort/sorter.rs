@@ -126,7 +126,9 @@ impl RadixSorter {
             let storage = |label: &str, bytes: u64, extra: wgpu::BufferUsages| {
                 device.create_buffer(&wgpu::BufferDescriptor {
                     label: Some(label),
-                    size: bytes.max(16).div_ceil(16) * 16,
+                    // Multiples of 4, not 16: a binding of the whole buffer must stay within
+                    // max_storage_buffer_binding_size (an H100's is 2^31 - 4 bytes).
+                    size: bytes.max(4).div_ceil(4) * 4,
                     usage: wgpu::BufferUsages::STORAGE | extra,
                     mapped_at_creation: false,
                 })
