@@ -11,7 +11,7 @@ use crate::SortError;
 impl RadixSorter {
     /// Records the sort of the first `len` pairs of `keys` and `values` into `encoder`, as one
     /// compute pass labelled `sort_keys` (timestamped when `timestamps` is given; with
-    /// [`SortOptions::stage_timestamps`], one pass and timestamp per kernel instead, labelled
+    /// [`SortOptions::stage_timestamps`](crate::SortOptions::stage_timestamps), one pass and timestamp per kernel instead, labelled
     /// by its entry point, `2 + 3 * passes` of them plus `sort_copy` after an odd count). The sorted
     /// pairs end up back in `keys` and `values` (after an odd number of passes a final
     /// `sort_copy` kernel moves them back from the scratch buffers).
