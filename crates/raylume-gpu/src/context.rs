@@ -215,7 +215,9 @@ impl GpuContext {
 
     /// The largest storage buffer binding, in bytes.
     pub fn max_binding_bytes(&self) -> u64 {
-        u64::from(self.limits.max_storage_buffer_binding_size).min(self.limits.max_buffer_size)
+        self.limits
+            .max_storage_buffer_binding_size
+            .min(self.limits.max_buffer_size)
     }
 
     /// Fails with [`GpuError::TooLarge`] when `bytes` exceed one storage binding.
