@@ -44,7 +44,9 @@ fn report(what: &str, s: &TraceSettings, o: &TraceOutput) {
 
 fn bench(c: &mut Criterion) {
     let scene = support::cornell_box();
-    let bvh = support::bvh(&scene);
+    // The preset a render would use for this scene (Quality below a million primitives).
+    let quality = raylume_bvh::BvhQuality::for_primitive_count(scene.primitive_count());
+    let bvh = raylume_bvh::GpuBvh::from_scene(&scene, quality).expect("BVH");
     let mut group = c.benchmark_group("cornell");
     group
         .sample_size(10)

@@ -23,6 +23,19 @@
 //! - Pipelines specialised on the scene's [`raylume_scene::Features`] through WGSL `override`
 //!   constants ([`gpu::pipeline_constants`]).
 //!
+//! # Measured
+//! `benches/trace.rs`, Cornell box (36 triangles, BVH from raylume-bvh), 1000x1000, 100 spp,
+//! 10 bounces, 581 M rays, on an H100 (wgpu 30, Vulkan, 2026-11-23): megakernel 0.23 s of GPU
+//! time (0.24 s wall), wavefront 0.20-0.23 s (its compaction keeps warps full as paths end);
+//! the bar set for this crate was 0.6 s. Workgroups of 64 beat 128 (1-2 %) and 256 (6-7 %).
+//! Brute force over the 36 triangles instead of the BVH was slower (0.40 s).
+//!
+//! # Reordering (for the facade)
+//! `propagate` writes one sort key per queue slot (raylume-sort's `ray_sort_key`, dead rays
+//! `DEAD_RAY_KEY`) and also appends the live rays, compacted, to the next queue, so the
+//! wavefront runs without sorting. [`WavefrontBuffers`] documents how a sorter plugs in
+//! between two `propagate` launches.
+//!
 //! # Where to start reading
 //! [`shade::trace_ray`] is one path segment, called by both schedules; `gpu/megakernel.wgsl`
 //! and `gpu/wavefront.wgsl` are the two schedules; [`cpu::stages`] mirrors their entry points.
