@@ -131,7 +131,9 @@ impl<'a> GpuTracer<'a> {
         bvh: &GpuBvh,
         features: Features,
     ) -> Result<Self, KernelError> {
-        let missing = Features::from_bits(scene.features().bits() & !features.bits());
+        // Bloom is a post pass, not tracer code.
+        let needed = scene.features().bits() & !(Feature::Bloom as u32);
+        let missing = Features::from_bits(needed & !features.bits());
         if missing != Features::NONE {
             return Err(KernelError::InvalidScene(format!(
                 "pipelines specialised without features the scene uses: {missing}"
