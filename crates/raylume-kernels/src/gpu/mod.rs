@@ -1,6 +1,8 @@
 //! The GPU tracer: the scene uploaded once into storage buffers, pipelines specialised on the
 //! scene's features, and the two schedules (megakernel, wavefront) run batch by batch.
 
+mod clock;
+mod layout;
 mod shader;
 mod work;
 
@@ -10,13 +12,15 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use raylume_bvh::{BvhNode, GpuBvh, Primitive};
-use raylume_gpu::{GpuContext, Timestamps, wgpu};
+use raylume_gpu::{GpuContext, wgpu};
 use raylume_scene::{Feature, Features, Scene};
 
 use crate::batches::{Batch, dispatch_size, plan_batches};
 use crate::gpu_types::{GpuMaterial, RayState, SceneUniforms, TextureHeader, TriangleShading};
 use crate::scene_data::SceneData;
 use crate::{KernelError, Schedule, TraceOutput, TraceSettings, WORKGROUP_SIZE};
+use clock::StageClock;
+use layout::{bind_group_layouts, upload};
 use work::WorkBuffers;
 
 /// Statistics of a render whose image stays on the GPU ([`GpuTracer::render_to_buffer`]).
@@ -76,46 +80,6 @@ pub struct GpuTracer<'a> {
     upload_seconds: f64,
 }
 
-fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-fn uniform_entry(binding: u32, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: dynamic,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-/// A storage buffer holding `data`, or one default element when `data` is empty (a binding
-/// must hold at least one element). A buffer over the adapter's limit is a
-/// [`KernelError::SceneTooLarge`] naming `label`.
-fn upload<T: bytemuck::Pod + Default>(
-    ctx: &GpuContext,
-    label: &str,
-    data: &[T],
-) -> Result<wgpu::Buffer, KernelError> {
-    let one = [T::default()];
-    let data = if data.is_empty() { &one[..] } else { data };
-    ctx.storage_buffer(label, data, wgpu::BufferUsages::empty())
-        .map_err(KernelError::from_upload)
-}
-
 impl<'a> GpuTracer<'a> {
     /// Uploads `scene` (with its BVH `bvh`) and builds pipelines specialised on
     /// `scene.features()`.
@@ -171,37 +135,7 @@ impl<'a> GpuTracer<'a> {
         let headers = upload::<TextureHeader>(ctx, "texture headers", &data.texture_headers)?;
         let texels = upload::<f32>(ctx, "texels", &data.texels)?;
 
-        let scene_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("raylume scene"),
-            entries: &[
-                uniform_entry(0, false),
-                storage_entry(1, true),
-                storage_entry(2, true),
-                storage_entry(3, true),
-                storage_entry(4, true),
-                storage_entry(5, true),
-                storage_entry(6, true),
-                storage_entry(7, true),
-            ],
-        });
-        let work_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("raylume work"),
-            entries: &[
-                storage_entry(0, false),
-                storage_entry(1, false),
-                storage_entry(2, false),
-                storage_entry(3, false),
-                storage_entry(4, false),
-                storage_entry(5, false),
-                storage_entry(6, false),
-                storage_entry(7, false),
-                uniform_entry(8, true),
-            ],
-        });
-        let args_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("raylume propagate dispatch size"),
-            entries: &[storage_entry(0, false)],
-        });
+        let [scene_layout, work_layout, args_layout] = bind_group_layouts(device);
         let (bind_group, pipeline_layout, prepare_layout, module) =
             ctx.scoped("building the tracer's shader and layouts", || {
                 let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -536,82 +470,5 @@ impl<'a> GpuTracer<'a> {
             dropped_samples,
             timings,
         })
-    }
-}
-
-/// A stage of a batch: its name and how to record it into a compute pass.
-type Stage<'s> = (&'static str, &'s dyn Fn(&mut wgpu::ComputePass<'_>));
-
-/// Times named stages: with GPU timestamps, all stages of a batch go into one submission, a
-/// pass each; without, each stage is submitted and waited for on its own and timed by the
-/// wall clock.
-struct StageClock<'c> {
-    ctx: &'c GpuContext,
-    timestamps: Option<Timestamps>,
-    totals: Vec<(&'static str, f64)>,
-}
-
-impl<'c> StageClock<'c> {
-    fn new(ctx: &'c GpuContext) -> Self {
-        Self {
-            ctx,
-            timestamps: Timestamps::new(ctx, 4),
-            totals: Vec::new(),
-        }
-    }
-
-    fn add(&mut self, label: &'static str, seconds: f64) {
-        match self.totals.iter_mut().find(|(l, _)| *l == label) {
-            Some((_, t)) => *t += seconds,
-            None => self.totals.push((label, seconds)),
-        }
-    }
-
-    fn total(&self, label: &str) -> Option<f64> {
-        self.totals
-            .iter()
-            .find(|(l, _)| *l == label)
-            .map(|(_, t)| *t)
-    }
-
-    /// Records, submits and waits for `stages`.
-    fn run(&mut self, during: &str, stages: &[Stage<'_>]) -> Result<(), KernelError> {
-        let ctx = self.ctx;
-        if let Some(ts) = self.timestamps.as_mut() {
-            ctx.scoped(during, || {
-                let mut enc = ctx.device.create_command_encoder(&Default::default());
-                for (label, record) in stages {
-                    let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                        label: Some(label),
-                        timestamp_writes: ts.writes(label),
-                    });
-                    record(&mut pass);
-                }
-                ts.resolve(&mut enc);
-                ctx.queue.submit([enc.finish()]);
-            })?;
-            let times = ts.read(ctx)?;
-            for (label, t) in times {
-                self.add(label, t);
-            }
-        } else {
-            for (label, record) in stages {
-                let t = Instant::now();
-                ctx.scoped(during, || {
-                    let mut enc = ctx.device.create_command_encoder(&Default::default());
-                    {
-                        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                            label: Some(label),
-                            timestamp_writes: None,
-                        });
-                        record(&mut pass);
-                    }
-                    ctx.queue.submit([enc.finish()]);
-                })?;
-                ctx.wait(during)?;
-                self.add(label, t.elapsed().as_secs_f64());
-            }
-        }
-        Ok(())
     }
 }

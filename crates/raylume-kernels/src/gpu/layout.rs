@@ -1,0 +1,84 @@
+//! Bind-group layout entries and scene uploads.
+
+use raylume_gpu::{GpuContext, wgpu};
+
+use crate::KernelError;
+
+pub(crate) fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+pub(crate) fn uniform_entry(binding: u32, dynamic: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: dynamic,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// A storage buffer holding `data`, or one default element when `data` is empty (a binding
+/// must hold at least one element). A buffer over the adapter's limit is a
+/// [`KernelError::SceneTooLarge`] naming `label`.
+pub(crate) fn upload<T: bytemuck::Pod + Default>(
+    ctx: &GpuContext,
+    label: &str,
+    data: &[T],
+) -> Result<wgpu::Buffer, KernelError> {
+    let one = [T::default()];
+    let data = if data.is_empty() { &one[..] } else { data };
+    ctx.storage_buffer(label, data, wgpu::BufferUsages::empty())
+        .map_err(KernelError::from_upload)
+}
+
+/// The layouts of group 0 (the scene: uniforms, then BVH nodes, primitives, materials,
+/// primitive materials, triangle shading, texture headers, texels), group 1 (the work
+/// buffers, see `bindings.wgsl`; binding 8 at a dynamic offset) and group 2 (the dispatch
+/// size `prepare_propagate` writes).
+pub(crate) fn bind_group_layouts(device: &wgpu::Device) -> [wgpu::BindGroupLayout; 3] {
+    let scene = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("raylume scene"),
+        entries: &[
+            uniform_entry(0, false),
+            storage_entry(1, true),
+            storage_entry(2, true),
+            storage_entry(3, true),
+            storage_entry(4, true),
+            storage_entry(5, true),
+            storage_entry(6, true),
+            storage_entry(7, true),
+        ],
+    });
+    let work = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("raylume work"),
+        entries: &[
+            storage_entry(0, false),
+            storage_entry(1, false),
+            storage_entry(2, false),
+            storage_entry(3, false),
+            storage_entry(4, false),
+            storage_entry(5, false),
+            storage_entry(6, false),
+            storage_entry(7, false),
+            uniform_entry(8, true),
+        ],
+    });
+    let args = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("raylume propagate dispatch size"),
+        entries: &[storage_entry(0, false)],
+    });
+    [scene, work, args]
+}
