@@ -60,6 +60,20 @@ pub struct RenderStats {
 }
 
 impl RenderStats {
+    /// Takes the tracer's counts and per-stage timings.
+    pub(crate) fn take_trace(&mut self, rays: u64, dropped: u64, timings: &[(&'static str, f64)]) {
+        self.rays_traced = rays;
+        self.dropped_samples = dropped;
+        for (name, secs) in timings {
+            match *name {
+                "trace" => self.seconds.trace = *secs,
+                "sort" => self.seconds.sort = *secs,
+                _ => {}
+            }
+            self.kernel_seconds.push((name.to_string(), *secs));
+        }
+    }
+
     /// Pretty JSON.
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"))

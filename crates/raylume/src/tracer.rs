@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use raylume_bvh::{BvhQuality, GpuBvh};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, GpuError};
-use raylume_kernels::{CpuTracer, GpuTracer, Schedule, TraceOutput, TraceSettings};
+use raylume_kernels::{CpuTracer, GpuTracer, Schedule, TraceSettings};
 use raylume_scene::Scene;
 
 use crate::{Error, ImageFormat, RenderStats};
@@ -122,6 +122,7 @@ pub struct Tracer {
     pub tone: raylume_post::ToneMap,
     progress: Option<ProgressFn>,
     gpu: Option<GpuContext>,
+    gpu_bloom: Option<raylume_post::GpuBloom>,
 }
 
 impl std::fmt::Debug for Tracer {
@@ -153,6 +154,7 @@ impl Tracer {
             tone: raylume_post::ToneMap::default(),
             progress: None,
             gpu: None,
+            gpu_bloom: None,
         }
     }
 
@@ -165,6 +167,7 @@ impl Tracer {
     /// Uses an existing GPU context (and its adapter) for GPU renders.
     pub fn with_gpu_context(mut self, ctx: GpuContext) -> Self {
         self.gpu = Some(ctx);
+        self.gpu_bloom = None;
         self
     }
 
@@ -289,48 +292,23 @@ impl Tracer {
                 });
             }
         };
-        let result = if use_gpu {
-            let ctx = self.gpu.as_ref().expect("chosen above");
-            stats.adapter = ctx.describe();
-            let t = Instant::now();
-            let mut tracer = GpuTracer::new(ctx, scene, &bvh)?;
-            stats.seconds.upload = t.elapsed().as_secs_f64();
-            tracer.render(&settings, &mut report)
-        } else {
-            stats.adapter = format!("CPU, {} threads", rayon::current_num_threads());
-            let mut tracer = CpuTracer::new(scene, &bvh)?;
-            tracer.render(&settings, &mut report)
-        };
-        self.progress = progress;
-        let out: TraceOutput = result?;
-
-        let mut pixels = out.radiance;
-        stats.rays_traced = out.rays_traced;
-        stats.dropped_samples = out.dropped_samples;
-        for (name, secs) in &out.timings {
-            match *name {
-                "trace" => stats.seconds.trace = *secs,
-                "sort" => stats.seconds.sort = *secs,
-                _ => {}
-            }
-            stats.kernel_seconds.push((name.to_string(), *secs));
-        }
-
-        let t = Instant::now();
-        if let (true, Some(b)) = (self.bloom, scene.post.bloom) {
-            let params = raylume_post::BloomParams {
+        let bloom = if self.bloom {
+            scene.post.bloom.map(|b| raylume_post::BloomParams {
                 threshold: b.threshold,
                 radius: b.radius,
                 strength: b.strength,
-            };
-            match (use_gpu, self.gpu.as_ref()) {
-                (true, Some(ctx)) => {
-                    pixels = raylume_post::bloom_gpu(ctx, &pixels, r.width, r.height, params)?;
-                }
-                _ => raylume_post::bloom_cpu(&mut pixels, r.width, r.height, params)?,
-            }
-        }
-        stats.seconds.post = t.elapsed().as_secs_f64();
+            })
+        } else {
+            None
+        };
+        let result = if use_gpu {
+            self.trace_gpu(scene, &bvh, &settings, bloom, &mut stats, &mut report)
+        } else {
+            stats.adapter = format!("CPU, {} threads", rayon::current_num_threads());
+            Self::trace_cpu(scene, &bvh, &settings, bloom, &mut stats, &mut report)
+        };
+        self.progress = progress;
+        let pixels = result?;
         stats.seconds.total = t_total.elapsed().as_secs_f64();
         if stats.seconds.trace > 0.0 {
             stats.mrays_per_s = stats.rays_traced as f64 / stats.seconds.trace / 1e6;
@@ -342,5 +320,73 @@ impl Tracer {
             stats,
             tone: self.tone,
         })
+    }
+
+    /// Traces on the GPU, runs bloom on the image while it is still there, reads it back.
+    fn trace_gpu(
+        &mut self,
+        scene: &Scene,
+        bvh: &GpuBvh,
+        settings: &TraceSettings,
+        bloom: Option<raylume_post::BloomParams>,
+        stats: &mut RenderStats,
+        report: &mut dyn FnMut(u32, u32),
+    ) -> Result<Vec<[f32; 3]>, Error> {
+        let ctx = self.gpu.as_ref().expect("the backend choice created it");
+        stats.adapter = ctx.describe();
+        let t = Instant::now();
+        let mut tracer = GpuTracer::new(ctx, scene, bvh)?;
+        stats.seconds.upload = t.elapsed().as_secs_f64();
+        let out = tracer.render_to_buffer(settings, report)?;
+        stats.take_trace(out.rays_traced, out.dropped_samples, &out.timings);
+        let image = tracer
+            .image_buffer()
+            .expect("render_to_buffer leaves the image on the GPU");
+        let t = Instant::now();
+        if let Some(params) = bloom {
+            if self.gpu_bloom.is_none() {
+                self.gpu_bloom = Some(raylume_post::GpuBloom::new(ctx)?);
+            }
+            let gpu_bloom = self.gpu_bloom.as_ref().expect("created above");
+            let mut enc = ctx
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("bloom"),
+                });
+            gpu_bloom.encode(
+                ctx,
+                &mut enc,
+                image,
+                settings.width,
+                settings.height,
+                params,
+                None,
+            )?;
+            ctx.scoped("bloom", || ctx.queue.submit([enc.finish()]))?;
+            ctx.wait("bloom")?;
+        }
+        stats.seconds.post = t.elapsed().as_secs_f64();
+        let pixels = (settings.width * settings.height) as usize;
+        Ok(ctx.read_buffer::<[f32; 3]>(image, pixels)?)
+    }
+
+    /// Traces on the CPU and runs bloom there.
+    fn trace_cpu(
+        scene: &Scene,
+        bvh: &GpuBvh,
+        settings: &TraceSettings,
+        bloom: Option<raylume_post::BloomParams>,
+        stats: &mut RenderStats,
+        report: &mut dyn FnMut(u32, u32),
+    ) -> Result<Vec<[f32; 3]>, Error> {
+        let out = CpuTracer::new(scene, bvh)?.render(settings, report)?;
+        stats.take_trace(out.rays_traced, out.dropped_samples, &out.timings);
+        let mut pixels = out.radiance;
+        let t = Instant::now();
+        if let Some(params) = bloom {
+            raylume_post::bloom_cpu(&mut pixels, settings.width, settings.height, params)?;
+        }
+        stats.seconds.post = t.elapsed().as_secs_f64();
+        Ok(pixels)
     }
 }
