@@ -299,6 +299,32 @@ fn cornell_box() {
 }
 
 #[test]
+fn cornell_bloom() {
+    // cornell-box.toml's geometry and materials plus [post.bloom] as written in the file.
+    let scene = check(&Expected {
+        file: "cornell-bloom.toml",
+        triangles: 36,
+        spheres: 0,
+        materials: 8,
+        min: CORNELL_MIN,
+        max: CORNELL_MAX,
+    });
+    let box_scene = load("cornell-box.toml");
+    assert_eq!(scene.triangles, box_scene.triangles);
+    assert_eq!(scene.camera, box_scene.camera);
+    assert_eq!(box_scene.post.bloom, None);
+    assert_eq!(
+        scene.post.bloom,
+        Some(raylume_scene::Bloom {
+            threshold: 1.0,
+            radius: 24,
+            strength: 0.5
+        })
+    );
+    assert!(scene.features().contains(raylume_scene::Feature::Bloom));
+}
+
+#[test]
 fn cornell_plus() {
     // The box's 36 triangles and 8 materials, plus 2 spheres and their 2 materials; both
     // spheres lie inside the room: mirror centre (-0.335, 1.45, -0.291) radius 0.25, glass
@@ -564,6 +590,7 @@ fn every_scene_is_checked() {
     assert_eq!(
         files,
         [
+            "cornell-bloom.toml",
             "cornell-box.toml",
             "cornell-plus.toml",
             "glass-teapot.toml",
