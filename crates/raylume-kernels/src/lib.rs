@@ -19,7 +19,10 @@
 //! - Random numbers: pcg4d (Jarzynski & Olano, "Hash Functions for GPU Rendering", JCGT 2020)
 //!   keyed by (seed, pixel, sample, bounce, dimension) ([`rng`]): the CPU and the GPU, and both
 //!   schedules, trace the same paths.
-//! - Ray origins: Wächter & Binder's self-intersection offset (Ray Tracing Gems, ch. 6, 2019).
+//! - Ray origins: pushed off the surface by a bound on the hit point's rounding error and on
+//!   that of re-finding the same primitive (after PBRT 4th ed. §6.8, Pharr, Jakob &
+//!   Humphreys), relative to the primitive's coordinates, so images do not change with the
+//!   scene's scale or distance from the origin ([`surface::hit_offset`]).
 //! - Pipelines specialised on the scene's [`raylume_scene::Features`] through WGSL `override`
 //!   constants ([`gpu::pipeline_constants`]).
 //!

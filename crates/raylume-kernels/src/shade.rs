@@ -112,6 +112,7 @@ pub fn shade_hit(path: &mut PathState, hit: &SurfaceHit, mat: &GpuMaterial, rnd:
     path.origin = offset_ray_origin(
         hit.position,
         if cos_g > 0.0 { ng_facing } else { -ng_facing },
+        hit.offset,
     );
     path.dir = wi;
 }

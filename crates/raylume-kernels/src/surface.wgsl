@@ -1,5 +1,5 @@
 // What a ray sees (surface.rs): the surface at a hit, albedo textures, the environment, and
-// Wächter & Binder's offset for the next ray's origin. Reads the global bindings.
+// the offset of the next ray's origin (a rounding-error bound). Reads the global bindings.
 
 struct SurfaceHit {
     position: vec3<f32>,
@@ -7,6 +7,7 @@ struct SurfaceHit {
     shading_normal: vec3<f32>,
     uv: vec2<f32>,
     material: u32,
+    offset: f32,
 }
 
 fn direction_to_equirect(d: vec3<f32>) -> vec2<f32> {
@@ -24,13 +25,18 @@ fn surface_at(hit: Hit, origin: vec3<f32>, dir: vec3<f32>) -> SurfaceHit {
         let from_center = p - a;
         let n = normalize(from_center);
         let position = a + n * radius;
-        return SurfaceHit(position, n, n, direction_to_equirect(n), material);
+        let offset = hit_offset(n, abs(a) + vec3<f32>(radius), 2.0 * radius, 1.0);
+        return SurfaceHit(position, n, n, direction_to_equirect(n), material, offset);
     }
     let b = prim.b.xyz;
     let c = prim.c.xyz;
     let w = 1.0 - hit.u - hit.v;
     let position = a * w + b * hit.u + c * hit.v;
-    let ng = normalize(cross(b - a, c - a));
+    let cr = cross(b - a, c - a);
+    let ng = normalize(cr);
+    let span = max(a, max(b, c)) - min(a, min(b, c));
+    let extent = max(span.x, max(span.y, span.z));
+    let offset = hit_offset(ng, max(abs(a), max(abs(b), abs(c))), extent, extent * extent / length(cr));
     var ns = ng;
     var uv = vec2<f32>(hit.u, hit.v);
     if (HAS_SHADING_NORMALS || HAS_TEXTURES) {
@@ -44,7 +50,7 @@ fn surface_at(hit: Hit, origin: vec3<f32>, dir: vec3<f32>) -> SurfaceHit {
                 + vec2<f32>(sh.u2, sh.v2) * hit.v;
         }
     }
-    return SurfaceHit(position, ng, ns, uv, material);
+    return SurfaceHit(position, ng, ns, uv, material, offset);
 }
 
 fn texel(offset: u32, width: u32, x: u32, y: u32) -> vec3<f32> {
@@ -117,13 +123,17 @@ fn environment_radiance(dir: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-// Wächter & Binder, Ray Tracing Gems ch. 6.
-const OFFSET_ORIGIN: f32 = 1.0 / 32.0;
-const OFFSET_FLOAT_SCALE: f32 = 1.0 / 65536.0;
-const OFFSET_INT_SCALE: f32 = 256.0;
+// The next ray's origin: pushed off the surface by a bound on the rounding error of the hit
+// point and of re-finding the primitive from there (surface.rs documents the derivation).
+const UNIT_ROUNDOFF: f32 = 1.0 / 16777216.0;
+const OFFSET_HIT_ULPS: f32 = 8.0;
+const OFFSET_T_ULPS: f32 = 4.0;
 
-fn offset_ray_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let of_i = vec3<i32>(OFFSET_INT_SCALE * n);
-    let p_i = bitcast<vec3<f32>>(bitcast<vec3<i32>>(p) + select(of_i, -of_i, p < vec3<f32>(0.0)));
-    return select(p_i, p + OFFSET_FLOAT_SCALE * n, abs(p) < vec3<f32>(OFFSET_ORIGIN));
+fn hit_offset(n: vec3<f32>, magnitude: vec3<f32>, extent: f32, aspect: f32) -> f32 {
+    return OFFSET_HIT_ULPS * UNIT_ROUNDOFF * dot(abs(n), magnitude)
+        + OFFSET_T_ULPS * UNIT_ROUNDOFF * extent * max(aspect, 1.0);
+}
+
+fn offset_ray_origin(p: vec3<f32>, n: vec3<f32>, offset: f32) -> vec3<f32> {
+    return p + n * offset;
 }
