@@ -184,7 +184,8 @@ pub struct TraceOutput {
     pub radiance: Vec<[f32; 3]>,
     /// `trace_closest` calls (camera rays and every bounce).
     pub rays_traced: u64,
-    /// Samples whose radiance was not finite: written as zero and counted here.
+    /// Samples whose radiance was not finite or above [`math::MAX_SAMPLE_RADIANCE`] (so bright
+    /// that summing them could overflow): written as zero and counted here.
     pub dropped_samples: u64,
     /// Seconds per stage: "upload", then "raygen" + "propagate" (wavefront) or "trace_paths"
     /// (megakernel), "resolve", and "trace", the whole batch loop (the paper's ray-tracing

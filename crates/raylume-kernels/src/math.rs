@@ -28,6 +28,18 @@ pub fn is_finite3(v: Vec3) -> bool {
     is_finite_f32(v.x) && is_finite_f32(v.y) && is_finite_f32(v.z)
 }
 
+/// The brightest sample kept: 2^94 (about 1.98e28). A pixel sums up to `u32::MAX` samples in
+/// `f32` before dividing by their count, and 2^32 samples of 2^94 sum to at most 2^126, below
+/// `f32::MAX` (about 2^128): so finite samples can never add up to an infinite pixel.
+pub const MAX_SAMPLE_RADIANCE: f32 = f32::from_bits((127 + 94) << 23);
+
+/// True when a sample's radiance may be written: finite and at most [`MAX_SAMPLE_RADIANCE`].
+/// Anything else is dropped and counted.
+#[inline]
+pub fn sample_is_valid(v: Vec3) -> bool {
+    is_finite3(v) && v.x.max(v.y.max(v.z)) <= MAX_SAMPLE_RADIANCE
+}
+
 pub const PI: f32 = std::f32::consts::PI;
 pub const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
 pub const INV_2PI: f32 = 0.5 * std::f32::consts::FRAC_1_PI;
@@ -95,5 +107,26 @@ mod tests {
         assert!((atan2_poly(0.0, -1.0) - PI).abs() < 1e-6);
         assert!((acos_poly(-1.0) - PI).abs() < 1e-6);
         assert_eq!(acos_poly(1.0), 0.0);
+    }
+
+    /// Regression test: samples of radiance near `f32::MAX` (an emitter of 3e38 is finite and
+    /// was accepted) are each finite, so they used to be kept, and their sum in `resolve`
+    /// overflowed to an infinite pixel with no sample counted as dropped.
+    #[test]
+    fn kept_samples_cannot_sum_to_infinity() {
+        assert_eq!(MAX_SAMPLE_RADIANCE, 2f32.powi(94));
+        // The worst case: u32::MAX samples of the largest kept radiance, summed in f32.
+        assert!((MAX_SAMPLE_RADIANCE * u32::MAX as f32).is_finite());
+        assert!(sample_is_valid(Vec3::new(0.0, MAX_SAMPLE_RADIANCE, 1.0)));
+        for bad in [f32::MAX, f32::INFINITY, f32::NAN, 2f32.powi(95)] {
+            assert!(!sample_is_valid(Vec3::new(1.0, bad, 1.0)), "{bad}");
+        }
+        // The WGSL constant is the same f32.
+        let line = MATH_WGSL
+            .lines()
+            .find(|l| l.starts_with("const MAX_SAMPLE_RADIANCE: f32 = "))
+            .expect("the WGSL declares it");
+        let literal = line.trim_end_matches(';').rsplit(' ').next().unwrap();
+        assert_eq!(literal.parse::<f32>().unwrap(), MAX_SAMPLE_RADIANCE);
     }
 }

@@ -13,6 +13,13 @@ fn is_finite3(v: vec3<f32>) -> bool {
     return is_finite_f32(v.x) && is_finite_f32(v.y) && is_finite_f32(v.z);
 }
 
+// 2^94: 2^32 samples of it still sum to a finite f32 (math.rs).
+const MAX_SAMPLE_RADIANCE: f32 = 1.9807040628566084e28;
+
+fn sample_is_valid(v: vec3<f32>) -> bool {
+    return is_finite3(v) && max(v.x, max(v.y, v.z)) <= MAX_SAMPLE_RADIANCE;
+}
+
 // atan2 from a degree-15 odd minimax polynomial on [0, 1] (Hastings; error < 4e-8 rad) with
 // octant reduction: only + - * / and compares, so every device agrees with the Rust mirror to
 // rounding (Vulkan lets a driver's atan be 4096 ULP off). Coefficients: exact f32 values.

@@ -6,7 +6,7 @@ use raylume_bvh::GpuBvh;
 
 use crate::camera::generate_camera_ray;
 use crate::gpu_types::{DIM_CAMERA, RayState, SceneUniforms};
-use crate::math::is_finite3;
+use crate::math::sample_is_valid;
 use crate::rng::rand4;
 use crate::shade::{PathState, trace_ray};
 use crate::surface::Globals;
@@ -29,10 +29,11 @@ pub fn camera_path(scene: &SceneUniforms, pixel: u32, sample: u32) -> PathState 
 }
 
 /// The value a finished sample writes to its slot: its radiance, or zero when it is not
-/// finite (then `true`: the sample is dropped and counted).
+/// finite or too bright to sum safely (then `true`: the sample is dropped and counted; see
+/// [`crate::math::sample_is_valid`]).
 #[inline]
 pub fn write_sample(radiance: Vec3) -> ([f32; 3], bool) {
-    if is_finite3(radiance) {
+    if sample_is_valid(radiance) {
         (radiance.into(), false)
     } else {
         ([0.0; 3], true)

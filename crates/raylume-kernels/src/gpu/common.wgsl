@@ -36,10 +36,10 @@ fn trace_path(pixel: u32, sample: u32) -> PathResult {
     return PathResult(path.radiance, traced);
 }
 
-// Writes ray r's radiance to its slot; a non-finite sample is dropped (written as zero) and
-// counted. Returns 1 when dropped.
+// Writes ray r's radiance to its slot; a non-finite or overflowing sample (sample_is_valid)
+// is dropped (written as zero) and counted. Returns 1 when dropped.
 fn write_sample(r: u32, radiance: vec3<f32>) -> u32 {
-    let ok = is_finite3(radiance);
+    let ok = sample_is_valid(radiance);
     let v = select(vec3<f32>(0.0), radiance, ok);
     sample_radiance[3u * r] = v.x;
     sample_radiance[3u * r + 1u] = v.y;
