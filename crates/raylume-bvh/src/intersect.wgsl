@@ -60,18 +60,30 @@ fn shear_ray(ray: Ray) -> ShearedRay {
 // (T_MISS, 0, 0). 2D edge functions in ray space, exactly antisymmetric between neighbours
 // (without FMA contraction); t is the barycentric mean of the vertices' depths. Only
 // det == 0 is rejected. See intersect.rs.
+//
+// `a[kx]` is read as dot(a, e_kx) with e_kx the unit vector of axis kx: every product is a
+// multiplication by exactly 1 or 0 and every sum adds exact zeros, so the value is a[kx] bit
+// for bit (up to the sign of a zero, which no comparison below sees), whatever the compiler
+// fuses. Dynamic vector indexing cost ~14% of the Cornell box's render time on the H100
+// (docs/RESULTS.md); these selects and dots do not.
 fn intersect_triangle(r: ShearedRay, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>,
                       t_min: f32, t_max: f32) -> vec3<f32> {
     let miss = vec3<f32>(T_MISS, 0.0, 0.0);
+    let ex = axis_unit(r.kx);
+    let ey = axis_unit(r.ky);
+    let ez = axis_unit(r.kz);
     let a = v0 - r.origin;
     let b = v1 - r.origin;
     let c = v2 - r.origin;
-    let ax = a[r.kx] - r.shear.x * a[r.kz];
-    let ay = a[r.ky] - r.shear.y * a[r.kz];
-    let bx = b[r.kx] - r.shear.x * b[r.kz];
-    let by = b[r.ky] - r.shear.y * b[r.kz];
-    let cx = c[r.kx] - r.shear.x * c[r.kz];
-    let cy = c[r.ky] - r.shear.y * c[r.kz];
+    let a_z = dot(a, ez);
+    let b_z = dot(b, ez);
+    let c_z = dot(c, ez);
+    let ax = dot(a, ex) - r.shear.x * a_z;
+    let ay = dot(a, ey) - r.shear.y * a_z;
+    let bx = dot(b, ex) - r.shear.x * b_z;
+    let by = dot(b, ey) - r.shear.y * b_z;
+    let cx = dot(c, ex) - r.shear.x * c_z;
+    let cy = dot(c, ey) - r.shear.y * c_z;
     let w0 = cx * by - cy * bx;
     let w1 = ax * cy - ay * cx;
     let w2 = bx * ay - by * ax;
@@ -80,15 +92,20 @@ fn intersect_triangle(r: ShearedRay, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>
     if !inside || det == 0.0 {
         return miss;
     }
-    let az = r.shear.z * a[r.kz];
-    let bz = r.shear.z * b[r.kz];
-    let cz = r.shear.z * c[r.kz];
+    let az = r.shear.z * a_z;
+    let bz = r.shear.z * b_z;
+    let cz = r.shear.z * c_z;
     let inv_det = 1.0 / det;
     let t = (w0 * az + w1 * bz + w2 * cz) * inv_det;
     if t > t_min && t < t_max {
         return vec3<f32>(t, w1 * inv_det, w2 * inv_det);
     }
     return miss;
+}
+
+// The unit vector of axis k (0, 1, 2).
+fn axis_unit(k: u32) -> vec3<f32> {
+    return vec3<f32>(select(0.0, 1.0, k == 0u), select(0.0, 1.0, k == 1u), select(0.0, 1.0, k == 2u));
 }
 
 // Smallest root t_min < t < t_max, else T_MISS; from inside, the far side. Roots tc ± s
