@@ -3,7 +3,8 @@
 //!
 //! Errors: NaN/Inf anywhere, out-of-range material/texture indices, zero or negative sizes,
 //! vfov outside (0, 180), a degenerate camera, negative colours, empty scenes, counts past
-//! [`crate::limits`]. Fixed with a warning by loaders (before validation): degenerate
+//! [`crate::limits`], radiance above [`crate::limits::MAX_RADIANCE`] and bloom strength above
+//! [`crate::limits::MAX_BLOOM_STRENGTH`]. Fixed with a warning by loaders (before validation): degenerate
 //! triangles are dropped, albedo/tint above 1 are clamped to 1.
 
 use glam::Vec3;
@@ -11,8 +12,8 @@ use glam::Vec3;
 use crate::builder::Source;
 use crate::error::{Location, SceneError};
 use crate::limits::{
-    MAX_BLOOM_RADIUS, MAX_IMAGE_SIZE, MAX_MATERIALS, MAX_SPHERES, MAX_TEXTURE_SIZE, MAX_TEXTURES,
-    MAX_TRIANGLES,
+    MAX_BLOOM_RADIUS, MAX_BLOOM_STRENGTH, MAX_IMAGE_SIZE, MAX_MATERIALS, MAX_RADIANCE, MAX_SPHERES,
+    MAX_TEXTURE_SIZE, MAX_TEXTURES, MAX_TRIANGLES,
 };
 use crate::model::{Environment, Scene, Texture, Triangle};
 
@@ -122,6 +123,21 @@ fn color(file: &str, at: &Location, what: &str, c: Vec3) -> Result<(), SceneErro
             at: at.clone(),
             what: what.to_string(),
             value: c.min_element() as f64,
+        });
+    }
+    Ok(())
+}
+
+/// A radiance (already checked finite and not negative) must not exceed [`MAX_RADIANCE`].
+fn radiance(file: &str, at: &Location, what: &str, value: f32) -> Result<(), SceneError> {
+    if value > MAX_RADIANCE {
+        return Err(SceneError::InvalidValue {
+            file: file.to_string(),
+            at: at.clone(),
+            message: format!(
+                "{what} {value:e} is above {MAX_RADIANCE:e}, the brightest radiance raylume \
+                 accepts (summing such samples would overflow 32-bit floats)"
+            ),
         });
     }
     Ok(())
@@ -255,7 +271,10 @@ pub(crate) fn validate_with(s: &Scene, prov: &Provenance) -> Result<(), SceneErr
     let at = Location::path("environment");
     match &s.environment {
         Environment::Black => {}
-        Environment::Constant(c) => color(file, &at, "environment radiance", *c)?,
+        Environment::Constant(c) => {
+            color(file, &at, "environment radiance", *c)?;
+            radiance(file, &at, "environment radiance", c.max_element())?;
+        }
         Environment::Map {
             image,
             strength,
@@ -277,6 +296,16 @@ pub(crate) fn validate_with(s: &Scene, prov: &Provenance) -> Result<(), SceneErr
                     value: *strength as f64,
                 });
             }
+            let brightest = image
+                .texels
+                .iter()
+                .fold(0.0f32, |m, t| m.max(t[0]).max(t[1]).max(t[2]));
+            radiance(
+                file,
+                &at,
+                "environment map radiance (brightest texel times strength)",
+                brightest * strength,
+            )?;
         }
     }
 
@@ -294,6 +323,7 @@ pub(crate) fn validate_with(s: &Scene, prov: &Provenance) -> Result<(), SceneErr
         let at = Location::path(format!("material {i} `{}`", m.name));
         color(file, &at, "albedo", m.albedo)?;
         color(file, &at, "emission", m.emission)?;
+        radiance(file, &at, "emission", m.emission.max_element())?;
         color(file, &at, "tint", m.tint)?;
         for (what, c) in [("albedo", m.albedo), ("tint", m.tint)] {
             if c.max_element() > 1.0 {
@@ -397,6 +427,17 @@ pub(crate) fn validate_with(s: &Scene, prov: &Provenance) -> Result<(), SceneErr
             color(file, &at, what, Vec3::splat(v))?;
         }
         positive(file, &at, "bloom radius", bloom.radius as f64)?;
+        if bloom.strength > MAX_BLOOM_STRENGTH {
+            return Err(SceneError::InvalidValue {
+                file: file.into(),
+                at,
+                message: format!(
+                    "bloom strength {:e} is above {MAX_BLOOM_STRENGTH:e} (bloom adds strength \
+                     times the blurred image, which would overflow)",
+                    bloom.strength
+                ),
+            });
+        }
         too_large(
             file,
             "bloom radius",

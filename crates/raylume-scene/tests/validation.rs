@@ -232,6 +232,61 @@ fn every_invariant_has_its_error() {
     );
 }
 
+/// Regression test: finite but absurd brightness (3e38 is a valid f32) used to pass, and the
+/// renderer summed such samples into infinite pixels. Past `limits::MAX_RADIANCE` (1e20) and
+/// `limits::MAX_BLOOM_STRENGTH` (1e6) it is a typed error naming the place.
+#[test]
+fn radiance_and_bloom_strength_have_limits() {
+    use raylume_scene::limits::{MAX_BLOOM_STRENGTH, MAX_RADIANCE};
+    check(
+        |s| s.materials[1].emission = Vec3::new(0.0, 3e38, 0.0),
+        "InvalidValue",
+        "material 1 `glass`: invalid value: emission 3e38 is above 1e20",
+    );
+    check(
+        |s| s.environment = Environment::Constant(Vec3::splat(1e21)),
+        "InvalidValue",
+        "environment: invalid value: environment radiance 1e21",
+    );
+    check(
+        |s| {
+            s.environment = Environment::Map {
+                image: Texture {
+                    name: "sky.exr".into(),
+                    width: 2,
+                    height: 1,
+                    texels: vec![[1.0; 3], [1e12, 0.0, 0.0]],
+                },
+                strength: 1e9,
+                rotation: 0.0,
+            }
+        },
+        "InvalidValue",
+        "environment map radiance (brightest texel times strength) 1e21",
+    );
+    check(
+        |s| {
+            s.post.bloom = Some(Bloom {
+                threshold: 1.0,
+                radius: 2,
+                strength: 1e7,
+            })
+        },
+        "InvalidValue",
+        "post.bloom: invalid value: bloom strength 1e7 is above 1e6",
+    );
+    // The limits themselves are accepted.
+    let mut s = good();
+    s.materials[0].emission = Vec3::splat(MAX_RADIANCE);
+    s.environment = Environment::Constant(Vec3::splat(MAX_RADIANCE));
+    s.post.bloom = Some(Bloom {
+        threshold: 1.0,
+        radius: 2,
+        strength: MAX_BLOOM_STRENGTH,
+    });
+    s.validate().unwrap();
+}
+
 #[test]
 fn errors_expose_file_and_location() {
     let mut s = good();
