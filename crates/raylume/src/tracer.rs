@@ -244,9 +244,12 @@ impl Tracer {
     }
 
     /// Renders `scene` with its `[render]` settings (override them on a clone of the scene).
+    /// The scene is validated first ([`Scene::validate`]): one built by hand with a NaN camera,
+    /// a degenerate triangle or absurd radiance is an error, not a silently wrong image.
     pub fn render(&mut self, scene: &Scene) -> Result<Render, Error> {
         let t_total = Instant::now();
         Self::check_settings(scene)?;
+        scene.validate()?;
         let (use_gpu, reason) = self.choose_backend()?;
         let r = scene.render;
         let settings = TraceSettings {

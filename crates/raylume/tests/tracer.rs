@@ -170,3 +170,31 @@ fn gpu_bloom_runs_on_the_traced_image_in_place() {
         }
     }
 }
+
+/// Regression test: a scene built by hand skipped the loaders' validation, so a NaN camera,
+/// a zero vfov or an empty scene rendered silently (a blank or meaningless image). The tracer
+/// now validates every scene and answers with the typed error naming the place.
+#[test]
+fn scenes_built_by_hand_are_validated() {
+    let cases: [(&str, fn(&mut Scene)); 4] = [
+        ("camera position is not finite", |s| {
+            s.camera.position.x = f32::NAN
+        }),
+        ("vfov 0 degrees", |s| s.camera.vfov = 0.0),
+        ("the scene is empty", |s| s.triangles.clear()),
+        ("emission 1e30 is above 1e20", |s| {
+            s.materials[0].emission = glam::Vec3::splat(1e30)
+        }),
+    ];
+    for (message, breaks) in cases {
+        let mut scene = cornell(8, 8, 1);
+        breaks(&mut scene);
+        for backend in [Backend::Cpu, Backend::Auto] {
+            let err = Tracer::new(backend).render(&scene).unwrap_err();
+            assert!(
+                matches!(err, raylume::Error::Scene(_)) && err.to_string().contains(message),
+                "{backend:?}: {err}"
+            );
+        }
+    }
+}
