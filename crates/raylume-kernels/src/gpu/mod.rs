@@ -192,12 +192,10 @@ impl<'a> GpuTracer<'a> {
                         ],
                         immediate_size: 0,
                     });
-                let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some("raylume tracer"),
-                    source: wgpu::ShaderSource::Wgsl(
-                        tracer_source(ctx.limits.max_compute_workgroups_per_dimension).into(),
-                    ),
-                });
+                let module = ctx.shader_module(
+                    "raylume tracer",
+                    &tracer_source(ctx.limits.max_compute_workgroups_per_dimension),
+                );
                 (bind_group, pipeline_layout, prepare_layout, module)
             })?;
         ctx.wait("uploading the scene")?;
