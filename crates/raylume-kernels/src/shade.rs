@@ -110,9 +110,9 @@ pub fn shade_hit(path: &mut PathState, hit: &SurfaceHit, mat: &GpuMaterial, rnd:
     path.throughput *= weight;
     path.alive = right_side && path.throughput.max_element() > 0.0;
     path.origin = offset_ray_origin(
-        hit.position,
+        hit,
+        path.dir,
         if cos_g > 0.0 { ng_facing } else { -ng_facing },
-        hit.offset,
     );
     path.dir = wi;
 }

@@ -46,7 +46,7 @@ fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, 
     (*path).throughput *= weight;
     let t = (*path).throughput;
     (*path).alive = right_side && max(t.x, max(t.y, t.z)) > 0.0;
-    (*path).origin = offset_ray_origin(hit.position, select(-ng_facing, ng_facing, cos_g > 0.0), hit.offset);
+    (*path).origin = offset_ray_origin(hit, (*path).dir, select(-ng_facing, ng_facing, cos_g > 0.0));
     (*path).dir = wi;
 }
 

@@ -8,6 +8,7 @@ struct SurfaceHit {
     uv: vec2<f32>,
     material: u32,
     offset: f32,
+    back_offset: f32,
 }
 
 fn direction_to_equirect(d: vec3<f32>) -> vec2<f32> {
@@ -25,8 +26,9 @@ fn surface_at(hit: Hit, origin: vec3<f32>, dir: vec3<f32>) -> SurfaceHit {
         let from_center = p - a;
         let n = normalize(from_center);
         let position = a + n * radius;
-        let offset = hit_offset(n, abs(a) + vec3<f32>(radius), 2.0 * radius, 1.0);
-        return SurfaceHit(position, n, n, direction_to_equirect(n), material, offset);
+        let magnitude = abs(a) + vec3<f32>(radius);
+        let offset = hit_offset(n, magnitude, 2.0 * radius, 1.0);
+        return SurfaceHit(position, n, n, direction_to_equirect(n), material, offset, back_offset(magnitude, hit.t));
     }
     let b = prim.b.xyz;
     let c = prim.c.xyz;
@@ -36,7 +38,8 @@ fn surface_at(hit: Hit, origin: vec3<f32>, dir: vec3<f32>) -> SurfaceHit {
     let ng = normalize(cr);
     let span = max(a, max(b, c)) - min(a, min(b, c));
     let extent = max(span.x, max(span.y, span.z));
-    let offset = hit_offset(ng, max(abs(a), max(abs(b), abs(c))), extent, extent * extent / length(cr));
+    let magnitude = max(abs(a), max(abs(b), abs(c)));
+    let offset = hit_offset(ng, magnitude, extent, extent * extent / length(cr));
     var ns = ng;
     var uv = vec2<f32>(hit.u, hit.v);
     if (HAS_SHADING_NORMALS || HAS_TEXTURES) {
@@ -50,7 +53,7 @@ fn surface_at(hit: Hit, origin: vec3<f32>, dir: vec3<f32>) -> SurfaceHit {
                 + vec2<f32>(sh.u2, sh.v2) * hit.v;
         }
     }
-    return SurfaceHit(position, ng, ns, uv, material, offset);
+    return SurfaceHit(position, ng, ns, uv, material, offset, back_offset(magnitude, hit.t));
 }
 
 fn texel(offset: u32, width: u32, x: u32, y: u32) -> vec3<f32> {
@@ -128,12 +131,21 @@ fn environment_radiance(dir: vec3<f32>) -> vec3<f32> {
 const UNIT_ROUNDOFF: f32 = 1.0 / 16777216.0;
 const OFFSET_HIT_ULPS: f32 = 8.0;
 const OFFSET_T_ULPS: f32 = 4.0;
+const OFFSET_BACK_ULPS: f32 = 16.0;
 
 fn hit_offset(n: vec3<f32>, magnitude: vec3<f32>, extent: f32, aspect: f32) -> f32 {
     return OFFSET_HIT_ULPS * UNIT_ROUNDOFF * dot(abs(n), magnitude)
         + OFFSET_T_ULPS * UNIT_ROUNDOFF * extent * max(aspect, 1.0);
 }
 
-fn offset_ray_origin(p: vec3<f32>, n: vec3<f32>, offset: f32) -> vec3<f32> {
-    return p + n * offset;
+fn back_offset(magnitude: vec3<f32>, t: f32) -> f32 {
+    return min(OFFSET_BACK_ULPS * UNIT_ROUNDOFF * max(magnitude.x, max(magnitude.y, magnitude.z)), 0.5 * t);
+}
+
+// Back along the incoming ray (reflection) or its tangential part (transmission), then off
+// the surface along n: see surface.rs.
+fn offset_ray_origin(hit: SurfaceHit, dir_in: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let ng = hit.geometric_normal;
+    let back = select(dir_in - ng * dot(dir_in, ng), dir_in, dot(dir_in, n) < 0.0);
+    return hit.position - back * hit.back_offset + n * hit.offset;
 }
