@@ -176,7 +176,8 @@ fn gpu_bloom_runs_on_the_traced_image_in_place() {
 /// now validates every scene and answers with the typed error naming the place.
 #[test]
 fn scenes_built_by_hand_are_validated() {
-    let cases: [(&str, fn(&mut Scene)); 4] = [
+    type Break = fn(&mut Scene);
+    let cases: [(&str, Break); 4] = [
         ("camera position is not finite", |s| {
             s.camera.position.x = f32::NAN
         }),
