@@ -171,11 +171,16 @@ fn edits() -> impl Strategy<Value = Vec<Edit>> {
     proptest::collection::vec((any::<u8>(), any::<usize>(), any::<u8>(), 0usize..24), 1..8)
 }
 
-/// Loads `path`; the property: no panic, and an error names a file.
+/// Loads `path`; the property: no panic, and an error names a file. A panic inside a parser
+/// that the loader caught (its error says so) counts as a panic too: its message has already
+/// reached stderr.
 fn load_never_panics(path: PathBuf) {
     match Scene::load(&path) {
         Ok(s) => assert!(s.validate().is_ok(), "a loaded scene validates"),
-        Err(e) => assert!(!e.file().is_empty() && !e.to_string().is_empty(), "{e:?}"),
+        Err(e) => {
+            assert!(!e.file().is_empty() && !e.to_string().is_empty(), "{e:?}");
+            assert!(!e.to_string().contains("panicked"), "{e}");
+        }
     }
 }
 
@@ -324,4 +329,38 @@ fn tobj_short_colours_do_not_panic() {
     d.write("m.mtl", "newmtl a\nKd 0.5\n");
     let s = Scene::load(&p).unwrap();
     assert_eq!(s.materials[0].albedo, glam::Vec3::splat(0.5));
+}
+
+#[test]
+fn gltf_position_accessor_past_the_end_is_an_error_not_a_panic() {
+    // gltf-json's validation indexes `accessors` with the POSITION index unchecked: this
+    // panicked inside the parser (caught, but its message reached stderr). .gltf and .glb.
+    let (doc, bin) = gltf_parts();
+    let mut v: serde_json::Value = serde_json::from_str(&doc).unwrap();
+    v["meshes"][0]["primitives"][0]["attributes"]["POSITION"] = json!(7);
+    let d = TempDir::new("regress-position");
+    d.write("a.bin", &bin);
+    v["buffers"][0]["uri"] = json!("a.bin");
+    let gltf = d.write("a.gltf", v.to_string());
+    v["buffers"][0].as_object_mut().unwrap().remove("uri");
+    let glb = d.write("a.glb", common::glb(&v.to_string(), &bin));
+    for p in [gltf, glb] {
+        let e = Scene::load(&p).unwrap_err();
+        assert!(
+            matches!(
+                &e,
+                raylume_scene::SceneError::IndexOutOfRange {
+                    index: 7,
+                    len: 3,
+                    ..
+                }
+            ),
+            "{e}"
+        );
+        assert!(
+            e.to_string()
+                .contains("meshes[0].primitives[0].attributes.POSITION: accessor index 7"),
+            "{e}"
+        );
+    }
 }

@@ -197,6 +197,55 @@ impl Loader<'_> {
     }
 }
 
+/// gltf-json 1.4's validation looks up a primitive's `POSITION` accessor without a bounds
+/// check (`primitive_validate_hook` in its mesh.rs), so a file whose `POSITION` index is past
+/// the end of `accessors` panics inside `Gltf::from_slice`; `catch_unwind` turned that into an
+/// error, but the panic message still reached stderr. This checks those indices first, on the
+/// raw JSON (the whole `.gltf`, or a `.glb`'s first chunk). JSON that does not parse is left
+/// to the glTF parser, which reports it with line and column.
+fn check_position_accessors(bytes: &[u8], file: &str) -> Result<(), SceneError> {
+    let json = if bytes.starts_with(b"glTF") {
+        // GLB: a 12-byte header, then the JSON chunk's length, its type, its data.
+        let Some(len) = bytes.get(12..16) else {
+            return Ok(());
+        };
+        let len = u32::from_le_bytes([len[0], len[1], len[2], len[3]]) as usize;
+        match bytes.get(20..20usize.saturating_add(len)) {
+            Some(json) => json,
+            None => return Ok(()),
+        }
+    } else {
+        bytes
+    };
+    let Ok(doc) = serde_json::from_slice::<serde_json::Value>(json) else {
+        return Ok(());
+    };
+    fn array(v: Option<&serde_json::Value>) -> &[serde_json::Value] {
+        v.and_then(serde_json::Value::as_array)
+            .map_or(&[][..], Vec::as_slice)
+    }
+    let accessors = array(doc.get("accessors")).len() as u64;
+    for (m, mesh) in array(doc.get("meshes")).iter().enumerate() {
+        for (p, primitive) in array(mesh.get("primitives")).iter().enumerate() {
+            let position = primitive.pointer("/attributes/POSITION");
+            if let Some(index) = position.and_then(serde_json::Value::as_u64) {
+                if index >= accessors {
+                    return Err(SceneError::IndexOutOfRange {
+                        file: file.to_string(),
+                        at: Location::path(format!(
+                            "meshes[{m}].primitives[{p}].attributes.POSITION"
+                        )),
+                        what: "accessor".into(),
+                        index,
+                        len: accessors,
+                    });
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Loads a glTF/GLB file's triangles (and, unless overridden, materials) into `b`; returns
 /// the file's first perspective camera, in world space.
 pub(crate) fn load_into(
@@ -206,6 +255,7 @@ pub(crate) fn load_into(
 ) -> Result<Option<GltfCamera>, SceneError> {
     let file = path.display().to_string();
     let bytes = read_file(path, opts.referenced_by.as_deref())?;
+    check_position_accessors(&bytes, &file)?;
     let gltf = std::panic::catch_unwind(|| ::gltf::Gltf::from_slice(&bytes))
         .map_err(|_| {
             syntax(
