@@ -54,8 +54,8 @@ struct Args {
     /// Write render statistics as JSON to this file.
     #[arg(long)]
     stats: Option<PathBuf>,
-    /// Exposure in stops for .png output.
-    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    /// Exposure in stops for .png output (-64 to 64).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = parse_exposure)]
     exposure: f32,
     /// No progress bar.
     #[arg(long, short = 'q')]
@@ -75,6 +75,19 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
         .parse()
         .map_err(|_| format!("bad height in `{s}`"))?;
     Ok((w, h))
+}
+
+/// A finite exposure within ±64 stops (2^64 already saturates any radiance a render holds),
+/// checked before rendering rather than when the image is written.
+fn parse_exposure(s: &str) -> Result<f32, String> {
+    let stops: f32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{s}` is not a number of stops"))?;
+    if !(-64.0..=64.0).contains(&stops) {
+        return Err(format!("exposure {s} stops: use a value from -64 to 64"));
+    }
+    Ok(stops)
 }
 
 fn parse_schedule(s: &str) -> Result<Schedule, String> {
@@ -208,7 +221,7 @@ fn run(args: Args) -> Result<(), String> {
     );
     if s.dropped_samples > 0 {
         eprintln!(
-            "warning: {} samples had non-finite radiance and were dropped",
+            "warning: {} samples had non-finite or overflowing radiance and were dropped",
             s.dropped_samples
         );
     }

@@ -48,7 +48,8 @@ pub struct RenderStats {
     pub reorder: String,
     /// Rays cast (every closest-hit traversal, camera rays included).
     pub rays_traced: u64,
-    /// Samples dropped because their radiance was not finite.
+    /// Samples dropped because their radiance was not finite, or so large that summing them
+    /// could overflow (`raylume_kernels::math::MAX_SAMPLE_RADIANCE`).
     pub dropped_samples: u64,
     pub seconds: StageSeconds,
     /// Millions of rays per second over the `trace` phase.
