@@ -264,7 +264,15 @@ impl GpuContext {
     /// Runs `f` (which records and submits GPU work) under out-of-memory, validation and
     /// internal error scopes, and turns whatever they caught, a device loss, or an error that
     /// escaped to the uncaptured handler, into a [`GpuError`] naming `during`.
+    ///
+    /// A device that is already lost or destroyed fails first, without running `f`: wgpu
+    /// reports the loss only from a poll, and until then some of its calls panic on the dead
+    /// device (`create_buffer_init` cannot map the buffer it created), so this polls, without
+    /// waiting, and checks before touching the device.
     pub fn scoped<T>(&self, during: &str, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+        // The poll's own outcome is irrelevant here; a loss it finds runs the lost callback.
+        let _ = self.device.poll(wgpu::PollType::Poll);
+        self.check_health(during)?;
         let oom = self.device.push_error_scope(wgpu::ErrorFilter::OutOfMemory);
         let val = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let internal = self.device.push_error_scope(wgpu::ErrorFilter::Internal);

@@ -86,3 +86,36 @@ fn timestamps_time_a_pass() {
     assert_eq!(t[0].0, "empty");
     assert!(t[0].1 >= 0.0 && t[0].1 < 1.0, "{t:?}");
 }
+
+/// Regression test: after `Device::destroy` (what a driver reset looks like to wgpu), creating
+/// a buffer panicked inside wgpu (`create_buffer_init` could not map it), because wgpu reports
+/// the loss only from a poll. Every `scoped` call now polls and checks first.
+#[test]
+fn a_destroyed_device_is_device_lost_not_a_panic() {
+    if context_or_skip("a_destroyed_device_is_device_lost_not_a_panic").is_none() {
+        return;
+    }
+    // Its own context: the shared one must survive.
+    let ctx = raylume_gpu::GpuContext::new(&raylume_gpu::ContextOptions::default()).unwrap();
+    ctx.device.destroy();
+    let err = ctx
+        .storage_buffer("scene data", &[1u32, 2, 3], wgpu::BufferUsages::empty())
+        .unwrap_err();
+    match &err {
+        GpuError::DeviceLost { during, .. } => assert_eq!(during, "scene data"),
+        other => panic!("expected DeviceLost, got {other:?}"),
+    }
+    assert!(err.to_string().contains("use the CPU backend"), "{err}");
+    assert!(matches!(
+        ctx.read_buffer::<u32>(
+            &ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: None,
+                size: 16,
+                usage: wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            }),
+            4
+        ),
+        Err(GpuError::DeviceLost { .. })
+    ));
+}
