@@ -260,7 +260,7 @@ fn bad_input_is_a_typed_error() {
         let e = GpuTracer::new(ctx, &huge, &bvh).err().expect("too large");
         match &e {
             KernelError::SceneTooLarge { what, limit: l, .. } => {
-                assert_eq!(what, "texels");
+                assert_eq!(what, "texture and environment-map data");
                 assert_eq!(*l, limit);
             }
             other => panic!("expected SceneTooLarge, got {other}"),

@@ -133,7 +133,7 @@ impl<'a> GpuTracer<'a> {
         };
         let shading = upload::<TriangleShading>(ctx, "triangle shading data", shading)?;
         let headers = upload::<TextureHeader>(ctx, "texture headers", &data.texture_headers)?;
-        let texels = upload::<f32>(ctx, "texels", &data.texels)?;
+        let texels = upload::<f32>(ctx, "texture and environment-map data", &data.texels)?;
 
         let [scene_layout, work_layout, args_layout] = bind_group_layouts(device);
         let (bind_group, pipeline_layout, prepare_layout, module) =
