@@ -27,3 +27,17 @@ pub enum Error {
     #[error("cannot write {path}: {reason}")]
     Output { path: PathBuf, reason: String },
 }
+
+impl Error {
+    /// True when the GPU device was lost (driver reset, device destroyed). A [`crate::Tracer`]
+    /// that meets it drops its GPU context, so its next render runs on a new device.
+    pub fn is_device_lost(&self) -> bool {
+        use raylume_gpu::GpuError::DeviceLost;
+        matches!(
+            self,
+            Error::Gpu(DeviceLost { .. })
+                | Error::Kernels(raylume_kernels::KernelError::Gpu(DeviceLost { .. }))
+                | Error::Post(raylume_post::PostError::Gpu(DeviceLost { .. }))
+        )
+    }
+}

@@ -311,6 +311,11 @@ impl Tracer {
             Self::trace_cpu(scene, &bvh, &settings, bloom, &mut stats, &mut report)
         };
         self.progress = progress;
+        if result.as_ref().is_err_and(Error::is_device_lost) {
+            // A lost device stays lost: the next render starts over on a new one.
+            self.gpu = None;
+            self.gpu_bloom = None;
+        }
         let pixels = result?;
         stats.seconds.total = t_total.elapsed().as_secs_f64();
         if stats.seconds.trace > 0.0 {
