@@ -66,7 +66,7 @@ fn generated() -> Vec<(&'static str, Vec<u8>)> {
     // A GLB: 12-byte header ("glTF", version 2, total length), then the JSON chunk.
     let glb = |json: &str, declared_total: Option<u32>| {
         let mut j = json.as_bytes().to_vec();
-        while j.len() % 4 != 0 {
+        while !j.len().is_multiple_of(4) {
             j.push(b' ');
         }
         let total = declared_total.unwrap_or(12 + 8 + j.len() as u32);
