@@ -134,7 +134,13 @@ impl GpuContext {
         });
         let Some(adapter) = candidates.into_iter().next() else {
             let tried = if seen.is_empty() {
-                "wgpu saw no adapter at all".to_string()
+                match std::env::var("WGPU_BACKEND") {
+                    // The usual cause then: a backend this machine does not have.
+                    Ok(b) => format!(
+                        "wgpu saw no adapter at all; WGPU_BACKEND={b} limits it to those backends"
+                    ),
+                    Err(_) => "wgpu saw no adapter at all".to_string(),
+                }
             } else {
                 format!("seen but not allowed: {}", seen.join("; "))
             };

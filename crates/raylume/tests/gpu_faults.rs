@@ -109,6 +109,7 @@ fn no_adapter_is_a_clear_error_and_auto_falls_back_to_the_cpu() {
         &[
             "no GPU adapter found",
             "wgpu saw no adapter at all",
+            &format!("WGPU_BACKEND={} limits it", absent_backend()),
             "install a Vulkan driver",
             "use the CPU backend",
         ],
