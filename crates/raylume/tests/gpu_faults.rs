@@ -285,8 +285,8 @@ fn an_image_larger_than_a_binding_says_what_does_not_fit() {
     let Some(ctx) = raylume_gpu::testing::context_or_skip("image too large") else {
         return;
     };
-    // The accumulated image (12 bytes a pixel) must fit one binding; pick the smallest square
-    // image that does not, if the render command accepts it (at most 2^27 pixels).
+    // The accumulated image (12 bytes a pixel) must fit one binding; pick a square
+    // image just past it, if the render command accepts it (at most 2^27 pixels).
     let limit = ctx.max_binding_bytes();
     let side = ((limit / 12) as f64).sqrt().ceil() as u64 + 1;
     if side * side > 1 << 27 {
