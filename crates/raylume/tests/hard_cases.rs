@@ -63,15 +63,33 @@ fn furnaces_are_exact_at_any_scale_and_far_from_the_origin() {
     // collects E (1 - a^(n+1)) / (1 - a) whatever it hits (furnace_series). A ray that slips
     // out (a leak), starts behind its surface (a self-intersection that turns it around to
     // the outside) or is lost changes its pixel; one that ends early shortens the ray count.
-    // Tolerance: rounding of 7 terms per sample and 8 samples per pixel, 1e-5 relative.
+    // The second scene is the inside of a single glowing sphere (the camera inside an
+    // object). Tolerance: rounding of 7 terms per sample and 8 samples per pixel, 1e-5.
     let n = 6;
-    let expected = furnace_series(0.5, Vec3::new(1.0, 0.75, 0.5), n);
+    let e = Vec3::new(1.0, 0.75, 0.5);
+    let expected = furnace_series(0.5, e, n);
+    let inside_a_sphere = Scene {
+        camera: camera(
+            Vec3::new(0.25, -0.125, 0.5),
+            Vec3::new(-1.0, 0.5, -1.0),
+            90.0,
+        ),
+        materials: vec![glowing("sphere", 0.5, e)],
+        spheres: vec![sphere(Vec3::new(0.0, 0.0, 0.0), 1.0, 0)],
+        render: settings(16, 16, 8, n),
+        ..Default::default()
+    };
     for (what, scale, offset) in transforms() {
-        let scene = transformed(&furnace_room(1.0), scale, offset);
-        let name = format!("furnace {what}");
-        let renders = render_both(&name, &scene, false, 0);
-        assert_every_pixel(&name, &renders, expected, 1e-5);
-        assert_full_paths(&name, &renders, &scene);
+        for (kind, base) in [
+            ("room", furnace_room(1.0)),
+            ("sphere", inside_a_sphere.clone()),
+        ] {
+            let scene = transformed(&base, scale, offset);
+            let name = format!("furnace {kind} {what}");
+            let renders = render_both(&name, &scene, false, 0);
+            assert_every_pixel(&name, &renders, expected, 1e-5);
+            assert_full_paths(&name, &renders, &scene);
+        }
     }
 }
 
