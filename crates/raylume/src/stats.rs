@@ -58,6 +58,9 @@ pub struct RenderStats {
     pub kernel_seconds: Vec<(String, f64)>,
     /// BVH nodes.
     pub bvh_nodes: usize,
+    /// The post-processing passes that ran, in order (`bloom_threshold`, `bloom_h`, ...).
+    /// Empty when the scene calls for no post effect: then none is scheduled at all.
+    pub post_passes: Vec<&'static str>,
 }
 
 impl RenderStats {

@@ -361,6 +361,7 @@ impl Tracer {
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("bloom"),
                 });
+            let mut ts = raylume_gpu::Timestamps::new(ctx, raylume_post::BLOOM_STAGES.len() as u32);
             gpu_bloom.encode(
                 ctx,
                 &mut enc,
@@ -368,10 +369,21 @@ impl Tracer {
                 settings.width,
                 settings.height,
                 params,
-                None,
+                ts.as_mut(),
             )?;
+            if let Some(ts) = &ts {
+                ts.resolve(&mut enc);
+            }
             ctx.scoped("bloom", || ctx.queue.submit([enc.finish()]))?;
             ctx.wait("bloom")?;
+            if let Some(ts) = ts.as_mut() {
+                for (stage, secs) in ts.read(ctx)? {
+                    stats.kernel_seconds.push((stage.to_string(), secs));
+                }
+            }
+            if !params.is_identity() {
+                stats.post_passes.extend(raylume_post::BLOOM_STAGES);
+            }
         }
         stats.seconds.post = t.elapsed().as_secs_f64();
         let pixels = (settings.width * settings.height) as usize;
@@ -393,6 +405,9 @@ impl Tracer {
         let t = Instant::now();
         if let Some(params) = bloom {
             raylume_post::bloom_cpu(&mut pixels, settings.width, settings.height, params)?;
+            if !params.is_identity() {
+                stats.post_passes.extend(raylume_post::BLOOM_STAGES);
+            }
         }
         stats.seconds.post = t.elapsed().as_secs_f64();
         Ok(pixels)

@@ -70,6 +70,10 @@ fn bloom_runs_only_when_the_scene_asks_and_the_flag_allows() {
     let mut scene = cornell(16, 16, 2);
     let mut t = Tracer::new(Backend::Cpu);
     let plain = t.render(&scene).unwrap();
+    assert!(
+        plain.stats.post_passes.is_empty(),
+        "no [post.bloom]: no pass"
+    );
     scene.post.bloom = Some(raylume_scene::Bloom {
         threshold: 1.0,
         radius: 2,
@@ -87,7 +91,12 @@ fn bloom_runs_only_when_the_scene_asks_and_the_flag_allows() {
         }
     }
     t.bloom = false;
-    assert_eq!(t.render(&scene).unwrap().pixels, plain.pixels, "--no-bloom");
+    let off = t.render(&scene).unwrap();
+    assert_eq!(off.pixels, plain.pixels, "--no-bloom");
+    assert!(
+        off.stats.post_passes.is_empty(),
+        "--no-bloom schedules no pass"
+    );
 }
 
 #[test]
@@ -146,6 +155,7 @@ fn gpu_bloom_runs_on_the_traced_image_in_place() {
     scene.post.bloom = Some(bloom);
     let mut t = Tracer::new(Backend::Gpu);
     let bloomed = t.render(&scene).unwrap();
+    assert_eq!(bloomed.stats.post_passes, raylume_post::BLOOM_STAGES);
     t.bloom = false;
     let mut expect = t.render(&scene).unwrap().pixels;
     let params = raylume_post::BloomParams {
@@ -197,5 +207,46 @@ fn scenes_built_by_hand_are_validated() {
                 "{backend:?}: {err}"
             );
         }
+    }
+}
+
+/// A scene without `[post.bloom]` schedules no post pass on the GPU: no bloom stage is
+/// recorded, timed or listed; with it, all four are (and timed where the adapter has
+/// timestamps).
+#[test]
+fn gpu_schedules_no_bloom_pass_for_a_scene_without_bloom() {
+    let Some(ctx) = raylume_gpu::testing::context_or_skip(
+        "gpu_schedules_no_bloom_pass_for_a_scene_without_bloom",
+    ) else {
+        return;
+    };
+    let mut t = Tracer::new(Backend::Gpu);
+    let plain = t.render(&cornell(8, 8, 1)).unwrap();
+    assert!(plain.stats.post_passes.is_empty());
+    assert!(
+        !plain
+            .stats
+            .kernel_seconds
+            .iter()
+            .any(|(k, _)| k.starts_with("bloom")),
+        "{:?}",
+        plain.stats.kernel_seconds
+    );
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-bloom.toml");
+    let mut scene = Scene::load(path).unwrap();
+    scene.render.width = 8;
+    scene.render.height = 8;
+    scene.render.spp = 1;
+    let bloomed = t.render(&scene).unwrap();
+    assert_eq!(bloomed.stats.post_passes, raylume_post::BLOOM_STAGES);
+    if ctx.has_timestamps() {
+        let timed: Vec<&str> = bloomed
+            .stats
+            .kernel_seconds
+            .iter()
+            .map(|(k, _)| k.as_str())
+            .filter(|k| k.starts_with("bloom"))
+            .collect();
+        assert_eq!(timed, raylume_post::BLOOM_STAGES);
     }
 }
