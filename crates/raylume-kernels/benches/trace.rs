@@ -69,6 +69,7 @@ fn bench(c: &mut Criterion) {
                     seed: 0,
                     batch_spp: env_u32("RAYLUME_BENCH_BATCH_SPP", 20),
                     schedule,
+                    reorder: raylume_kernels::Reorder::OFF,
                 };
                 let mut tracer = GpuTracer::new(&ctx, &scene, &bvh).expect("GPU tracer");
                 let out = tracer.render(&s, &mut |_, _| {}).expect("render");
@@ -91,6 +92,7 @@ fn bench(c: &mut Criterion) {
         seed: 0,
         batch_spp: 20,
         schedule: Schedule::Megakernel,
+        reorder: raylume_kernels::Reorder::OFF,
     };
     let mut cpu = CpuTracer::new(&scene, &bvh).expect("CPU tracer");
     report("cpu", &s, &cpu.render(&s, &mut |_, _| {}).expect("render"));

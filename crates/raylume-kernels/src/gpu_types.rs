@@ -187,7 +187,10 @@ pub struct RayState {
 pub struct BounceUniforms {
     /// The segment `propagate` traces (0: camera rays).
     pub depth: u32,
-    pub _pad0: u32,
+    /// 1 when the rays are sorted before the next segment: `propagate` then writes each live
+    /// ray's sort key at its slot of the next queue (so that only live rays are sorted);
+    /// 0: at its slot of this bounce's queue (`DEAD_RAY_KEY` for rays that ended).
+    pub sort_next: u32,
     pub _pad1: u32,
     pub _pad2: u32,
 }

@@ -78,7 +78,7 @@ struct RayState {
 
 struct BounceUniforms {
     depth: u32,
-    _pad0: u32,
+    sort_next: u32,
     _pad1: u32,
     _pad2: u32,
 }

@@ -33,11 +33,20 @@
 //! the bar set for this crate was 0.6 s. Workgroups of 64 beat 128 (1-2 %) and 256 (6-7 %).
 //! Brute force over the 36 triangles instead of the BVH was slower (0.40 s).
 //!
-//! # Reordering (for the facade)
-//! `propagate` writes one sort key per queue slot (raylume-sort's `ray_sort_key`, dead rays
-//! `DEAD_RAY_KEY`) and also appends the live rays, compacted, to the next queue, so the
-//! wavefront runs without sorting. [`WavefrontBuffers`] documents how a sorter plugs in
-//! between two `propagate` launches.
+//! # Reordering
+//! The paper's ray sorting ("Ray sorting": 30-bit origin-direction Morton keys, a radix sort
+//! between bounces), in the wavefront only ([`Reorder`], [`ReorderMode`]): `propagate` writes
+//! each live ray's key beside its slot in the compacted queue of the next bounce; raylume-sort's
+//! `RadixSorter` (made once per [`GpuTracer`], for the largest batch) sorts those
+//! (key, ray index) pairs in the same command encoder, reading the live count the GPU
+//! computed (`SortLen::Indirect`), so only live rays are sorted and every dispatch stays
+//! indirect. Then either `propagate` reads the states through the sorted index
+//! ([`ReorderMode::SortIndex`]) or `permute_rays` first gathers them into key order
+//! ([`ReorderMode::SortPermute`]). A bit mask picks the depths that sort; a [`BatchPolicy`]
+//! may pick the schedule and reordering per batch from the measured cost of earlier batches
+//! ([`GpuTracer::render_with_policy`]), which is how `raylume`'s `--reorder auto` decides.
+//! Sorting changes only which thread traces which ray, never a ray's arithmetic or random
+//! numbers, so the image is bit-identical with and without it.
 //!
 //! # Where to start reading
 //! [`shade::trace_ray`] is one path segment, called by both schedules; `gpu/megakernel.wgsl`
@@ -74,7 +83,10 @@ pub mod surface;
 
 pub use cpu::CpuTracer;
 pub use error::KernelError;
-pub use gpu::{GpuTracer, TraceStats, WavefrontBuffers};
+pub use gpu::{
+    BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, SortCapture, StageTime,
+    TraceStats, WavefrontBuffers,
+};
 
 use raylume_scene::RenderSettings;
 
@@ -105,6 +117,126 @@ impl Schedule {
     }
 }
 
+/// How the wavefront reorders rays before a bounce (GPU only; the CPU never sorts, as in the
+/// paper). After `propagate` the live rays of the next queue are sorted by their 30-bit
+/// origin-direction Morton key (raylume-sort's `ray_sort_key`, `RadixSorter`); then either
+/// the queue alone is in key order ([`ReorderMode::SortIndex`]) or the ray states are moved
+/// into key order too ([`ReorderMode::SortPermute`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum ReorderMode {
+    /// No sorting: each bounce reads the live rays in the order compaction appended them.
+    #[default]
+    Off,
+    /// Sort (key, ray index); `propagate` reads each ray's state through the sorted index
+    /// (a gather of 64-byte states, scattered writes back).
+    SortIndex,
+    /// Sort (key, ray index), then the `permute_rays` kernel gathers the states into key order
+    /// in a second state buffer, so that `propagate` reads and writes them contiguously
+    /// (one more read and write of the live states per sorted bounce, and twice the memory).
+    SortPermute,
+}
+
+impl ReorderMode {
+    /// Lower-case name for logs and stats: `off`, `sort-index`, `sort-permute`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            ReorderMode::Off => "off",
+            ReorderMode::SortIndex => "sort-index",
+            ReorderMode::SortPermute => "sort-permute",
+        }
+    }
+}
+
+/// Which bounces of the wavefront read their rays in sort-key order, and how.
+///
+/// Bit `d` of `depths` (for `d` in `1..=63`) sorts the rays before segment `d` is traced,
+/// i.e. between `propagate` at depth `d - 1` and at depth `d`; bit 63 also stands for every
+/// depth above 63. Bit 0 is ignored: camera rays come from `raygen` in pixel order, already
+/// coherent, and have no keys yet.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Reorder {
+    pub mode: ReorderMode,
+    pub depths: u64,
+}
+
+impl Reorder {
+    /// No sorting.
+    pub const OFF: Reorder = Reorder {
+        mode: ReorderMode::Off,
+        depths: 0,
+    };
+
+    /// Sorting before every bounce after the camera rays (depths 1 and up).
+    pub const fn every_bounce(mode: ReorderMode) -> Self {
+        Self { mode, depths: !1 }
+    }
+
+    /// Sorting before depths `first` and up (`first` at least 1; above 63 it counts as 63).
+    pub const fn from_depth(mode: ReorderMode, first: u32) -> Self {
+        let first = if first < 1 {
+            1
+        } else if first > 63 {
+            63
+        } else {
+            first
+        };
+        Self {
+            mode,
+            depths: !0u64 << first,
+        }
+    }
+
+    /// True when the rays of segment `depth` are sorted before it is traced.
+    pub const fn sorts_before(&self, depth: u32) -> bool {
+        let bit = if depth > 63 { 63 } else { depth };
+        !matches!(self.mode, ReorderMode::Off) && depth >= 1 && (self.depths >> bit) & 1 == 1
+    }
+
+    /// True when some depth in `1..=max_bounces` is sorted.
+    pub fn sorts_any(&self, max_bounces: u32) -> bool {
+        (1..=max_bounces.min(64)).any(|d| self.sorts_before(d))
+    }
+
+    /// The depths in `1..=max_bounces` that are sorted, as ranges: `"2..=10"`, `"1, 3..=5"`,
+    /// or `"none"`.
+    pub fn depth_ranges(&self, max_bounces: u32) -> String {
+        let mut parts = Vec::new();
+        let mut d = 1;
+        while d <= max_bounces {
+            if self.sorts_before(d) {
+                let start = d;
+                while d < max_bounces && self.sorts_before(d + 1) {
+                    d += 1;
+                }
+                parts.push(if start == d {
+                    format!("{d}")
+                } else {
+                    format!("{start}..={d}")
+                });
+            }
+            d += 1;
+        }
+        if parts.is_empty() {
+            "none".into()
+        } else {
+            parts.join(", ")
+        }
+    }
+
+    /// `"off"`, or e.g. `"sort-index before depths 1..=10"` for a render of `max_bounces`.
+    pub fn describe(&self, max_bounces: u32) -> String {
+        if self.sorts_any(max_bounces) {
+            format!(
+                "{} before depths {}",
+                self.mode.name(),
+                self.depth_ranges(max_bounces)
+            )
+        } else {
+            "off".into()
+        }
+    }
+}
+
 /// What to render. `Copy`; build it from the scene's [`RenderSettings`] with
 /// [`TraceSettings::from_render`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -119,6 +251,10 @@ pub struct TraceSettings {
     /// Samples per pixel per batch (the paper: 20); reduced automatically to fit the adapter.
     pub batch_spp: u32,
     pub schedule: Schedule,
+    /// Ray sorting between bounces; anything but [`Reorder::OFF`] needs
+    /// [`Schedule::Wavefront`] (the megakernel keeps each path in registers), and the CPU
+    /// ignores it.
+    pub reorder: Reorder,
 }
 
 impl TraceSettings {
@@ -135,6 +271,7 @@ impl TraceSettings {
             seed: r.seed,
             batch_spp: Self::DEFAULT_BATCH_SPP,
             schedule: Schedule::Megakernel,
+            reorder: Reorder::OFF,
         }
     }
 
@@ -165,6 +302,13 @@ impl TraceSettings {
             return bad(format!(
                 "max_bounces is {}; at most {MAX_BOUNCES_LIMIT} is supported",
                 self.max_bounces
+            ));
+        }
+        if self.schedule == Schedule::Megakernel && self.reorder.sorts_any(self.max_bounces) {
+            return bad(format!(
+                "reordering ({}) needs the wavefront schedule: the megakernel keeps each path \
+                 in registers and cannot sort rays",
+                self.reorder.describe(self.max_bounces)
             ));
         }
         Ok(())

@@ -20,6 +20,13 @@ pub fn batch_ray(scene: &SceneUniforms, r: u32) -> (u32, u32) {
     )
 }
 
+/// The slot of a pixel sample of the batch: the inverse of [`batch_ray`]. (The GPU's
+/// `propagate` writes a finished sample there, wherever its state was moved by sorting.)
+#[inline]
+pub fn sample_slot(scene: &SceneUniforms, pixel: u32, sample: u32) -> u32 {
+    (sample - scene.sample_begin) * scene.pixel_count + (pixel - scene.pixel_begin)
+}
+
 /// The camera path of a pixel sample.
 #[inline]
 pub fn camera_path(scene: &SceneUniforms, pixel: u32, sample: u32) -> PathState {

@@ -34,6 +34,9 @@
 // Group 2, only in `prepare_propagate`'s layout: the indirect dispatch size of the next
 // `propagate` (a buffer used for an indirect dispatch must not be bound in that dispatch).
 @group(2) @binding(0) var<storage, read_write> dispatch_args: array<u32, 4>;
+// Group 2, only in `permute_rays`' layout: the other ray-state buffer, which it fills in key
+// order.
+@group(2) @binding(1) var<storage, read_write> permuted_states: array<RayState>;
 
 // Scene features (raylume_scene::Features): code behind a false one is dead in the
 // specialised pipeline. The defaults describe the unspecialised reference pipeline.

@@ -14,6 +14,12 @@ fn batch_ray(r: u32) -> vec2<u32> {
     return vec2<u32>(scene.pixel_begin + r % scene.pixel_count, scene.sample_begin + r / scene.pixel_count);
 }
 
+// The slot of a pixel sample of the batch: the inverse of batch_ray, so a ray whose state was
+// moved (permute_rays) still writes its radiance where resolve looks for it.
+fn sample_slot(pixel: u32, sample: u32) -> u32 {
+    return (sample - scene.sample_begin) * scene.pixel_count + (pixel - scene.pixel_begin);
+}
+
 fn camera_path(pixel: u32, sample: u32) -> PathState {
     let jitter = rand4(scene.seed, pixel, sample, 0u, DIM_CAMERA).xy;
     let dir = generate_camera_ray(pixel, jitter);

@@ -46,9 +46,10 @@ pub(crate) fn upload<T: bytemuck::Pod + Default>(
 
 /// The layouts of group 0 (the scene: uniforms, then BVH nodes, primitives, materials,
 /// primitive materials, triangle shading, texture headers, texels), group 1 (the work
-/// buffers, see `bindings.wgsl`; binding 8 at a dynamic offset) and group 2 (the dispatch
-/// size `prepare_propagate` writes).
-pub(crate) fn bind_group_layouts(device: &wgpu::Device) -> [wgpu::BindGroupLayout; 3] {
+/// buffers, see `bindings.wgsl`; binding 8 at a dynamic offset), group 2 of
+/// `prepare_propagate` (the dispatch size it writes) and group 2 of `permute_rays` (the state
+/// buffer it fills).
+pub(crate) fn bind_group_layouts(device: &wgpu::Device) -> [wgpu::BindGroupLayout; 4] {
     let scene = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("raylume scene"),
         entries: &[
@@ -80,5 +81,9 @@ pub(crate) fn bind_group_layouts(device: &wgpu::Device) -> [wgpu::BindGroupLayou
         label: Some("raylume propagate dispatch size"),
         entries: &[storage_entry(0, false)],
     });
-    [scene, work, args]
+    let permute = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("raylume permuted ray states"),
+        entries: &[storage_entry(1, false)],
+    });
+    [scene, work, args, permute]
 }

@@ -1,11 +1,17 @@
 //! The GPU tracer: the scene uploaded once into storage buffers, pipelines specialised on the
-//! scene's features, and the two schedules (megakernel, wavefront) run batch by batch.
+//! scene's features, and the two schedules (megakernel, wavefront) run batch by batch, the
+//! wavefront optionally sorting its rays between bounces (raylume-sort).
 
+mod capture;
 mod clock;
 mod layout;
+mod policy;
+mod render;
 mod shader;
 mod work;
 
+pub use capture::SortCapture;
+pub use policy::{BatchPlan, BatchPolicy, BatchTiming, DepthTiming, StageTime};
 pub use shader::{pipeline_constants, tracer_source};
 
 use std::collections::HashMap;
@@ -14,13 +20,14 @@ use std::time::Instant;
 use raylume_bvh::{BvhNode, GpuBvh, Primitive};
 use raylume_gpu::{GpuContext, wgpu};
 use raylume_scene::{Feature, Features, Scene};
+use raylume_sort::RadixSorter;
 
-use crate::batches::{Batch, dispatch_size, plan_batches};
-use crate::gpu_types::{GpuMaterial, RayState, SceneUniforms, TextureHeader, TriangleShading};
+use crate::batches::Batch;
+use crate::gpu_types::{GpuMaterial, SceneUniforms, TextureHeader, TriangleShading};
 use crate::scene_data::SceneData;
-use crate::{KernelError, Schedule, TraceOutput, TraceSettings, WORKGROUP_SIZE};
-use clock::StageClock;
+use crate::{KernelError, TraceOutput, TraceSettings};
 use layout::{bind_group_layouts, upload};
+use policy::Fixed;
 use work::WorkBuffers;
 
 /// Statistics of a render whose image stays on the GPU ([`GpuTracer::render_to_buffer`]).
@@ -28,20 +35,27 @@ use work::WorkBuffers;
 pub struct TraceStats {
     pub rays_traced: u64,
     pub dropped_samples: u64,
-    /// As [`TraceOutput::timings`].
+    /// As [`TraceOutput::timings`], plus `"sort"` (the `sort_keys` passes) and
+    /// `"permute_rays"` when rays were reordered.
     pub timings: Vec<(&'static str, f64)>,
+    /// Per bounce depth `0..=max_bounces`, summed over the batches (wavefront batches only;
+    /// empty when no batch ran the wavefront).
+    pub depths: Vec<DepthTiming>,
+    /// Each batch: its plan, wall-clock and per-stage times.
+    pub batches: Vec<BatchTiming>,
 }
 
-/// The wavefront's queue buffers, for the reordering pass the facade inserts between
-/// `propagate` launches (raylume-sort) and for tests.
+/// The wavefront's queue buffers, for tests and debugging.
 ///
 /// After `propagate` at bounce `d` (queue parity `q = d & 1`): `queue_counts` holds `u32`
-/// lengths, `[q]` the rays it advanced (`n`), `[1 - q]` those still alive; `ray_keys[t]` for
-/// `t < n` is the sort key of the ray `ray_queues[q][t]` (raylume-sort's
-/// `DEAD_RAY_KEY` if it ended); `ray_queues[1 - q][..live]` holds the live rays, compacted,
-/// which bounce `d + 1` reads. Sorting the pairs `(ray_keys, ray_queues[q])` over `n` and
-/// copying `ray_queues[q]` onto `ray_queues[1 - q]` gives bounce `d + 1` the live rays in key
-/// order. All four buffers allow `COPY_SRC` and `COPY_DST`.
+/// lengths, `[q]` the rays it advanced (`n`), `[1 - q]` those still alive;
+/// `ray_queues[1 - q][..live]` holds the live rays, compacted, which bounce `d + 1` reads.
+/// When bounce `d + 1` is not sorted, `ray_keys[t]` for `t < n` is the sort key of the ray
+/// `ray_queues[q][t]` (raylume-sort's `DEAD_RAY_KEY` if it ended). When it is
+/// ([`crate::Reorder::sorts_before`]`(d + 1)`), `ray_keys[i]` for `i < live` is the key of
+/// `ray_queues[1 - q][i]`, and the tracer sorts these pairs (with the count read on the GPU)
+/// before bounce `d + 1` reads them: only live rays are sorted. All four buffers allow
+/// `COPY_SRC` and `COPY_DST`.
 pub struct WavefrontBuffers<'b> {
     pub ray_keys: &'b wgpu::Buffer,
     pub ray_queues: [&'b wgpu::Buffer; 2],
@@ -66,13 +80,20 @@ pub struct GpuTracer<'a> {
     scene: SceneBuffers,
     work_layout: wgpu::BindGroupLayout,
     args_layout: wgpu::BindGroupLayout,
-    /// Groups 0 and 1: every entry point but `prepare_propagate`.
+    permute_group_layout: wgpu::BindGroupLayout,
+    /// Groups 0 and 1: every entry point but `prepare_propagate` and `permute_rays`.
     pipeline_layout: wgpu::PipelineLayout,
     /// Groups 0, 1 and 2: `prepare_propagate`.
     prepare_layout: wgpu::PipelineLayout,
+    /// Groups 0, 1 and 2: `permute_rays`.
+    permute_layout: wgpu::PipelineLayout,
     module: wgpu::ShaderModule,
     pipelines: HashMap<&'static str, wgpu::ComputePipeline>,
     work: Option<WorkBuffers>,
+    /// The ray sorter, made on the first render that sorts, for the largest batch.
+    sorter: Option<RadixSorter>,
+    /// The test hook of [`GpuTracer::capture_sort`].
+    capture: Option<capture::Capture>,
     /// The last batch rendered (its samples stay in the sample-radiance buffer).
     last_batch: Option<Batch>,
     /// A cap on rays per batch below the adapter's own ([`GpuTracer::set_batch_ray_limit`]).
@@ -135,8 +156,9 @@ impl<'a> GpuTracer<'a> {
         let headers = upload::<TextureHeader>(ctx, "texture headers", &data.texture_headers)?;
         let texels = upload::<f32>(ctx, "texture and environment-map data", &data.texels)?;
 
-        let [scene_layout, work_layout, args_layout] = bind_group_layouts(device);
-        let (bind_group, pipeline_layout, prepare_layout, module) =
+        let [scene_layout, work_layout, args_layout, permute_group_layout] =
+            bind_group_layouts(device);
+        let (bind_group, pipeline_layout, prepare_layout, permute_layout, module) =
             ctx.scoped("building the tracer's shader and layouts", || {
                 let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("raylume scene"),
@@ -192,11 +214,27 @@ impl<'a> GpuTracer<'a> {
                         ],
                         immediate_size: 0,
                     });
+                let permute_layout =
+                    device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                        label: Some("raylume permute_rays"),
+                        bind_group_layouts: &[
+                            Some(&scene_layout),
+                            Some(&work_layout),
+                            Some(&permute_group_layout),
+                        ],
+                        immediate_size: 0,
+                    });
                 let module = ctx.shader_module(
                     "raylume tracer",
                     &tracer_source(ctx.limits.max_compute_workgroups_per_dimension),
                 );
-                (bind_group, pipeline_layout, prepare_layout, module)
+                (
+                    bind_group,
+                    pipeline_layout,
+                    prepare_layout,
+                    permute_layout,
+                    module,
+                )
             })?;
         ctx.wait("uploading the scene")?;
         // Only what the uniforms need stays on the CPU.
@@ -212,11 +250,15 @@ impl<'a> GpuTracer<'a> {
             },
             work_layout,
             args_layout,
+            permute_group_layout,
             pipeline_layout,
             prepare_layout,
+            permute_layout,
             module,
             pipelines: HashMap::new(),
             work: None,
+            sorter: None,
+            capture: None,
             last_batch: None,
             batch_ray_limit: None,
             upload_seconds: start.elapsed().as_secs_f64(),
@@ -249,10 +291,10 @@ impl<'a> GpuTracer<'a> {
                     .device
                     .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
                         label: Some(entry),
-                        layout: Some(if entry == "prepare_propagate" {
-                            &self.prepare_layout
-                        } else {
-                            &self.pipeline_layout
+                        layout: Some(match entry {
+                            "prepare_propagate" => &self.prepare_layout,
+                            "permute_rays" => &self.permute_layout,
+                            _ => &self.pipeline_layout,
                         }),
                         module: &self.module,
                         entry_point: Some(entry),
@@ -277,7 +319,7 @@ impl<'a> GpuTracer<'a> {
     /// The wavefront's queues, keys and counts, once a wavefront render has allocated them.
     pub fn wavefront_buffers(&self) -> Option<WavefrontBuffers<'_>> {
         let w = self.work.as_ref()?;
-        (w.key.schedule == Schedule::Wavefront).then_some(WavefrontBuffers {
+        w.key.wavefront.then_some(WavefrontBuffers {
             ray_keys: &w.ray_keys,
             ray_queues: [&w.ray_queues[0], &w.ray_queues[1]],
             queue_counts: &w.queue_counts,
@@ -327,146 +369,6 @@ impl<'a> GpuTracer<'a> {
         progress: &mut dyn FnMut(u32, u32),
     ) -> Result<TraceStats, KernelError> {
         settings.validate()?;
-        let ctx = self.ctx;
-        let pixels = settings.width * settings.height;
-        let per_ray = match settings.schedule {
-            Schedule::Wavefront => size_of::<RayState>() as u64,
-            Schedule::Megakernel => 12,
-        };
-        let max_rays =
-            (ctx.max_binding_bytes() / per_ray).min(self.batch_ray_limit.unwrap_or(u64::MAX));
-        let batches = plan_batches(pixels, settings.spp, settings.batch_spp, max_rays);
-        let capacity = batches.iter().map(|b| b.rays()).max().unwrap_or(1);
-        let key = work::WorkKey {
-            schedule: settings.schedule,
-            capacity,
-            pixels,
-            batches: batches.len() as u32,
-            bounces: settings.max_bounces + 1,
-        };
-        if self.work.as_ref().is_none_or(|w| w.key != key) {
-            self.work = None; // free the old buffers first
-            self.work = Some(WorkBuffers::new(
-                ctx,
-                &self.work_layout,
-                &self.args_layout,
-                key,
-            )?);
-        }
-        let stages: &[&'static str] = match settings.schedule {
-            Schedule::Megakernel => &["trace_paths", "resolve"],
-            Schedule::Wavefront => &["raygen", "prepare_propagate", "propagate", "resolve"],
-        };
-        let mut pipes = HashMap::new();
-        for s in stages {
-            pipes.insert(*s, self.pipeline(s)?);
-        }
-        let work = self.work.as_ref().expect("allocated above");
-        work.reset(ctx, settings.max_bounces)?;
-
-        let base = self.data.uniforms(settings);
-        let max_dim = ctx.limits.max_compute_workgroups_per_dimension;
-        let mut clock = StageClock::new(ctx);
-        let mut samples_done = 0u64;
-        let start = Instant::now();
-        for (bi, b) in batches.iter().enumerate() {
-            let u = SceneUniforms {
-                sample_begin: b.sample_begin,
-                sample_count: b.sample_count,
-                pixel_begin: b.pixel_begin,
-                pixel_count: b.pixel_count,
-                batch_index: bi as u32,
-                resolve_scale: if b.last_for_pixels {
-                    1.0 / settings.spp as f32
-                } else {
-                    1.0
-                },
-                rays_in_batch: b.rays(),
-                queue_capacity: capacity,
-                ..base
-            };
-            ctx.queue
-                .write_buffer(&self.scene.uniforms, 0, bytemuck::bytes_of(&u));
-            let ray_groups = dispatch_size(b.rays(), WORKGROUP_SIZE, max_dim);
-            let pixel_groups = dispatch_size(b.pixel_count, WORKGROUP_SIZE, max_dim);
-            let scene_bg = &self.scene.bind_group;
-            // Group 1 of bounce `depth` (0 for every other stage): its parity's queues and its
-            // bounce uniforms.
-            let bind = |pass: &mut wgpu::ComputePass<'_>,
-                        pipe: &wgpu::ComputePipeline,
-                        depth: u32| {
-                pass.set_pipeline(pipe);
-                pass.set_bind_group(0, scene_bg, &[]);
-                let parity = (depth & 1) as usize;
-                pass.set_bind_group(1, &work.bind_groups[parity], &[depth * work.bounce_stride]);
-            };
-            let resolve = |pass: &mut wgpu::ComputePass<'_>| {
-                bind(pass, &pipes["resolve"], 0);
-                pass.dispatch_workgroups(pixel_groups.0, pixel_groups.1, 1);
-            };
-            let during = format!("rendering batch {} of {}", bi + 1, batches.len());
-            match settings.schedule {
-                Schedule::Megakernel => {
-                    let trace_paths = |pass: &mut wgpu::ComputePass<'_>| {
-                        bind(pass, &pipes["trace_paths"], 0);
-                        pass.dispatch_workgroups(ray_groups.0, ray_groups.1, 1);
-                    };
-                    clock.run(
-                        &during,
-                        &[("trace_paths", &trace_paths), ("resolve", &resolve)],
-                    )?;
-                }
-                Schedule::Wavefront => {
-                    let raygen = |pass: &mut wgpu::ComputePass<'_>| {
-                        bind(pass, &pipes["raygen"], 0);
-                        pass.dispatch_workgroups(ray_groups.0, ray_groups.1, 1);
-                    };
-                    let propagate = |pass: &mut wgpu::ComputePass<'_>| {
-                        for depth in 0..=settings.max_bounces {
-                            bind(pass, &pipes["prepare_propagate"], depth);
-                            pass.set_bind_group(2, &work.args_bind_group, &[]);
-                            pass.dispatch_workgroups(1, 1, 1);
-                            bind(pass, &pipes["propagate"], depth);
-                            pass.dispatch_workgroups_indirect(&work.dispatch_args, 0);
-                        }
-                    };
-                    clock.run(
-                        &during,
-                        &[
-                            ("raygen", &raygen),
-                            ("propagate", &propagate),
-                            ("resolve", &resolve),
-                        ],
-                    )?;
-                }
-            }
-            samples_done += u64::from(b.rays());
-            progress((samples_done / u64::from(pixels)) as u32, settings.spp);
-        }
-        let trace = start.elapsed().as_secs_f64();
-        self.last_batch = batches.last().copied();
-        let stats: Vec<u32> = ctx.read_buffer(&work.batch_stats, 4 * batches.len())?;
-        let (mut rays_traced, mut dropped_samples) = (0u64, 0u64);
-        for s in stats.chunks_exact(4) {
-            rays_traced += u64::from(s[0]) | (u64::from(s[1]) << 32);
-            dropped_samples += u64::from(s[2]);
-        }
-        let mut timings = vec![("upload", self.upload_seconds)];
-        for (label, _) in [
-            ("raygen", ()),
-            ("propagate", ()),
-            ("trace_paths", ()),
-            ("resolve", ()),
-        ] {
-            if let Some(t) = clock.total(label) {
-                timings.push((label, t));
-            }
-        }
-        timings.push(("trace", trace));
-        Ok(TraceStats {
-            rays_traced,
-            dropped_samples,
-            timings,
-        })
+        self.render_with_policy(settings, &mut Fixed(BatchPlan::of(settings)), progress)
     }
 }

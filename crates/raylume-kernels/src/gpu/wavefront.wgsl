@@ -2,6 +2,8 @@
 // then, max_bounces + 1 times, `prepare_propagate` sizes the next launch from the live-ray
 // count and `propagate` advances every live ray by one segment (traversal, intersection and
 // shading in one kernel), stores it, writes its sort key and appends it to the next queue.
+// Between two bounces the host may sort the next queue by key (raylume-sort) and, for
+// ReorderMode::SortPermute, run `permute_rays`.
 
 var<workgroup> wg_live: atomic<u32>;
 var<workgroup> wg_base: u32;
@@ -54,6 +56,7 @@ fn propagate(
     var dropped = 0u;
     var live = false;
     var r = 0u;
+    var key = DEAD_RAY_KEY;
     if (t < n) {
         r = ray_queue_in[t];
         var ray = ray_states[r];
@@ -68,15 +71,17 @@ fn propagate(
         ray.depth = bounce.depth + 1u;
         ray.alive = select(0u, 1u, live);
         ray_states[r] = ray;
-        var key = DEAD_RAY_KEY;
         if (live) {
-            // SORT KEY (raylume-sort's MORTON_WGSL): the paper's 30-bit origin-direction key,
-            // indexed by queue slot so that (ray_keys, queue) pairs can be sorted.
+            // SORT KEY (raylume-sort's MORTON_WGSL): the paper's 30-bit origin-direction key.
             key = ray_sort_key(path.origin, path.dir, scene.scene_min, scene.scene_extent);
         } else {
-            dropped = write_sample(r, path.radiance);
+            // The sample's own slot, not `r`: permute_rays may have moved its state.
+            dropped = write_sample(sample_slot(ray.pixel, ray.sample), path.radiance);
         }
-        ray_keys[t] = key;
+        if (bounce.sort_next == 0u) {
+            // Indexed by queue slot, so that (ray_keys, queue) pairs can be sorted.
+            ray_keys[t] = key;
+        }
     }
     // Compaction: the live rays of this workgroup take consecutive slots of the next queue.
     var slot = 0u;
@@ -93,6 +98,29 @@ fn propagate(
     flush_stats(local, traced, dropped);
     workgroupBarrier();
     if (live) {
-        ray_queue_out[wg_base + slot] = r;
+        let out = wg_base + slot;
+        ray_queue_out[out] = r;
+        if (bounce.sort_next != 0u) {
+            // The next bounce is sorted: keys beside the compacted queue, live rays only.
+            ray_keys[out] = key;
+        }
+    }
+}
+
+// After the sort before bounce `bounce.depth` (ReorderMode::SortPermute): gathers the states
+// of the queue's rays into key order in the other state buffer and makes the queue the
+// identity, so that `propagate` reads and writes the states contiguously. Dispatched over the
+// live rays by the dispatch size `prepare_propagate` wrote for this bounce.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn permute_rays(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    let t = thread_index(wg, nwg, local);
+    let n = atomicLoad(&queue_counts[bounce.depth & 1u]);
+    if (t < n) {
+        permuted_states[t] = ray_states[ray_queue_in[t]];
+        ray_queue_in[t] = t;
     }
 }

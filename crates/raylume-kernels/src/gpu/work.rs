@@ -1,15 +1,20 @@
 //! The work buffers of one render size (group 1): ray states, sample slots, queues, keys,
-//! the image and the statistics. Reallocated only when the render's size or schedule changes.
+//! the image and the statistics. Reallocated only when the render's size, or what its batches
+//! may run, changes.
 
 use raylume_gpu::{GpuContext, wgpu};
 
+use crate::KernelError;
+use crate::Reorder;
 use crate::gpu_types::{BounceUniforms, RayState};
-use crate::{KernelError, Schedule};
 
 /// What the buffers were sized for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct WorkKey {
-    pub schedule: Schedule,
+    /// Some batch may run the wavefront: per-ray states, queues and keys are allocated.
+    pub wavefront: bool,
+    /// Some batch may run `ReorderMode::SortPermute`: a second state buffer is allocated.
+    pub permute: bool,
     /// Rays in the largest batch.
     pub capacity: u32,
     pub pixels: u32,
@@ -27,15 +32,23 @@ pub(crate) struct WorkBuffers {
     pub bounce: wgpu::Buffer,
     /// Bytes between two bounces' uniforms (the adapter's dynamic-offset alignment).
     pub bounce_stride: u32,
-    /// Group 1 of even bounces (and of every other entry point): queue 0 in, queue 1 out;
-    /// then odd bounces: queue 1 in, queue 0 out.
-    pub bind_groups: [wgpu::BindGroup; 2],
+    /// Group 1, indexed by `2 * states + parity`: `states` picks the ray-state buffer (1 only
+    /// with `permute`); parity 0 (even bounces and every other entry point) reads queue 0 and
+    /// appends to queue 1, parity 1 the other way round.
+    pub bind_groups: Vec<wgpu::BindGroup>,
+    /// Group 2 of `permute_rays` reading state buffer `s`: it writes state buffer `1 - s`.
+    /// Empty without `permute`.
+    pub permute_bind_groups: Vec<wgpu::BindGroup>,
+    /// The ray states (the second only with `permute`, else a placeholder).
+    pub ray_states: [wgpu::Buffer; 2],
     /// The wavefront's ray queues, sort keys and queue lengths (see `WavefrontBuffers`).
     pub ray_queues: [wgpu::Buffer; 2],
     pub ray_keys: wgpu::Buffer,
     pub queue_counts: wgpu::Buffer,
     /// Group 2 of `prepare_propagate`: the dispatch size it writes.
     pub args_bind_group: wgpu::BindGroup,
+    /// The bounce uniforms last written (`write_bounces` skips rewriting the same).
+    written: Option<(u32, Reorder)>,
 }
 
 fn entry(binding: u32, b: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
@@ -45,41 +58,47 @@ fn entry(binding: u32, b: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
     }
 }
 
+/// The layouts `WorkBuffers::new` builds bind groups for: group 1, `prepare_propagate`'s group
+/// 2 and `permute_rays`' group 2.
+pub(crate) struct WorkLayouts<'l> {
+    pub work: &'l wgpu::BindGroupLayout,
+    pub args: &'l wgpu::BindGroupLayout,
+    pub permute: &'l wgpu::BindGroupLayout,
+}
+
 impl WorkBuffers {
     pub fn new(
         ctx: &GpuContext,
-        layout: &wgpu::BindGroupLayout,
-        args_layout: &wgpu::BindGroupLayout,
+        layouts: WorkLayouts<'_>,
         key: WorkKey,
     ) -> Result<Self, KernelError> {
         let rays = u64::from(key.capacity);
-        let wavefront = key.schedule == Schedule::Wavefront;
         // Buffers a schedule does not use get a minimal placeholder.
-        let per_ray = |bytes: u64| if wavefront { rays * bytes } else { bytes };
-        let none = wgpu::BufferUsages::empty();
-        let ray_states =
-            ctx.storage_buffer_zeroed("ray states", per_ray(size_of::<RayState>() as u64), none)?;
-        let sample_radiance =
-            ctx.storage_buffer_zeroed("sample radiance", rays * 12, wgpu::BufferUsages::COPY_SRC)?;
-        let queue_usage = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
-        let ray_queues = [
-            ctx.storage_buffer_zeroed("ray queue 0", per_ray(4), queue_usage)?,
-            ctx.storage_buffer_zeroed("ray queue 1", per_ray(4), queue_usage)?,
+        let per_ray = |used: bool, bytes: u64| if used { rays * bytes } else { bytes };
+        let wavefront = key.wavefront;
+        let state_bytes = size_of::<RayState>() as u64;
+        let copy = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+        let ray_states = [
+            ctx.storage_buffer_zeroed("ray states", per_ray(wavefront, state_bytes), copy)?,
+            ctx.storage_buffer_zeroed(
+                "permuted ray states",
+                per_ray(wavefront && key.permute, state_bytes),
+                copy,
+            )?,
         ];
-        let ray_keys = ctx.storage_buffer_zeroed("ray sort keys", per_ray(4), queue_usage)?;
-        let queue_counts = ctx.storage_buffer_zeroed("queue counts", 16, queue_usage)?;
+        let sample_radiance = ctx.storage_buffer_zeroed("sample radiance", rays * 12, copy)?;
+        let ray_queues = [
+            ctx.storage_buffer_zeroed("ray queue 0", per_ray(wavefront, 4), copy)?,
+            ctx.storage_buffer_zeroed("ray queue 1", per_ray(wavefront, 4), copy)?,
+        ];
+        let ray_keys = ctx.storage_buffer_zeroed("ray sort keys", per_ray(wavefront, 4), copy)?;
+        let queue_counts = ctx.storage_buffer_zeroed("queue counts", 16, copy)?;
         let dispatch_args =
             ctx.storage_buffer_zeroed("propagate dispatch size", 16, wgpu::BufferUsages::INDIRECT)?;
-        let accumulation = ctx.storage_buffer_zeroed(
-            "the accumulation image",
-            u64::from(key.pixels) * 12,
-            wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-        )?;
-        let batch_stats = ctx.storage_buffer_zeroed(
-            "batch statistics",
-            u64::from(key.batches) * 16,
-            wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-        )?;
+        let accumulation =
+            ctx.storage_buffer_zeroed("the accumulation image", u64::from(key.pixels) * 12, copy)?;
+        let batch_stats =
+            ctx.storage_buffer_zeroed("batch statistics", u64::from(key.batches) * 16, copy)?;
         let bounce_stride = ctx
             .limits
             .min_uniform_buffer_offset_alignment
@@ -92,48 +111,82 @@ impl WorkBuffers {
                 mapped_at_creation: false,
             })
         })?;
-        let bind_groups = ctx.scoped("creating the work bind groups", || {
-            [0, 1].map(|parity| {
-                ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some(if parity == 0 {
-                        "raylume work (even bounces)"
-                    } else {
-                        "raylume work (odd bounces)"
-                    }),
-                    layout,
-                    entries: &[
-                        entry(0, &ray_states),
-                        entry(1, &sample_radiance),
-                        entry(2, &ray_queues[parity]),
-                        entry(3, &ray_keys),
-                        entry(4, &queue_counts),
-                        entry(5, &ray_queues[1 - parity]),
-                        entry(6, &accumulation),
-                        entry(7, &batch_stats),
-                        wgpu::BindGroupEntry {
-                            binding: 8,
-                            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                                buffer: &bounce,
-                                offset: 0,
-                                size: wgpu::BufferSize::new(size_of::<BounceUniforms>() as u64),
+        let state_sets = if wavefront && key.permute { 2 } else { 1 };
+        let (bind_groups, permute_bind_groups, args_bind_group) =
+            ctx.scoped("creating the work bind groups", || {
+                let mut groups = Vec::new();
+                for (s, states) in ray_states.iter().enumerate().take(state_sets) {
+                    for parity in 0..2 {
+                        groups.push(ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                            label: Some(match (s, parity) {
+                                (0, 0) => "raylume work (even bounces)",
+                                (0, _) => "raylume work (odd bounces)",
+                                (_, 0) => "raylume work (even bounces, permuted states)",
+                                _ => "raylume work (odd bounces, permuted states)",
                             }),
-                        },
-                    ],
-                })
-            })
-        })?;
-        let args_bind_group = ctx.scoped("creating the dispatch-size bind group", || {
-            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("raylume propagate dispatch size"),
-                layout: args_layout,
-                entries: &[entry(0, &dispatch_args)],
-            })
+                            layout: layouts.work,
+                            entries: &[
+                                entry(0, states),
+                                entry(1, &sample_radiance),
+                                entry(2, &ray_queues[parity]),
+                                entry(3, &ray_keys),
+                                entry(4, &queue_counts),
+                                entry(5, &ray_queues[1 - parity]),
+                                entry(6, &accumulation),
+                                entry(7, &batch_stats),
+                                wgpu::BindGroupEntry {
+                                    binding: 8,
+                                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                                        buffer: &bounce,
+                                        offset: 0,
+                                        size: wgpu::BufferSize::new(
+                                            size_of::<BounceUniforms>() as u64
+                                        ),
+                                    }),
+                                },
+                            ],
+                        }));
+                    }
+                }
+                let permuting = if state_sets == 2 { 0..2 } else { 0..0 };
+                let permute = permuting
+                    .map(|s| {
+                        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                            label: Some("raylume permuted ray states"),
+                            layout: layouts.permute,
+                            entries: &[entry(1, &ray_states[1 - s])],
+                        })
+                    })
+                    .collect();
+                let args = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("raylume propagate dispatch size"),
+                    layout: layouts.args,
+                    entries: &[entry(0, &dispatch_args)],
+                });
+                (groups, permute, args)
+            })?;
+        // Clear everything now: wgpu zeroes a buffer lazily on its first use, which would
+        // otherwise land in the first (timed) batch of a render.
+        ctx.scoped("clearing the work buffers", || {
+            let mut enc = ctx.device.create_command_encoder(&Default::default());
+            for b in ray_states.iter().chain(&ray_queues).chain([
+                &ray_keys,
+                &queue_counts,
+                &sample_radiance,
+                &accumulation,
+                &batch_stats,
+            ]) {
+                enc.clear_buffer(b, 0, None);
+            }
+            ctx.queue.submit([enc.finish()]);
         })?;
         Ok(Self {
             key,
             sample_radiance,
             args_bind_group,
             bind_groups,
+            permute_bind_groups,
+            ray_states,
             ray_queues,
             ray_keys,
             queue_counts,
@@ -142,29 +195,40 @@ impl WorkBuffers {
             dispatch_args,
             bounce,
             bounce_stride,
+            written: None,
         })
     }
 
-    /// Clears the image and the statistics and writes the bounce uniforms for a render with
-    /// `max_bounces` bounces.
-    pub fn reset(&self, ctx: &GpuContext, max_bounces: u32) -> Result<(), KernelError> {
-        let stride = self.bounce_stride as usize;
-        let mut bytes = vec![0u8; (max_bounces as usize + 1) * stride];
-        for depth in 0..=max_bounces {
-            let u = BounceUniforms {
-                depth,
-                ..Default::default()
-            };
-            let at = depth as usize * stride;
-            bytes[at..at + size_of::<BounceUniforms>()].copy_from_slice(bytemuck::bytes_of(&u));
-        }
+    /// Clears the image and the statistics.
+    pub fn reset(&mut self, ctx: &GpuContext) -> Result<(), KernelError> {
         ctx.scoped("clearing the image", || {
-            ctx.queue.write_buffer(&self.bounce, 0, &bytes);
             let mut enc = ctx.device.create_command_encoder(&Default::default());
             enc.clear_buffer(&self.accumulation, 0, None);
             enc.clear_buffer(&self.batch_stats, 0, None);
             ctx.queue.submit([enc.finish()]);
         })?;
+        self.written = None;
         Ok(())
+    }
+
+    /// Writes the bounce uniforms of a batch with `max_bounces` bounces sorted as `reorder`
+    /// says (queued before the next submission), unless they are already there.
+    pub fn write_bounces(&mut self, ctx: &GpuContext, max_bounces: u32, reorder: Reorder) {
+        if self.written == Some((max_bounces, reorder)) {
+            return;
+        }
+        let stride = self.bounce_stride as usize;
+        let mut bytes = vec![0u8; (max_bounces as usize + 1) * stride];
+        for depth in 0..=max_bounces {
+            let u = BounceUniforms {
+                depth,
+                sort_next: u32::from(depth < max_bounces && reorder.sorts_before(depth + 1)),
+                ..Default::default()
+            };
+            let at = depth as usize * stride;
+            bytes[at..at + size_of::<BounceUniforms>()].copy_from_slice(bytemuck::bytes_of(&u));
+        }
+        ctx.queue.write_buffer(&self.bounce, 0, &bytes);
+        self.written = Some((max_bounces, reorder));
     }
 }

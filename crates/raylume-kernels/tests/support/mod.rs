@@ -340,6 +340,7 @@ pub fn settings(w: u32, h: u32, spp: u32, max_bounces: u32, schedule: Schedule) 
         seed: 7,
         batch_spp: 20,
         schedule,
+        reorder: raylume_kernels::Reorder::OFF,
     }
 }
 

@@ -1,0 +1,410 @@
+//! The batch loop of [`GpuTracer`]: per batch, its plan's stages (megakernel, or the wavefront
+//! with optional sorting between bounces), timed, then reported to the policy.
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use raylume_gpu::wgpu;
+use raylume_sort::{RadixSorter, SortError, SortLen, SortOptions};
+
+use super::capture::CaptureBuffers;
+use super::clock::{Record, Stage, StageClock};
+use super::work::{self, WorkBuffers, WorkLayouts};
+use super::{BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, TraceStats};
+use crate::batches::{dispatch_size, plan_batches};
+use crate::gpu_types::{RayState, SceneUniforms};
+use crate::{KernelError, ReorderMode, Schedule, TraceSettings, WORKGROUP_SIZE};
+
+/// A sorter failure as a kernel error: GPU failures pass through; the rest (a sorter too small,
+/// bad options) would be a bug here, reported as settings the sorter cannot run.
+fn sort_error(e: SortError) -> KernelError {
+    match e {
+        SortError::Gpu(g) => KernelError::Gpu(g),
+        other => KernelError::InvalidSettings(format!("ray sorting: {other}")),
+    }
+}
+
+impl GpuTracer<'_> {
+    /// Renders with each batch's schedule and reordering chosen by `policy`, which also sees
+    /// what every batch cost (how `raylume`'s `--reorder auto` measures its candidates on the
+    /// real batches of a render). `settings.schedule` and `settings.reorder` are ignored; every
+    /// plan the policy returns must need no more than its
+    /// [`candidates`](BatchPolicy::candidates) (wavefront buffers, the sorter, a second state
+    /// buffer), or the render fails with [`KernelError::InvalidSettings`].
+    pub fn render_with_policy(
+        &mut self,
+        settings: &TraceSettings,
+        policy: &mut dyn BatchPolicy,
+        progress: &mut dyn FnMut(u32, u32),
+    ) -> Result<TraceStats, KernelError> {
+        settings.validate()?;
+        let ctx = self.ctx;
+        let max_bounces = settings.max_bounces;
+        let candidates = policy.candidates();
+        for c in &candidates {
+            TraceSettings {
+                schedule: c.schedule,
+                reorder: c.reorder,
+                ..*settings
+            }
+            .validate()?;
+        }
+        let wavefront = candidates.iter().any(|c| c.schedule == Schedule::Wavefront);
+        let sorting = candidates.iter().any(|c| c.sorts(max_bounces));
+        let permute = candidates
+            .iter()
+            .any(|c| c.sorts(max_bounces) && c.reorder.mode == ReorderMode::SortPermute);
+
+        let pixels = settings.width * settings.height;
+        // Every schedule a batch may run must fit: the wavefront's 64-byte states bound it.
+        let per_ray = if wavefront {
+            size_of::<RayState>() as u64
+        } else {
+            12
+        };
+        let max_rays =
+            (ctx.max_binding_bytes() / per_ray).min(self.batch_ray_limit.unwrap_or(u64::MAX));
+        let batches = plan_batches(pixels, settings.spp, settings.batch_spp, max_rays);
+        let capacity = batches.iter().map(|b| b.rays()).max().unwrap_or(1);
+        let key = work::WorkKey {
+            wavefront,
+            permute,
+            capacity,
+            pixels,
+            batches: batches.len() as u32,
+            bounces: max_bounces + 1,
+        };
+        if self.work.as_ref().is_none_or(|w| w.key != key) {
+            self.work = None; // free the old buffers first
+            self.work = Some(WorkBuffers::new(
+                ctx,
+                WorkLayouts {
+                    work: &self.work_layout,
+                    args: &self.args_layout,
+                    permute: &self.permute_group_layout,
+                },
+                key,
+            )?);
+        }
+        let mut stages: Vec<&'static str> = Vec::new();
+        for c in &candidates {
+            stages.extend_from_slice(match c.schedule {
+                Schedule::Megakernel => &["trace_paths", "resolve"][..],
+                Schedule::Wavefront => &["raygen", "prepare_propagate", "propagate", "resolve"],
+            });
+        }
+        if permute {
+            stages.push("permute_rays");
+        }
+        let mut pipes = HashMap::new();
+        for s in stages {
+            if !pipes.contains_key(s) {
+                pipes.insert(s, self.pipeline(s)?);
+            }
+        }
+        if sorting && self.sorter.as_ref().is_none_or(|s| s.max_len() < capacity) {
+            self.sorter = None;
+            let sorter =
+                RadixSorter::new(ctx, capacity, SortOptions::ray_keys()).map_err(sort_error)?;
+            // One sort now, so that wgpu's lazy zeroing of the sorter's scratch buffers and
+            // the first use of its pipelines do not land in a timed batch.
+            let w = self.work.as_ref().expect("allocated above");
+            let primed = ctx.scoped("preparing the ray sorter", || {
+                let mut enc = ctx.device.create_command_encoder(&Default::default());
+                let r = sorter.encode(
+                    &mut enc,
+                    &w.ray_keys,
+                    &w.ray_queues[0],
+                    SortLen::Fixed(1),
+                    None,
+                );
+                ctx.queue.submit([enc.finish()]);
+                r
+            })?;
+            primed.map_err(sort_error)?;
+            ctx.wait("preparing the ray sorter")?;
+            self.sorter = Some(sorter);
+        }
+        if let Some(c) = self.capture.as_mut() {
+            c.taken = None;
+            if wavefront && c.buffers.as_ref().is_none_or(|b| b.capacity != capacity) {
+                c.buffers = None;
+                c.buffers = Some(CaptureBuffers::new(ctx, capacity)?);
+            }
+        }
+        self.work.as_mut().expect("allocated above").reset(ctx)?;
+
+        let base = self.data.uniforms(settings);
+        let max_dim = ctx.limits.max_compute_workgroups_per_dimension;
+        let mut clock = StageClock::new(ctx);
+        let mut samples_done = 0u64;
+        let mut timings_of_batches = Vec::with_capacity(batches.len());
+        let mut depths: Vec<DepthTiming> = Vec::new();
+        let full_rays = capacity;
+        let start = Instant::now();
+        for (bi, b) in batches.iter().enumerate() {
+            let plan = policy.plan(bi, &batches);
+            self.check_plan(&plan, settings, sorting, permute)?;
+            let t_batch = Instant::now();
+            let u = SceneUniforms {
+                sample_begin: b.sample_begin,
+                sample_count: b.sample_count,
+                pixel_begin: b.pixel_begin,
+                pixel_count: b.pixel_count,
+                batch_index: bi as u32,
+                resolve_scale: if b.last_for_pixels {
+                    1.0 / settings.spp as f32
+                } else {
+                    1.0
+                },
+                rays_in_batch: b.rays(),
+                queue_capacity: capacity,
+                ..base
+            };
+            ctx.queue
+                .write_buffer(&self.scene.uniforms, 0, bytemuck::bytes_of(&u));
+            if plan.schedule == Schedule::Wavefront {
+                self.work.as_mut().expect("allocated above").write_bounces(
+                    ctx,
+                    max_bounces,
+                    plan.reorder,
+                );
+            }
+            let work = self.work.as_ref().expect("allocated above");
+            let during = format!("rendering batch {} of {}", bi + 1, batches.len());
+            let batch_stages = BatchRecorder {
+                work,
+                pipes: &pipes,
+                scene_bg: &self.scene.bind_group,
+                sorter: self.sorter.as_ref(),
+                capture: self
+                    .capture
+                    .as_ref()
+                    .and_then(|c| Some((c.depth, c.buffers.as_ref()?))),
+                ray_groups: dispatch_size(b.rays(), WORKGROUP_SIZE, max_dim),
+                pixel_groups: dispatch_size(b.pixel_count, WORKGROUP_SIZE, max_dim),
+            }
+            .stages(&plan, max_bounces);
+            let times = clock.run(&during, &batch_stages)?;
+            let wall_seconds = t_batch.elapsed().as_secs_f64();
+            drop(batch_stages);
+            if let Some(c) = self.capture.as_mut()
+                && plan.schedule == Schedule::Wavefront
+                && c.depth <= max_bounces
+            {
+                c.taken = Some((plan, u.scene_min, u.scene_extent));
+            }
+            for st in &times {
+                let Some(d) = st.depth else { continue };
+                if depths.len() <= d as usize {
+                    depths.resize_with(d as usize + 1, Default::default);
+                }
+                let e = &mut depths[d as usize];
+                e.depth = d;
+                match st.label {
+                    "propagate" => e.propagate += st.seconds,
+                    "sort_keys" => e.sort += st.seconds,
+                    "permute_rays" => e.permute += st.seconds,
+                    _ => {}
+                }
+            }
+            let timing = BatchTiming {
+                index: bi,
+                batch: *b,
+                full: b.rays() == full_rays,
+                plan,
+                wall_seconds,
+                stages: times,
+            };
+            policy.observe(&timing);
+            timings_of_batches.push(timing);
+            samples_done += u64::from(b.rays());
+            progress((samples_done / u64::from(pixels)) as u32, settings.spp);
+        }
+        let trace = start.elapsed().as_secs_f64();
+        self.last_batch = batches.last().copied();
+        let work = self.work.as_ref().expect("allocated above");
+        let stats: Vec<u32> = ctx.read_buffer(&work.batch_stats, 4 * batches.len())?;
+        let (mut rays_traced, mut dropped_samples) = (0u64, 0u64);
+        for s in stats.chunks_exact(4) {
+            rays_traced += u64::from(s[0]) | (u64::from(s[1]) << 32);
+            dropped_samples += u64::from(s[2]);
+        }
+        let mut timings = vec![("upload", self.upload_seconds)];
+        for (label, name) in [
+            ("raygen", "raygen"),
+            ("propagate", "propagate"),
+            ("sort_keys", "sort"),
+            ("permute_rays", "permute_rays"),
+            ("trace_paths", "trace_paths"),
+            ("resolve", "resolve"),
+        ] {
+            if let Some(t) = clock.total(label) {
+                timings.push((name, t));
+            }
+        }
+        timings.push(("trace", trace));
+        Ok(TraceStats {
+            rays_traced,
+            dropped_samples,
+            timings,
+            depths,
+            batches: timings_of_batches,
+        })
+    }
+
+    /// Fails unless this render's buffers and sorter can run `plan`.
+    fn check_plan(
+        &self,
+        plan: &BatchPlan,
+        settings: &TraceSettings,
+        sorting: bool,
+        permute: bool,
+    ) -> Result<(), KernelError> {
+        TraceSettings {
+            schedule: plan.schedule,
+            reorder: plan.reorder,
+            ..*settings
+        }
+        .validate()?;
+        let wavefront = self.work.as_ref().is_some_and(|w| w.key.wavefront);
+        let sorts = plan.sorts(settings.max_bounces);
+        let ok = (plan.schedule == Schedule::Megakernel || wavefront)
+            && (!sorts || sorting)
+            && (!sorts || plan.reorder.mode != ReorderMode::SortPermute || permute);
+        if ok {
+            Ok(())
+        } else {
+            Err(KernelError::InvalidSettings(format!(
+                "a batch policy asked for `{}`, which none of its candidates prepared for",
+                plan.describe(settings.max_bounces)
+            )))
+        }
+    }
+}
+
+/// Builds the stages of one batch.
+#[derive(Clone, Copy)]
+struct BatchRecorder<'r> {
+    work: &'r WorkBuffers,
+    pipes: &'r HashMap<&'static str, wgpu::ComputePipeline>,
+    scene_bg: &'r wgpu::BindGroup,
+    sorter: Option<&'r RadixSorter>,
+    capture: Option<(u32, &'r CaptureBuffers)>,
+    ray_groups: (u32, u32),
+    pixel_groups: (u32, u32),
+}
+
+impl<'r> BatchRecorder<'r> {
+    /// Groups 0 and 1 of `pipe` at bounce `depth` (0 for every other stage), reading ray-state
+    /// buffer `states`.
+    fn bind(&self, pass: &mut wgpu::ComputePass<'_>, pipe: &str, depth: u32, states: usize) {
+        let w = self.work;
+        pass.set_pipeline(&self.pipes[pipe]);
+        pass.set_bind_group(0, self.scene_bg, &[]);
+        let parity = (depth & 1) as usize;
+        pass.set_bind_group(
+            1,
+            &w.bind_groups[2 * states + parity],
+            &[depth * w.bounce_stride],
+        );
+    }
+
+    /// `prepare_propagate` of bounce `depth`: the indirect dispatch size over its live rays.
+    fn prepare(&self, pass: &mut wgpu::ComputePass<'_>, depth: u32, states: usize) {
+        self.bind(pass, "prepare_propagate", depth, states);
+        pass.set_bind_group(2, &self.work.args_bind_group, &[]);
+        pass.dispatch_workgroups(1, 1, 1);
+    }
+
+    fn stages(self, plan: &BatchPlan, max_bounces: u32) -> Vec<Stage<'r>> {
+        let (rx, ry) = self.ray_groups;
+        let (px, py) = self.pixel_groups;
+        let resolve = move |pass: &mut wgpu::ComputePass<'_>| {
+            self.bind(pass, "resolve", 0, 0);
+            pass.dispatch_workgroups(px, py, 1);
+        };
+        let mut out = Vec::new();
+        if plan.schedule == Schedule::Megakernel {
+            out.push(Stage::pass("trace_paths", None, move |pass| {
+                self.bind(pass, "trace_paths", 0, 0);
+                pass.dispatch_workgroups(rx, ry, 1);
+            }));
+            out.push(Stage::pass("resolve", None, resolve));
+            return out;
+        }
+        out.push(Stage::pass("raygen", None, move |pass| {
+            self.bind(pass, "raygen", 0, 0);
+            pass.dispatch_workgroups(rx, ry, 1);
+        }));
+        // The ray-state buffer the rays are in: permute_rays moves them to the other one.
+        let mut states = 0usize;
+        let w = self.work;
+        for depth in 0..=max_bounces {
+            if plan.reorder.sorts_before(depth) {
+                // propagate(depth - 1) left the live rays and their keys in the queue this
+                // bounce reads, with their count at the same parity.
+                let q = (depth & 1) as usize;
+                let sorter = self
+                    .sorter
+                    .expect("check_plan: a sorting plan has a sorter");
+                out.push(Stage {
+                    label: "sort_keys",
+                    depth: Some(depth),
+                    record: Record::Encoder(Box::new(move |enc, ts| {
+                        let len = SortLen::Indirect {
+                            count_buffer: &w.queue_counts,
+                            offset: 4 * q as u64,
+                        };
+                        sorter
+                            .encode(enc, &w.ray_keys, &w.ray_queues[q], len, ts)
+                            .map_err(sort_error)
+                    })),
+                });
+                if plan.reorder.mode == ReorderMode::SortPermute {
+                    let s = states;
+                    out.push(Stage::pass("permute_rays", Some(depth), move |pass| {
+                        self.prepare(pass, depth, s);
+                        self.bind(pass, "permute_rays", depth, s);
+                        pass.set_bind_group(2, &w.permute_bind_groups[s], &[]);
+                        pass.dispatch_workgroups_indirect(&w.dispatch_args, 0);
+                    }));
+                    states = 1 - states;
+                }
+            }
+            if let Some((at, c)) = self.capture
+                && at == depth
+            {
+                let s = states;
+                let q = (depth & 1) as usize;
+                out.push(Stage {
+                    label: "capture",
+                    depth: Some(depth),
+                    record: Record::Untimed(Box::new(move |enc| {
+                        let size = |b: &wgpu::Buffer, d: &wgpu::Buffer| b.size().min(d.size());
+                        enc.copy_buffer_to_buffer(&w.queue_counts, 0, &c.counts, 0, 16);
+                        enc.copy_buffer_to_buffer(
+                            &w.ray_keys,
+                            0,
+                            &c.keys,
+                            0,
+                            size(&w.ray_keys, &c.keys),
+                        );
+                        let rq = &w.ray_queues[q];
+                        enc.copy_buffer_to_buffer(rq, 0, &c.rays, 0, size(rq, &c.rays));
+                        let st = &w.ray_states[s];
+                        enc.copy_buffer_to_buffer(st, 0, &c.states, 0, size(st, &c.states));
+                    })),
+                });
+            }
+            let s = states;
+            out.push(Stage::pass("propagate", Some(depth), move |pass| {
+                self.prepare(pass, depth, s);
+                self.bind(pass, "propagate", depth, s);
+                pass.dispatch_workgroups_indirect(&w.dispatch_args, 0);
+            }));
+        }
+        out.push(Stage::pass("resolve", None, resolve));
+        out
+    }
+}
