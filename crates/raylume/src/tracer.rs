@@ -260,6 +260,7 @@ impl Tracer {
             seed: self.seed.unwrap_or(r.seed),
             batch_spp: self.batch_spp.clamp(1, r.spp),
             schedule: self.schedule,
+            reorder: raylume_kernels::Reorder::OFF,
         };
         let mut stats = RenderStats {
             backend: if use_gpu { "gpu" } else { "cpu" }.into(),
