@@ -23,16 +23,18 @@
 //! **Architecture invariant:** the facade owns policy (which backend, batch sizes, what to
 //! time, where files go), never kernels: every ray computation lives in `raylume-kernels`.
 
+mod auto;
 mod error;
 mod output;
 mod stats;
 mod tracer;
 
+pub use auto::AutoDecision;
 pub use error::Error;
 pub use output::{ImageFormat, save_exr, save_png};
-pub use stats::{RenderStats, StageSeconds};
+pub use stats::{DepthSeconds, RenderStats, StageSeconds};
 pub use tracer::{Backend, Progress, Render, ReorderPolicy, Tracer};
 
 pub use raylume_bvh::BvhQuality;
-pub use raylume_kernels::Schedule;
+pub use raylume_kernels::{BatchPlan, Reorder, ReorderMode, Schedule};
 pub use raylume_scene::{Feature, Features, RenderSettings, Scene};

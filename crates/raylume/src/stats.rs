@@ -15,7 +15,9 @@ pub struct StageSeconds {
     pub upload: f64,
     /// The ray-tracing phase.
     pub trace: f64,
-    /// Ray sorting (included in `trace`; 0 when reordering is off).
+    /// Ray sorting: the `sort_keys` passes (included in `trace`; 0 when no batch sorted).
+    /// Moving ray states into key order (`sort-permute`) is `permute_rays` in
+    /// [`RenderStats::kernel_seconds`].
     pub sort: f64,
     /// Post effects (bloom) and tone mapping for the output.
     pub post: f64,
@@ -42,9 +44,12 @@ pub struct RenderStats {
     pub spheres: usize,
     /// The scene's features (what the kernels were specialised on).
     pub features: Vec<&'static str>,
-    /// Wavefront or megakernel.
+    /// `megakernel` or `wavefront` (`megakernel + wavefront (auto trials)` when
+    /// `--reorder auto` measured both in this render).
     pub schedule: String,
-    /// Reorder policy in effect.
+    /// The reorder policy and what it ran: `off`, `on: wavefront, sort-index before depths
+    /// 1..=10`, `auto: <the plan> (fastest measured per N-ray batch: ...)`, `auto: still
+    /// measuring (...)`, or why it did not run (the CPU backend).
     pub reorder: String,
     /// Rays cast (every closest-hit traversal, camera rays included).
     pub rays_traced: u64,
@@ -61,6 +66,22 @@ pub struct RenderStats {
     /// The post-processing passes that ran, in order (`bloom_threshold`, `bloom_h`, ...).
     /// Empty when the scene calls for no post effect: then none is scheduled at all.
     pub post_passes: Vec<&'static str>,
+    /// Per bounce depth of the wavefront batches (empty for the megakernel and the CPU).
+    pub depth_seconds: Vec<DepthSeconds>,
+}
+
+/// Seconds spent on one bounce depth, summed over a render's wavefront batches (GPU
+/// timestamps where the adapter has them).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct DepthSeconds {
+    /// The segment traced (0: camera rays).
+    pub depth: u32,
+    /// `propagate` at this depth.
+    pub propagate: f64,
+    /// Sorting the rays before this depth (`sort_keys`).
+    pub sort: f64,
+    /// Moving their states into key order (`permute_rays`, `sort-permute` only).
+    pub permute: f64,
 }
 
 impl RenderStats {

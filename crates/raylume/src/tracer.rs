@@ -1,14 +1,18 @@
 //! The batched tracer: backend choice, settings checks, BVH, kernels, post, stats.
 
+use std::collections::HashMap;
 use std::path::Path;
 use std::time::Instant;
 
 use raylume_bvh::{BvhQuality, GpuBvh};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, GpuError};
-use raylume_kernels::{CpuTracer, GpuTracer, Schedule, TraceSettings};
+use raylume_kernels::{
+    BatchPlan, CpuTracer, GpuTracer, Reorder, ReorderMode, Schedule, TraceSettings, TraceStats,
+};
 use raylume_scene::Scene;
 
-use crate::{Error, ImageFormat, RenderStats};
+use crate::auto::{AutoDecision, AutoPolicy, AutoState, fingerprint};
+use crate::{DepthSeconds, Error, ImageFormat, RenderStats};
 
 /// Where rays are traced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -35,13 +39,23 @@ impl std::str::FromStr for Backend {
     }
 }
 
-/// Ray reordering between bounces (GPU only; the CPU path never sorts, as in the paper).
+/// Ray reordering between bounces: sorting the live rays by the paper's 30-bit
+/// origin-direction Morton key before each bounce (GPU only; the CPU path never sorts, as in
+/// the paper, and its stats say so).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum ReorderPolicy {
+    /// No sorting: the chosen [`Tracer::schedule`], as is.
     #[default]
     Off,
+    /// Sorting before every bounce, as [`Tracer::reorder_mode`] says. Sorting needs the
+    /// wavefront (the megakernel keeps each path in registers), so `On` runs the wavefront
+    /// whatever [`Tracer::schedule`] says; the stats note it when the schedule was the
+    /// megakernel.
     On,
-    /// Decide per scene from measurement.
+    /// Decided per scene, size, bounce count and batch shape from measurement on the scene's
+    /// own batches: the megakernel, the unsorted wavefront, or the wavefront sorted before the
+    /// depths where sorting measured faster (see [`AutoDecision`] and the module docs of
+    /// `auto.rs`); cached in the `Tracer` for later renders.
     Auto,
 }
 
@@ -114,6 +128,9 @@ pub struct Tracer {
     /// Overrides the scene's seed.
     pub seed: Option<u32>,
     pub reorder: ReorderPolicy,
+    /// How [`ReorderPolicy::On`] sorts: [`ReorderMode::SortIndex`] (the default) or
+    /// [`ReorderMode::SortPermute`]. (`Auto` measures both.)
+    pub reorder_mode: ReorderMode,
     pub schedule: Schedule,
     pub bvh_quality: BvhQuality,
     /// Run the scene's bloom, if it has one (`--no-bloom` clears this).
@@ -123,6 +140,8 @@ pub struct Tracer {
     progress: Option<ProgressFn>,
     gpu: Option<GpuContext>,
     gpu_bloom: Option<raylume_post::GpuBloom>,
+    /// `Auto`'s measurements and decisions, by [`fingerprint`].
+    auto: HashMap<u64, AutoState>,
 }
 
 impl std::fmt::Debug for Tracer {
@@ -132,6 +151,7 @@ impl std::fmt::Debug for Tracer {
             .field("batch_spp", &self.batch_spp)
             .field("seed", &self.seed)
             .field("reorder", &self.reorder)
+            .field("reorder_mode", &self.reorder_mode)
             .field("schedule", &self.schedule)
             .field("bloom", &self.bloom)
             .finish()
@@ -148,6 +168,7 @@ impl Tracer {
             batch_spp: Self::DEFAULT_BATCH_SPP,
             seed: None,
             reorder: ReorderPolicy::Off,
+            reorder_mode: ReorderMode::SortIndex,
             schedule: Schedule::default(),
             bvh_quality: BvhQuality::default(),
             bloom: true,
@@ -155,6 +176,7 @@ impl Tracer {
             progress: None,
             gpu: None,
             gpu_bloom: None,
+            auto: HashMap::new(),
         }
     }
 
@@ -168,7 +190,38 @@ impl Tracer {
     pub fn with_gpu_context(mut self, ctx: GpuContext) -> Self {
         self.gpu = Some(ctx);
         self.gpu_bloom = None;
+        // Measurements belong to an adapter.
+        self.auto.clear();
         self
+    }
+
+    /// The trace settings a render of `scene` runs with (before the reorder policy).
+    fn trace_settings(&self, scene: &Scene) -> TraceSettings {
+        let r = scene.render;
+        TraceSettings {
+            width: r.width,
+            height: r.height,
+            spp: r.spp,
+            max_bounces: r.max_bounces,
+            seed: self.seed.unwrap_or(r.seed),
+            batch_spp: self.batch_spp.clamp(1, r.spp.max(1)),
+            schedule: self.schedule,
+            reorder: Reorder::OFF,
+        }
+    }
+
+    fn auto_key(&self, scene: &Scene) -> u64 {
+        fingerprint(
+            scene,
+            &self.trace_settings(scene),
+            &format!("{:?}", self.bvh_quality),
+        )
+    }
+
+    /// What [`ReorderPolicy::Auto`] decided for renders of `scene` with its current settings
+    /// (size, bounces, samples per batch), once it has measured enough; `None` before.
+    pub fn auto_decision(&self, scene: &Scene) -> Option<&AutoDecision> {
+        self.auto.get(&self.auto_key(scene))?.decision()
     }
 
     /// Checks the scene's render settings against what a render accepts.
@@ -252,15 +305,39 @@ impl Tracer {
         scene.validate()?;
         let (use_gpu, reason) = self.choose_backend()?;
         let r = scene.render;
-        let settings = TraceSettings {
-            width: r.width,
-            height: r.height,
-            spp: r.spp,
-            max_bounces: r.max_bounces,
-            seed: self.seed.unwrap_or(r.seed),
-            batch_spp: self.batch_spp.clamp(1, r.spp),
-            schedule: self.schedule,
-            reorder: raylume_kernels::Reorder::OFF,
+        let mut settings = self.trace_settings(scene);
+        // What the reorder policy runs: a fixed plan (the stats line says which), or `Auto`'s
+        // measurements under the scene's fingerprint.
+        let mut auto_key = None;
+        let reorder = match (use_gpu, self.reorder) {
+            (_, ReorderPolicy::Off) => "off".to_string(),
+            (false, p) => format!(
+                "off: the CPU backend never reorders rays, as in the paper ({} requested)",
+                if p == ReorderPolicy::On { "on" } else { "auto" }
+            ),
+            (true, ReorderPolicy::On) => {
+                if self.reorder_mode == ReorderMode::Off {
+                    return Err(Error::Settings(
+                        "reorder on needs a sorting mode (sort-index or sort-permute), not off"
+                            .into(),
+                    ));
+                }
+                settings.schedule = Schedule::Wavefront;
+                settings.reorder = Reorder::every_bounce(self.reorder_mode);
+                let plan = BatchPlan::of(&settings);
+                let mut line = format!("on: {}", plan.describe(r.max_bounces));
+                if !plan.sorts(r.max_bounces) {
+                    line += " (no bounce to sort)";
+                }
+                if self.schedule == Schedule::Megakernel {
+                    line += "; the megakernel cannot sort, so the wavefront ran";
+                }
+                line
+            }
+            (true, ReorderPolicy::Auto) => {
+                auto_key = Some(self.auto_key(scene));
+                String::new() // filled in after the render
+            }
         };
         let mut stats = RenderStats {
             backend: if use_gpu { "gpu" } else { "cpu" }.into(),
@@ -274,11 +351,8 @@ impl Tracer {
             triangles: scene.triangles.len(),
             spheres: scene.spheres.len(),
             features: scene.features().names(),
-            schedule: format!("{:?}", self.schedule).to_lowercase(),
-            reorder: match self.reorder {
-                ReorderPolicy::Off => "off".into(),
-                p => format!("{p:?} requested; not implemented yet, ran off").to_lowercase(),
-            },
+            schedule: settings.schedule.name().into(),
+            reorder,
             ..Default::default()
         };
 
@@ -306,7 +380,15 @@ impl Tracer {
             None
         };
         let result = if use_gpu {
-            self.trace_gpu(scene, &bvh, &settings, bloom, &mut stats, &mut report)
+            self.trace_gpu(
+                scene,
+                &bvh,
+                &settings,
+                auto_key,
+                bloom,
+                &mut stats,
+                &mut report,
+            )
         } else {
             stats.adapter = format!("CPU, {} threads", rayon::current_num_threads());
             Self::trace_cpu(scene, &bvh, &settings, bloom, &mut stats, &mut report)
@@ -331,12 +413,15 @@ impl Tracer {
         })
     }
 
-    /// Traces on the GPU, runs bloom on the image while it is still there, reads it back.
+    /// Traces on the GPU (with `Auto`'s policy under `auto_key`, if given), runs bloom on the
+    /// image while it is still there, reads it back.
+    #[allow(clippy::too_many_arguments)]
     fn trace_gpu(
         &mut self,
         scene: &Scene,
         bvh: &GpuBvh,
         settings: &TraceSettings,
+        auto_key: Option<u64>,
         bloom: Option<raylume_post::BloomParams>,
         stats: &mut RenderStats,
         report: &mut dyn FnMut(u32, u32),
@@ -346,8 +431,31 @@ impl Tracer {
         let t = Instant::now();
         let mut tracer = GpuTracer::new(ctx, scene, bvh)?;
         stats.seconds.upload = t.elapsed().as_secs_f64();
-        let out = tracer.render_to_buffer(settings, report)?;
+        let out = match auto_key {
+            None => tracer.render_to_buffer(settings, report)?,
+            Some(key) => {
+                let off_schedule = self.schedule;
+                let state = self
+                    .auto
+                    .entry(key)
+                    .or_insert_with(|| AutoState::new(off_schedule, settings.max_bounces));
+                let out = tracer.render_with_policy(settings, &mut AutoPolicy { state }, report)?;
+                stats.reorder = state.describe();
+                out
+            }
+        };
+        stats.schedule = schedules_run(&out);
         stats.take_trace(out.rays_traced, out.dropped_samples, &out.timings);
+        stats.depth_seconds = out
+            .depths
+            .iter()
+            .map(|d| DepthSeconds {
+                depth: d.depth,
+                propagate: d.propagate,
+                sort: d.sort,
+                permute: d.permute,
+            })
+            .collect();
         let image = tracer
             .image_buffer()
             .expect("render_to_buffer leaves the image on the GPU");
@@ -412,5 +520,15 @@ impl Tracer {
         }
         stats.seconds.post = t.elapsed().as_secs_f64();
         Ok(pixels)
+    }
+}
+
+/// The schedule the batches ran: one name, or both when `Auto` tried both in this render.
+fn schedules_run(out: &TraceStats) -> String {
+    let ran = |s: Schedule| out.batches.iter().any(|b| b.plan.schedule == s);
+    match (ran(Schedule::Megakernel), ran(Schedule::Wavefront)) {
+        (true, true) => "megakernel + wavefront (auto trials)".into(),
+        (false, true) => "wavefront".into(),
+        _ => "megakernel".into(),
     }
 }
