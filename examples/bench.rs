@@ -1,17 +1,29 @@
 //! The paper's Table 1, remade: every scene at 1000x1000, 10 bounces, 1/10/100 spp, timing
-//! the ray-tracing phase (GPU timestamps where the adapter has them). Prints a Markdown table
-//! and optionally writes JSON.
+//! the ray-tracing phase (GPU timestamps where the adapter has them), for every schedule and
+//! reorder policy asked for. Prints a Markdown table of every run, the Table-1 pivot (one row
+//! per scene and spp: each configuration's time, `auto`'s choice and how far it is from the
+//! better of `on` and `off`), and for `on` the per-bounce `propagate`, sort and permute times
+//! next to the unsorted wavefront's (where sorting pays); optionally writes JSON.
 //!
 //! ```text
-//! cargo run --release --example bench -- --backend gpu scenes/*.toml scenes/living-room/scene.json
+//! cargo run --release --example bench -- --backend gpu \
+//!     --schedule megakernel,wavefront --reorder off,on,auto --reorder-mode index,permute \
+//!     scenes/*.toml scenes/living-room/scene.json
 //! ```
+//!
+//! `off` runs once per schedule; `on` runs the wavefront once per reorder mode (whatever the
+//! schedule); `auto` runs once (its first candidate is the first schedule listed). Before
+//! timing `auto` at a sample count, the bench renders until `auto` has decided (at most 12
+//! renders; a 1-spp render is one batch, so it measures one candidate per render) and reports
+//! those renders separately (`auto_exploring_s` in the JSON): the table times the decided
+//! `auto`, as a user re-rendering a scene gets it.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
 use clap::Parser;
-use raylume::{Backend, ReorderPolicy, Scene, Schedule, Tracer};
+use raylume::{Backend, DepthSeconds, ReorderMode, ReorderPolicy, Scene, Schedule, Tracer};
 use serde::Serialize;
 
 #[derive(Parser, Debug)]
@@ -35,12 +47,15 @@ struct Args {
     /// Bounces.
     #[arg(long, default_value_t = 10)]
     bounces: u32,
-    /// Comma-separated reorder policies to time.
+    /// Comma-separated reorder policies to time (off, on, auto).
     #[arg(long, default_value = "off", value_delimiter = ',')]
     reorder: Vec<ReorderPolicy>,
-    /// Comma-separated schedules to time (megakernel, wavefront).
-    #[arg(long, default_value = "megakernel", value_delimiter = ',')]
-    schedule: Vec<String>,
+    /// Comma-separated sorting modes `on` is timed with (index, permute).
+    #[arg(long, default_value = "index", value_delimiter = ',', value_parser = parse_mode)]
+    reorder_mode: Vec<ReorderMode>,
+    /// Comma-separated schedules `off` is timed with (megakernel, wavefront).
+    #[arg(long, default_value = "megakernel", value_delimiter = ',', value_parser = parse_schedule)]
+    schedule: Vec<Schedule>,
     /// Samples per pixel per batch.
     #[arg(long)]
     batch_spp: Option<u32>,
@@ -50,9 +65,46 @@ struct Args {
     /// Write every measurement as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
-    /// Save the last image of each scene into this folder (PNG).
+    /// Save the last image of each scene and configuration into this folder (PNG).
     #[arg(long)]
     images: Option<PathBuf>,
+}
+
+fn parse_mode(s: &str) -> Result<ReorderMode, String> {
+    match s {
+        "index" | "sort-index" => Ok(ReorderMode::SortIndex),
+        "permute" | "sort-permute" => Ok(ReorderMode::SortPermute),
+        _ => Err(format!("unknown reorder mode `{s}`: use index or permute")),
+    }
+}
+
+fn parse_schedule(s: &str) -> Result<Schedule, String> {
+    match s {
+        "megakernel" => Ok(Schedule::Megakernel),
+        "wavefront" => Ok(Schedule::Wavefront),
+        _ => Err(format!(
+            "unknown schedule `{s}`: use megakernel or wavefront"
+        )),
+    }
+}
+
+/// One configuration of the tracer the bench times.
+#[derive(Clone, Copy, Debug)]
+struct Config {
+    schedule: Schedule,
+    reorder: ReorderPolicy,
+    mode: ReorderMode,
+}
+
+impl Config {
+    /// Column name: `megakernel`, `wavefront`, `on sort-index`, `auto`.
+    fn name(&self) -> String {
+        match self.reorder {
+            ReorderPolicy::Off => self.schedule.name().to_string(),
+            ReorderPolicy::On => format!("on {}", self.mode.name()),
+            ReorderPolicy::Auto => "auto".into(),
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -61,7 +113,11 @@ struct Row {
     primitives: usize,
     backend: String,
     adapter: String,
+    /// The configuration: `megakernel`, `wavefront`, `on sort-index`, `on sort-permute`, `auto`.
+    config: String,
+    /// What ran (`RenderStats::schedule`).
     schedule: String,
+    /// What the policy did (`RenderStats::reorder`).
     reorder: String,
     spp: u32,
     width: u32,
@@ -69,11 +125,57 @@ struct Row {
     bounces: u32,
     /// Best `trace` seconds (the paper's ray-tracing phase).
     trace_s: f64,
+    /// Sorting seconds of that run (`seconds.sort`).
+    sort_s: f64,
     /// `total` seconds of that same run (BVH build, upload, trace, post; no loading).
     total_s: f64,
     rays_traced: u64,
     mrays_per_s: f64,
     all_trace_s: Vec<f64>,
+    /// `auto` only: the `trace` seconds of the renders before it had decided.
+    auto_exploring_s: Vec<f64>,
+    /// Per bounce depth of the best run (wavefront batches).
+    depths: Vec<DepthSeconds>,
+}
+
+fn configs(args: &Args) -> Vec<Config> {
+    let first = args.schedule.first().copied().unwrap_or_default();
+    let mut out = Vec::new();
+    for &reorder in &args.reorder {
+        match reorder {
+            ReorderPolicy::Off => out.extend(args.schedule.iter().map(|&schedule| Config {
+                schedule,
+                reorder,
+                mode: ReorderMode::Off,
+            })),
+            ReorderPolicy::On => out.extend(args.reorder_mode.iter().map(|&mode| Config {
+                schedule: Schedule::Wavefront,
+                reorder,
+                mode,
+            })),
+            ReorderPolicy::Auto => out.push(Config {
+                schedule: first,
+                reorder,
+                mode: ReorderMode::SortIndex,
+            }),
+        }
+    }
+    out
+}
+
+fn stem(path: &std::path::Path) -> String {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().to_string())
+        .unwrap_or_default();
+    if stem == "scene" {
+        path.parent()
+            .and_then(|p| p.file_name())
+            .map(|s| s.to_string_lossy().to_string())
+            .unwrap_or(stem)
+    } else {
+        stem
+    }
 }
 
 fn run(args: Args) -> Result<(), String> {
@@ -82,6 +184,7 @@ fn run(args: Args) -> Result<(), String> {
         .split_once('x')
         .and_then(|(a, b)| Some((a.parse::<u32>().ok()?, b.parse::<u32>().ok()?)))
         .ok_or_else(|| format!("bad --size {}", args.size))?;
+    let configs = configs(&args);
     let mut rows = Vec::new();
     let mut tracer = Tracer::new(args.backend);
     if let Some(b) = args.batch_spp {
@@ -100,97 +203,96 @@ fn run(args: Args) -> Result<(), String> {
         scene.render.width = w;
         scene.render.height = h;
         scene.render.max_bounces = args.bounces;
-        for sched in &args.schedule {
-            tracer.schedule = match sched.as_str() {
-                "megakernel" => Schedule::Megakernel,
-                "wavefront" => Schedule::Wavefront,
-                s => return Err(format!("unknown schedule {s}")),
-            };
-            for &reorder in &args.reorder {
-                tracer.reorder = reorder;
-                // Warm-up: compiles pipelines, touches every buffer once.
-                scene.render.spp = 1;
-                tracer.render(&scene).map_err(|e| e.to_string())?;
-                for &spp in &args.spp {
-                    scene.render.spp = spp;
-                    let mut best: Option<raylume::Render> = None;
-                    let mut all = Vec::new();
-                    for _ in 0..args.repeat.max(1) {
+        for config in &configs {
+            tracer.schedule = config.schedule;
+            tracer.reorder = config.reorder;
+            if config.reorder == ReorderPolicy::On {
+                tracer.reorder_mode = config.mode;
+            }
+            // Warm-up: compiles pipelines, touches every buffer once.
+            scene.render.spp = 1;
+            tracer.render(&scene).map_err(|e| e.to_string())?;
+            for &spp in &args.spp {
+                scene.render.spp = spp;
+                let mut exploring = Vec::new();
+                if config.reorder == ReorderPolicy::Auto {
+                    while tracer.auto_decision(&scene).is_none() && exploring.len() < 12 {
                         let r = tracer.render(&scene).map_err(|e| e.to_string())?;
-                        all.push(r.stats.seconds.trace);
-                        if best
-                            .as_ref()
-                            .is_none_or(|b| r.stats.seconds.trace < b.stats.seconds.trace)
-                        {
-                            best = Some(r);
-                        }
+                        exploring.push(r.stats.seconds.trace);
                     }
-                    let best = best.expect("repeat >= 1");
-                    let s = &best.stats;
-                    eprintln!(
-                        "  {} {} reorder={} spp={spp}: trace {:.4} s, total {:.4} s, {:.0} Mrays/s",
-                        s.backend,
-                        s.schedule,
-                        s.reorder,
-                        s.seconds.trace,
-                        s.seconds.total,
-                        s.mrays_per_s
-                    );
-                    rows.push(Row {
-                        scene: path.display().to_string(),
-                        primitives: scene.primitive_count(),
-                        backend: s.backend.clone(),
-                        adapter: s.adapter.clone(),
-                        schedule: s.schedule.clone(),
-                        reorder: s.reorder.clone(),
-                        spp,
-                        width: w,
-                        height: h,
-                        bounces: args.bounces,
-                        trace_s: s.seconds.trace,
-                        total_s: s.seconds.total,
-                        rays_traced: s.rays_traced,
-                        mrays_per_s: s.mrays_per_s,
-                        all_trace_s: all,
-                    });
-                    if let Some(dir) = &args.images {
-                        let stem = path
-                            .file_stem()
-                            .map(|s| s.to_string_lossy().to_string())
-                            .unwrap_or_default();
-                        let stem = if stem == "scene" {
-                            path.parent()
-                                .and_then(|p| p.file_name())
-                                .map(|s| s.to_string_lossy().to_string())
-                                .unwrap_or(stem)
-                        } else {
-                            stem
-                        };
-                        let out = dir.join(format!("{stem}-{}-{spp}spp.png", s.backend));
-                        best.save(&out).map_err(|e| e.to_string())?;
+                    match tracer.auto_decision(&scene) {
+                        Some(d) => eprintln!(
+                            "  auto at {spp} spp decided after {} renders ({}): {}",
+                            exploring.len(),
+                            exploring
+                                .iter()
+                                .map(|s| format!("{s:.4}"))
+                                .collect::<Vec<_>>()
+                                .join(", "),
+                            d.summary
+                        ),
+                        None => eprintln!(
+                            "  auto at {spp} spp still undecided after {} renders",
+                            exploring.len()
+                        ),
                     }
+                }
+                let mut best: Option<raylume::Render> = None;
+                let mut all = Vec::new();
+                for _ in 0..args.repeat.max(1) {
+                    let r = tracer.render(&scene).map_err(|e| e.to_string())?;
+                    all.push(r.stats.seconds.trace);
+                    if best
+                        .as_ref()
+                        .is_none_or(|b| r.stats.seconds.trace < b.stats.seconds.trace)
+                    {
+                        best = Some(r);
+                    }
+                }
+                let best = best.expect("repeat >= 1");
+                let s = &best.stats;
+                eprintln!(
+                    "  {} [{}] spp={spp}: trace {:.4} s (sort {:.4} s), total {:.4} s, {:.0} Mrays/s; {}",
+                    s.backend,
+                    config.name(),
+                    s.seconds.trace,
+                    s.seconds.sort,
+                    s.seconds.total,
+                    s.mrays_per_s,
+                    s.reorder
+                );
+                rows.push(Row {
+                    scene: path.display().to_string(),
+                    primitives: scene.primitive_count(),
+                    backend: s.backend.clone(),
+                    adapter: s.adapter.clone(),
+                    config: config.name(),
+                    schedule: s.schedule.clone(),
+                    reorder: s.reorder.clone(),
+                    spp,
+                    width: w,
+                    height: h,
+                    bounces: args.bounces,
+                    trace_s: s.seconds.trace,
+                    sort_s: s.seconds.sort,
+                    total_s: s.seconds.total,
+                    rays_traced: s.rays_traced,
+                    mrays_per_s: s.mrays_per_s,
+                    all_trace_s: all,
+                    auto_exploring_s: exploring,
+                    depths: s.depth_seconds.clone(),
+                });
+                if let Some(dir) = &args.images {
+                    let tag = config.name().replace(' ', "-");
+                    let out = dir.join(format!("{}-{}-{tag}-{spp}spp.png", stem(path), s.backend));
+                    best.save(&out).map_err(|e| e.to_string())?;
                 }
             }
         }
     }
-    println!(
-        "| scene | prims | backend | schedule | reorder | spp | trace s | total s | Mrays/s |"
-    );
-    println!("|---|---:|---|---|---|---:|---:|---:|---:|");
-    for r in &rows {
-        println!(
-            "| {} | {} | {} | {} | {} | {} | {:.4} | {:.4} | {:.0} |",
-            r.scene,
-            r.primitives,
-            r.backend,
-            r.schedule,
-            r.reorder,
-            r.spp,
-            r.trace_s,
-            r.total_s,
-            r.mrays_per_s
-        );
-    }
+    print_runs(&rows);
+    print_pivot(&rows, &configs);
+    print_depths(&rows);
     if let Some(p) = &args.json {
         std::fs::write(
             p,
@@ -199,6 +301,146 @@ fn run(args: Args) -> Result<(), String> {
         .map_err(|e| format!("cannot write {}: {e}", p.display()))?;
     }
     Ok(())
+}
+
+/// Every run.
+fn print_runs(rows: &[Row]) {
+    println!(
+        "| scene | prims | backend | config | ran | reorder | spp | trace s | sort s | total s | Mrays/s |"
+    );
+    println!("|---|---:|---|---|---|---|---:|---:|---:|---:|---:|");
+    for r in rows {
+        println!(
+            "| {} | {} | {} | {} | {} | {} | {} | {:.4} | {:.4} | {:.4} | {:.0} |",
+            r.scene,
+            r.primitives,
+            r.backend,
+            r.config,
+            r.schedule,
+            r.reorder,
+            r.spp,
+            r.trace_s,
+            r.sort_s,
+            r.total_s,
+            r.mrays_per_s
+        );
+    }
+    println!();
+}
+
+/// Table 1's shape: one row per scene and spp, a column per configuration, then `auto`
+/// against the better of `on` and `off`.
+fn print_pivot(rows: &[Row], configs: &[Config]) {
+    let names: Vec<String> = configs.iter().map(Config::name).collect();
+    let mut head = String::from("| scene | prims | spp |");
+    let mut rule = String::from("|---|---:|---:|");
+    for n in &names {
+        head += &format!(" {n} s |");
+        rule += "---:|";
+    }
+    let has_auto = configs.iter().any(|c| c.reorder == ReorderPolicy::Auto);
+    if has_auto {
+        head += " best of on/off | auto vs best | auto chose |";
+        rule += "---|---:|---|";
+    }
+    println!("{head}");
+    println!("{rule}");
+    let mut keys: Vec<(&str, u32)> = Vec::new();
+    for r in rows {
+        if !keys.contains(&(r.scene.as_str(), r.spp)) {
+            keys.push((r.scene.as_str(), r.spp));
+        }
+    }
+    for (scene, spp) in keys {
+        let of = |name: &str| {
+            rows.iter()
+                .find(|r| r.scene == scene && r.spp == spp && r.config == name)
+        };
+        let prims = rows
+            .iter()
+            .find(|r| r.scene == scene)
+            .map_or(0, |r| r.primitives);
+        let mut line = format!("| {scene} | {prims} | {spp} |");
+        for n in &names {
+            line += &match of(n) {
+                Some(r) => format!(" {:.4} |", r.trace_s),
+                None => " - |".into(),
+            };
+        }
+        if has_auto {
+            let best = rows
+                .iter()
+                .filter(|r| r.scene == scene && r.spp == spp && r.config != "auto")
+                .min_by(|a, b| a.trace_s.total_cmp(&b.trace_s));
+            match (best, of("auto")) {
+                (Some(b), Some(a)) => {
+                    let chose = a
+                        .reorder
+                        .strip_prefix("auto: ")
+                        .unwrap_or(&a.reorder)
+                        .split(" (")
+                        .next()
+                        .unwrap_or("");
+                    line += &format!(
+                        " {} {:.4} | {:+.1} % | {chose} |",
+                        b.config,
+                        b.trace_s,
+                        (a.trace_s / b.trace_s - 1.0) * 100.0
+                    );
+                }
+                _ => line += " - | - | - |",
+            }
+        }
+        println!("{line}");
+    }
+    println!();
+}
+
+/// For every `on` run at each scene's largest spp: per depth, the unsorted wavefront's
+/// `propagate` against the sorted one plus its sort (and permute): where sorting pays.
+fn print_depths(rows: &[Row]) {
+    let on: Vec<&Row> = rows
+        .iter()
+        .filter(|r| r.config.starts_with("on "))
+        .collect();
+    if on.is_empty() {
+        return;
+    }
+    println!(
+        "| scene | spp | config | depth | propagate unsorted s | propagate sorted s | sort s | permute s | saved s |"
+    );
+    println!("|---|---:|---|---:|---:|---:|---:|---:|---:|");
+    for r in on {
+        let max_spp = rows
+            .iter()
+            .filter(|x| x.scene == r.scene)
+            .map(|x| x.spp)
+            .max()
+            .unwrap_or(0);
+        if r.spp != max_spp {
+            continue;
+        }
+        let unsorted = rows
+            .iter()
+            .find(|x| x.scene == r.scene && x.spp == r.spp && x.config == "wavefront");
+        for d in &r.depths {
+            let off = unsorted
+                .and_then(|u| u.depths.iter().find(|x| x.depth == d.depth))
+                .map(|x| x.propagate);
+            let (off_s, saved) = match off {
+                Some(o) => (
+                    format!("{o:.5}"),
+                    format!("{:+.5}", o - (d.propagate + d.sort + d.permute)),
+                ),
+                None => ("-".into(), "-".into()),
+            };
+            println!(
+                "| {} | {} | {} | {} | {off_s} | {:.5} | {:.5} | {:.5} | {saved} |",
+                r.scene, r.spp, r.config, d.depth, d.propagate, d.sort, d.permute
+            );
+        }
+    }
+    println!();
 }
 
 fn main() -> ExitCode {

@@ -351,6 +351,7 @@ impl<'r> BatchRecorder<'r> {
                 out.push(Stage {
                     label: "sort_keys",
                     depth: Some(depth),
+                    submit_after: false,
                     record: Record::Encoder(Box::new(move |enc, ts| {
                         let len = SortLen::Indirect {
                             count_buffer: &w.queue_counts,
@@ -380,6 +381,7 @@ impl<'r> BatchRecorder<'r> {
                 out.push(Stage {
                     label: "capture",
                     depth: Some(depth),
+                    submit_after: false,
                     record: Record::Untimed(Box::new(move |enc| {
                         let size = |b: &wgpu::Buffer, d: &wgpu::Buffer| b.size().min(d.size());
                         enc.copy_buffer_to_buffer(&w.queue_counts, 0, &c.counts, 0, 16);
@@ -398,11 +400,15 @@ impl<'r> BatchRecorder<'r> {
                 });
             }
             let s = states;
-            out.push(Stage::pass("propagate", Some(depth), move |pass| {
+            let mut stage = Stage::pass("propagate", Some(depth), move |pass| {
                 self.prepare(pass, depth, s);
                 self.bind(pass, "propagate", depth, s);
                 pass.dispatch_workgroups_indirect(&w.dispatch_args, 0);
-            }));
+            });
+            // When the next bounce sorts, let the GPU trace this one while the sort is
+            // recorded.
+            stage.submit_after = plan.reorder.sorts_before(depth + 1);
+            out.push(stage);
         }
         out.push(Stage::pass("resolve", None, resolve));
         out
