@@ -11,8 +11,9 @@
 //!     scenes/*.toml scenes/living-room/scene.json
 //! ```
 //!
-//! `off` runs once per schedule; `on` runs the wavefront once per reorder mode (whatever the
-//! schedule); `auto` runs once (its first candidate is the first schedule listed). Before
+//! `off` runs once per schedule; `on` runs the wavefront once per reorder mode and key width
+//! (whatever the schedule); `auto` runs once (its first candidate is the first schedule
+//! listed, its sorted candidates use the first key width). Before
 //! timing `auto` at a sample count, the bench renders until `auto` has decided (at most 12
 //! renders; a 1-spp render is one batch, so it measures one candidate per render) and reports
 //! those renders separately (`auto_exploring_s` in the JSON): the table times the decided
@@ -53,6 +54,10 @@ struct Args {
     /// Comma-separated sorting modes `on` is timed with (index, permute).
     #[arg(long, default_value = "index", value_delimiter = ',', value_parser = parse_mode)]
     reorder_mode: Vec<ReorderMode>,
+    /// Comma-separated key widths `on` is timed with (the top bits of the 30-bit key sorted:
+    /// 30 = the paper's whole key, 4 radix passes; 16 = 2 passes). `auto` uses the first.
+    #[arg(long, default_value = "30", value_delimiter = ',')]
+    reorder_bits: Vec<u32>,
     /// Comma-separated schedules `off` is timed with (megakernel, wavefront).
     #[arg(long, default_value = "megakernel", value_delimiter = ',', value_parser = parse_schedule)]
     schedule: Vec<Schedule>,
@@ -94,15 +99,21 @@ struct Config {
     schedule: Schedule,
     reorder: ReorderPolicy,
     mode: ReorderMode,
+    key_bits: u32,
 }
 
 impl Config {
-    /// Column name: `megakernel`, `wavefront`, `on sort-index`, `auto`.
+    /// Column name: `megakernel`, `wavefront`, `on sort-index`, `on sort-index/16`, `auto`.
     fn name(&self) -> String {
+        let bits = if self.key_bits == 30 {
+            String::new()
+        } else {
+            format!("/{}", self.key_bits)
+        };
         match self.reorder {
             ReorderPolicy::Off => self.schedule.name().to_string(),
-            ReorderPolicy::On => format!("on {}", self.mode.name()),
-            ReorderPolicy::Auto => "auto".into(),
+            ReorderPolicy::On => format!("on {}{bits}", self.mode.name()),
+            ReorderPolicy::Auto => format!("auto{bits}"),
         }
     }
 }
@@ -140,6 +151,7 @@ struct Row {
 
 fn configs(args: &Args) -> Vec<Config> {
     let first = args.schedule.first().copied().unwrap_or_default();
+    let first_bits = args.reorder_bits.first().copied().unwrap_or(30);
     let mut out = Vec::new();
     for &reorder in &args.reorder {
         match reorder {
@@ -147,16 +159,23 @@ fn configs(args: &Args) -> Vec<Config> {
                 schedule,
                 reorder,
                 mode: ReorderMode::Off,
+                key_bits: 30,
             })),
-            ReorderPolicy::On => out.extend(args.reorder_mode.iter().map(|&mode| Config {
-                schedule: Schedule::Wavefront,
-                reorder,
-                mode,
-            })),
+            ReorderPolicy::On => {
+                for &key_bits in &args.reorder_bits {
+                    out.extend(args.reorder_mode.iter().map(|&mode| Config {
+                        schedule: Schedule::Wavefront,
+                        reorder,
+                        mode,
+                        key_bits,
+                    }))
+                }
+            }
             ReorderPolicy::Auto => out.push(Config {
                 schedule: first,
                 reorder,
                 mode: ReorderMode::SortIndex,
+                key_bits: first_bits,
             }),
         }
     }
@@ -209,6 +228,7 @@ fn run(args: Args) -> Result<(), String> {
             if config.reorder == ReorderPolicy::On {
                 tracer.reorder_mode = config.mode;
             }
+            tracer.reorder_key_bits = config.key_bits;
             // Warm-up: compiles pipelines, touches every buffer once.
             scene.render.spp = 1;
             tracer.render(&scene).map_err(|e| e.to_string())?;
@@ -370,9 +390,12 @@ fn print_pivot(rows: &[Row], configs: &[Config]) {
         if has_auto {
             let best = rows
                 .iter()
-                .filter(|r| r.scene == scene && r.spp == spp && r.config != "auto")
+                .filter(|r| r.scene == scene && r.spp == spp && !r.config.starts_with("auto"))
                 .min_by(|a, b| a.trace_s.total_cmp(&b.trace_s));
-            match (best, of("auto")) {
+            let auto = rows
+                .iter()
+                .find(|r| r.scene == scene && r.spp == spp && r.config.starts_with("auto"));
+            match (best, auto) {
                 (Some(b), Some(a)) => {
                     let chose = a
                         .reorder

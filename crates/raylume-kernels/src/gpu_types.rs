@@ -191,7 +191,9 @@ pub struct BounceUniforms {
     /// ray's sort key at its slot of the next queue (so that only live rays are sorted);
     /// 0: at its slot of this bounce's queue (`DEAD_RAY_KEY` for rays that ended).
     pub sort_next: u32,
-    pub _pad1: u32,
+    /// With `sort_next`: how far the 30-bit key is shifted right, so that a sort of the low
+    /// `30 - sort_shift` bits sorts by the key's top bits (`Reorder::key_bits`).
+    pub sort_shift: u32,
     pub _pad2: u32,
 }
 

@@ -79,6 +79,6 @@ struct RayState {
 struct BounceUniforms {
     depth: u32,
     sort_next: u32,
-    _pad1: u32,
+    sort_shift: u32,
     _pad2: u32,
 }

@@ -153,10 +153,21 @@ impl ReorderMode {
 /// i.e. between `propagate` at depth `d - 1` and at depth `d`; bit 63 also stands for every
 /// depth above 63. Bit 0 is ignored: camera rays come from `raygen` in pixel order, already
 /// coherent, and have no keys yet.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct Reorder {
     pub mode: ReorderMode,
     pub depths: u64,
+    /// The top bits of the paper's 30-bit key that are sorted, 1..=30 (default 30, the whole
+    /// key: four 8-bit radix passes). Fewer bits sort more coarsely and more cheaply, the
+    /// paper's "much cheaper approximate sort": 16 bits (the origin's 15-bit Morton code and
+    /// the top bit of the direction's) take two passes, 24 three.
+    pub key_bits: u32,
+}
+
+impl Default for Reorder {
+    fn default() -> Self {
+        Self::OFF
+    }
 }
 
 impl Reorder {
@@ -164,11 +175,22 @@ impl Reorder {
     pub const OFF: Reorder = Reorder {
         mode: ReorderMode::Off,
         depths: 0,
+        key_bits: raylume_sort::RAY_KEY_BITS,
     };
 
-    /// Sorting before every bounce after the camera rays (depths 1 and up).
+    /// Sorting before every bounce after the camera rays (depths 1 and up), by the whole key.
     pub const fn every_bounce(mode: ReorderMode) -> Self {
-        Self { mode, depths: !1 }
+        Self {
+            mode,
+            depths: !1,
+            key_bits: raylume_sort::RAY_KEY_BITS,
+        }
+    }
+
+    /// This reordering sorting by the top `key_bits` bits of the key only.
+    pub const fn with_key_bits(mut self, key_bits: u32) -> Self {
+        self.key_bits = key_bits;
+        self
     }
 
     /// Sorting before depths `first` and up (`first` at least 1; above 63 it counts as 63).
@@ -183,6 +205,7 @@ impl Reorder {
         Self {
             mode,
             depths: !0u64 << first,
+            key_bits: raylume_sort::RAY_KEY_BITS,
         }
     }
 
@@ -223,11 +246,17 @@ impl Reorder {
         }
     }
 
-    /// `"off"`, or e.g. `"sort-index before depths 1..=10"` for a render of `max_bounces`.
+    /// `"off"`, or e.g. `"sort-index before depths 1..=10"` (`"sort-index/16 before ..."`
+    /// when sorting 16 of the key's 30 bits) for a render of `max_bounces`.
     pub fn describe(&self, max_bounces: u32) -> String {
         if self.sorts_any(max_bounces) {
+            let bits = if self.key_bits == raylume_sort::RAY_KEY_BITS {
+                String::new()
+            } else {
+                format!("/{}", self.key_bits)
+            };
             format!(
-                "{} before depths {}",
+                "{}{bits} before depths {}",
                 self.mode.name(),
                 self.depth_ranges(max_bounces)
             )
@@ -302,6 +331,13 @@ impl TraceSettings {
             return bad(format!(
                 "max_bounces is {}; at most {MAX_BOUNCES_LIMIT} is supported",
                 self.max_bounces
+            ));
+        }
+        if !(1..=raylume_sort::RAY_KEY_BITS).contains(&self.reorder.key_bits) {
+            return bad(format!(
+                "reordering by {} key bits; use 1 to {}",
+                self.reorder.key_bits,
+                raylume_sort::RAY_KEY_BITS
             ));
         }
         if self.schedule == Schedule::Megakernel && self.reorder.sorts_any(self.max_bounces) {

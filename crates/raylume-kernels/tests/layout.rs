@@ -62,7 +62,7 @@ fn layout_matches_wgsl() {
         rust_layout!(TriangleShading; n0, u0, n1, v0, n2, u1, v1, u2, v2, flags),
         rust_layout!(TextureHeader; offset, width, height, _pad0),
         rust_layout!(RayState; origin, pixel, dir, sample, throughput, depth, radiance, alive),
-        rust_layout!(BounceUniforms; depth, sort_next, _pad1, _pad2),
+        rust_layout!(BounceUniforms; depth, sort_next, sort_shift, _pad2),
     ];
     for (name, size, fields) in expected {
         let (handle, ty) = module

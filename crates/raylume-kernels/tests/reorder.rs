@@ -65,6 +65,7 @@ fn reorder_settings_say_which_depths_sort() {
     let some = Reorder {
         mode: ReorderMode::SortIndex,
         depths: 0b1011_0110,
+        key_bits: 30,
     };
     assert_eq!(some.depth_ranges(10), "1..=2, 4..=5, 7");
     assert!(!Reorder::OFF.sorts_any(10));
@@ -73,9 +74,14 @@ fn reorder_settings_say_which_depths_sort() {
     let off_mode = Reorder {
         mode: ReorderMode::Off,
         depths: !0,
+        key_bits: 30,
     };
     assert!(!off_mode.sorts_any(10));
     assert!(!Reorder::from_depth(ReorderMode::SortIndex, 5).sorts_any(4));
+    assert_eq!(
+        every.with_key_bits(16).describe(3),
+        "sort-index/16 before depths 1..=3"
+    );
 }
 
 #[test]
@@ -112,6 +118,16 @@ fn sorting_needs_the_wavefront() {
         .validate()
         .is_ok()
     );
+    // Key widths beyond the key's 30 bits, or none at all.
+    for bits in [0, 31] {
+        let s = TraceSettings {
+            schedule: Schedule::Wavefront,
+            reorder: Reorder::every_bounce(ReorderMode::SortIndex).with_key_bits(bits),
+            ..s
+        };
+        let e = s.validate().unwrap_err();
+        assert!(e.to_string().contains("key bits"), "{e}");
+    }
 }
 
 #[test]
@@ -251,8 +267,8 @@ fn per_depth_masks_sort_only_where_asked() {
     for mode in MODES {
         // Depths 2 and 4 only.
         let r = Reorder {
-            mode,
             depths: (1 << 2) | (1 << 4),
+            ..Reorder::every_bounce(mode)
         };
         let s = with(base, r);
         for (depth, sorted) in [(2, true), (3, false), (4, true), (5, false)] {
@@ -390,4 +406,67 @@ fn a_policy_may_switch_plans_between_batches() {
         .unwrap_err();
     assert!(matches!(e, KernelError::InvalidSettings(_)), "{e}");
     assert!(e.to_string().contains("sort-permute"), "{e}");
+}
+
+#[test]
+fn sorting_by_the_top_key_bits_sorts_coarsely_and_changes_nothing_else() {
+    let Some(ctx) = raylume_gpu::testing::context_or_skip(
+        "sorting_by_the_top_key_bits_sorts_coarsely_and_changes_nothing_else",
+    ) else {
+        return;
+    };
+    let scene = cornell_box();
+    let bvh = bvh(&scene);
+    let mut tracer = GpuTracer::new(ctx, &scene, &bvh).unwrap();
+    let base = settings(32, 32, 2, 4, Schedule::Wavefront);
+    let off = tracer.render(&base, &mut |_, _| {}).unwrap();
+    tracer.capture_sort(Some(2));
+    for (mode, bits) in [(ReorderMode::SortIndex, 16), (ReorderMode::SortPermute, 9)] {
+        let s = with(base, Reorder::every_bounce(mode).with_key_bits(bits));
+        let img = tracer.render(&s, &mut |_, _| {}).unwrap();
+        assert_eq!(img.radiance, off.radiance, "{mode:?} {bits}");
+        let c = tracer.sort_capture().unwrap().unwrap();
+        // The sorted keys are the top `bits` of each ray's key, in order; below them the
+        // order is whatever compaction left (a stable sort keeps it).
+        let shift = 30 - bits;
+        for i in 0..c.count as usize {
+            assert_eq!(
+                c.keys[i],
+                cpu_key(&c, i) >> shift,
+                "{mode:?} {bits} ray {i}"
+            );
+        }
+        assert!(c.keys.windows(2).all(|w| w[0] <= w[1]), "{mode:?} {bits}");
+        let full: Vec<u32> = (0..c.count as usize).map(|i| cpu_key(&c, i)).collect();
+        assert!(
+            full.windows(2).any(|w| w[0] > w[1]),
+            "{mode:?} {bits}: coarser than a full sort"
+        );
+    }
+    // Two key widths in one render: both sorters exist side by side.
+    let mut policy = Rotate {
+        plans: vec![
+            BatchPlan {
+                schedule: Schedule::Wavefront,
+                reorder: Reorder::every_bounce(ReorderMode::SortIndex).with_key_bits(16),
+            },
+            BatchPlan {
+                schedule: Schedule::Wavefront,
+                reorder: Reorder::every_bounce(ReorderMode::SortIndex),
+            },
+        ],
+        seen: Vec::new(),
+    };
+    let s = TraceSettings {
+        batch_spp: 1,
+        ..base
+    };
+    tracer
+        .render_with_policy(&s, &mut policy, &mut |_, _| {})
+        .unwrap();
+    let img: Vec<[f32; 3]> = ctx
+        .read_buffer(tracer.image_buffer().unwrap(), 32 * 32)
+        .unwrap();
+    assert_eq!(img, off.radiance);
+    assert_eq!(policy.seen.len(), 2);
 }

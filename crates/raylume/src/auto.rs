@@ -81,8 +81,9 @@ pub(crate) struct AutoState {
 
 impl AutoState {
     /// A fresh state: `off_schedule` first (so a first render runs what `off` runs), then the
-    /// other schedule, then the wavefront sorted before every bounce, each mode.
-    pub fn new(off_schedule: Schedule, max_bounces: u32) -> Self {
+    /// other schedule, then the wavefront sorted before every bounce by the top `key_bits` of
+    /// the key, in each mode.
+    pub fn new(off_schedule: Schedule, max_bounces: u32, key_bits: u32) -> Self {
         let plain = |schedule| BatchPlan {
             schedule,
             reorder: Reorder::OFF,
@@ -96,7 +97,7 @@ impl AutoState {
             for mode in [ReorderMode::SortIndex, ReorderMode::SortPermute] {
                 queue.push_back(BatchPlan {
                     schedule: Schedule::Wavefront,
-                    reorder: Reorder::every_bounce(mode),
+                    reorder: Reorder::every_bounce(mode).with_key_bits(key_bits),
                 });
             }
         }
@@ -175,8 +176,8 @@ impl AutoState {
                 let plan = BatchPlan {
                     schedule: Schedule::Wavefront,
                     reorder: Reorder {
-                        mode: t.plan.reorder.mode,
                         depths,
+                        ..t.plan.reorder
                     },
                 };
                 if plan.sorts(self.max_bounces)
@@ -330,9 +331,10 @@ impl BatchPolicy for AutoPolicy<'_> {
 
 /// A fingerprint of what decides the cost of a render: the scene (counts, camera, materials,
 /// environment, and a sample of at most ~4096 triangles and spheres spread over the lists),
-/// the image size, bounces, batch shape and BVH quality. A false match between two scenes only
+/// the image size, bounces, batch shape, and `policy` (BVH quality, the key width sorted).
+/// A false match between two scenes only
 /// costs speed (the other scene's decision), never correctness.
-pub(crate) fn fingerprint(scene: &Scene, settings: &TraceSettings, bvh_quality: &str) -> u64 {
+pub(crate) fn fingerprint(scene: &Scene, settings: &TraceSettings, policy: &str) -> u64 {
     let mut h = std::collections::hash_map::DefaultHasher::new();
     let f = |h: &mut std::collections::hash_map::DefaultHasher, v: f32| v.to_bits().hash(h);
     let v3 = |h: &mut std::collections::hash_map::DefaultHasher, v: glam::Vec3| {
@@ -342,7 +344,7 @@ pub(crate) fn fingerprint(scene: &Scene, settings: &TraceSettings, bvh_quality: 
     };
     (settings.width, settings.height, settings.max_bounces).hash(&mut h);
     settings.batch_spp.min(settings.spp).hash(&mut h);
-    bvh_quality.hash(&mut h);
+    policy.hash(&mut h);
     let c = &scene.camera;
     v3(&mut h, c.position);
     v3(&mut h, c.look_at);
@@ -492,15 +494,15 @@ mod tests {
             mk: 4.6,
             sorted: [1.0, 1.0, 1.0, 0.5, 0.5],
         };
-        let mut s = AutoState::new(Schedule::Megakernel, BOUNCES);
+        let mut s = AutoState::new(Schedule::Megakernel, BOUNCES, 30);
         let ran = m.run(&mut s, 20);
         assert_eq!(ran[0], plain(Schedule::Megakernel), "first batch = off");
         let d = s.decision().expect("decided within 20 batches").clone();
         let want = BatchPlan {
             schedule: Schedule::Wavefront,
             reorder: Reorder {
-                mode: ReorderMode::SortIndex,
                 depths: (1 << 3) | (1 << 4),
+                ..Reorder::every_bounce(ReorderMode::SortIndex)
             },
         };
         assert_eq!(d.plan, want, "{}", d.summary);
@@ -525,14 +527,14 @@ mod tests {
             mk: 5.5,
             sorted: [1.0; 5],
         };
-        let mut s = AutoState::new(Schedule::Megakernel, BOUNCES);
+        let mut s = AutoState::new(Schedule::Megakernel, BOUNCES, 30);
         m.run(&mut s, 20);
         assert_eq!(s.decision().unwrap().plan, plain(Schedule::Wavefront));
         let m = Model {
             mk: 3.0,
             sorted: [1.0; 5],
         };
-        let mut s = AutoState::new(Schedule::Wavefront, BOUNCES);
+        let mut s = AutoState::new(Schedule::Wavefront, BOUNCES, 30);
         m.run(&mut s, 20);
         assert_eq!(s.decision().unwrap().plan, plain(Schedule::Megakernel));
     }
@@ -543,7 +545,7 @@ mod tests {
             mk: 6.0,
             sorted: [1.0, 0.4, 0.4, 0.4, 0.4],
         };
-        let mut s = AutoState::new(Schedule::Megakernel, BOUNCES);
+        let mut s = AutoState::new(Schedule::Megakernel, BOUNCES, 30);
         let mut renders = 0;
         while s.decision().is_none() {
             let ran = m.run(&mut s, 1);
@@ -563,7 +565,7 @@ mod tests {
             }
         );
         // Partial batches never count as trials.
-        let mut s = AutoState::new(Schedule::Megakernel, BOUNCES);
+        let mut s = AutoState::new(Schedule::Megakernel, BOUNCES, 30);
         let mut p = AutoPolicy { state: &mut s };
         let bs = batches(1);
         let plan = p.plan(0, &bs);
@@ -575,7 +577,7 @@ mod tests {
 
     #[test]
     fn zero_bounces_never_sort() {
-        let s = AutoState::new(Schedule::Wavefront, 0);
+        let s = AutoState::new(Schedule::Wavefront, 0, 30);
         assert!(s.queue.iter().all(|p| !p.sorts(0)));
         assert_eq!(s.queue.len(), 2);
     }

@@ -131,6 +131,9 @@ pub struct Tracer {
     /// How [`ReorderPolicy::On`] sorts: [`ReorderMode::SortIndex`] (the default) or
     /// [`ReorderMode::SortPermute`]. (`Auto` measures both.)
     pub reorder_mode: ReorderMode,
+    /// The top bits of the 30-bit key that `On` and `Auto` sort by (1..=30, default 30: the
+    /// paper's whole key; 16 takes half the radix passes). See [`Reorder::key_bits`].
+    pub reorder_key_bits: u32,
     pub schedule: Schedule,
     pub bvh_quality: BvhQuality,
     /// Run the scene's bloom, if it has one (`--no-bloom` clears this).
@@ -152,6 +155,7 @@ impl std::fmt::Debug for Tracer {
             .field("seed", &self.seed)
             .field("reorder", &self.reorder)
             .field("reorder_mode", &self.reorder_mode)
+            .field("reorder_key_bits", &self.reorder_key_bits)
             .field("schedule", &self.schedule)
             .field("bloom", &self.bloom)
             .finish()
@@ -169,6 +173,7 @@ impl Tracer {
             seed: None,
             reorder: ReorderPolicy::Off,
             reorder_mode: ReorderMode::SortIndex,
+            reorder_key_bits: raylume_sort::RAY_KEY_BITS,
             schedule: Schedule::default(),
             bvh_quality: BvhQuality::default(),
             bloom: true,
@@ -214,7 +219,7 @@ impl Tracer {
         fingerprint(
             scene,
             &self.trace_settings(scene),
-            &format!("{:?}", self.bvh_quality),
+            &format!("{:?} {}", self.bvh_quality, self.reorder_key_bits),
         )
     }
 
@@ -323,7 +328,8 @@ impl Tracer {
                     ));
                 }
                 settings.schedule = Schedule::Wavefront;
-                settings.reorder = Reorder::every_bounce(self.reorder_mode);
+                settings.reorder =
+                    Reorder::every_bounce(self.reorder_mode).with_key_bits(self.reorder_key_bits);
                 let plan = BatchPlan::of(&settings);
                 let mut line = format!("on: {}", plan.describe(r.max_bounces));
                 if !plan.sorts(r.max_bounces) {
@@ -434,11 +440,11 @@ impl Tracer {
         let out = match auto_key {
             None => tracer.render_to_buffer(settings, report)?,
             Some(key) => {
-                let off_schedule = self.schedule;
+                let (off_schedule, bits) = (self.schedule, self.reorder_key_bits);
                 let state = self
                     .auto
                     .entry(key)
-                    .or_insert_with(|| AutoState::new(off_schedule, settings.max_bounces));
+                    .or_insert_with(|| AutoState::new(off_schedule, settings.max_bounces, bits));
                 let out = tracer.render_with_policy(settings, &mut AutoPolicy { state }, report)?;
                 stats.reorder = state.describe();
                 out

@@ -90,8 +90,9 @@ pub struct GpuTracer<'a> {
     module: wgpu::ShaderModule,
     pipelines: HashMap<&'static str, wgpu::ComputePipeline>,
     work: Option<WorkBuffers>,
-    /// The ray sorter, made on the first render that sorts, for the largest batch.
-    sorter: Option<RadixSorter>,
+    /// The ray sorters (one per sorted key width), made on the first render that sorts, for
+    /// the largest batch, and kept.
+    sorters: Vec<RadixSorter>,
     /// The test hook of [`GpuTracer::capture_sort`].
     capture: Option<capture::Capture>,
     /// The last batch rendered (its samples stay in the sample-radiance buffer).
@@ -257,7 +258,7 @@ impl<'a> GpuTracer<'a> {
             module,
             pipelines: HashMap::new(),
             work: None,
-            sorter: None,
+            sorters: Vec::new(),
             capture: None,
             last_batch: None,
             batch_ray_limit: None,

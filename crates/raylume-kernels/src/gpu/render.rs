@@ -50,7 +50,6 @@ impl GpuTracer<'_> {
             .validate()?;
         }
         let wavefront = candidates.iter().any(|c| c.schedule == Schedule::Wavefront);
-        let sorting = candidates.iter().any(|c| c.sorts(max_bounces));
         let permute = candidates
             .iter()
             .any(|c| c.sorts(max_bounces) && c.reorder.mode == ReorderMode::SortPermute);
@@ -102,10 +101,26 @@ impl GpuTracer<'_> {
                 pipes.insert(s, self.pipeline(s)?);
             }
         }
-        if sorting && self.sorter.as_ref().is_none_or(|s| s.max_len() < capacity) {
-            self.sorter = None;
-            let sorter =
-                RadixSorter::new(ctx, capacity, SortOptions::ray_keys()).map_err(sort_error)?;
+        let mut key_bits: Vec<u32> = candidates
+            .iter()
+            .filter(|c| c.sorts(max_bounces))
+            .map(|c| c.reorder.key_bits)
+            .collect();
+        key_bits.sort_unstable();
+        key_bits.dedup();
+        // A sorter of an indirect length needs key and value buffers of its `max_len`: one
+        // per key width, for exactly this capacity.
+        for bits in key_bits {
+            if self
+                .sorters
+                .iter()
+                .any(|s| s.plan().key_bits == bits && s.max_len() == capacity)
+            {
+                continue;
+            }
+            self.sorters.retain(|s| s.plan().key_bits != bits);
+            let opts = SortOptions::ray_keys().with_key_bits(bits);
+            let sorter = RadixSorter::new(ctx, capacity, opts).map_err(sort_error)?;
             // One sort now, so that wgpu's lazy zeroing of the sorter's scratch buffers and
             // the first use of its pipelines do not land in a timed batch.
             let w = self.work.as_ref().expect("allocated above");
@@ -123,7 +138,7 @@ impl GpuTracer<'_> {
             })?;
             primed.map_err(sort_error)?;
             ctx.wait("preparing the ray sorter")?;
-            self.sorter = Some(sorter);
+            self.sorters.push(sorter);
         }
         if let Some(c) = self.capture.as_mut() {
             c.taken = None;
@@ -144,7 +159,7 @@ impl GpuTracer<'_> {
         let start = Instant::now();
         for (bi, b) in batches.iter().enumerate() {
             let plan = policy.plan(bi, &batches);
-            self.check_plan(&plan, settings, sorting, permute)?;
+            self.check_plan(&plan, settings, permute)?;
             let t_batch = Instant::now();
             let u = SceneUniforms {
                 sample_begin: b.sample_begin,
@@ -176,7 +191,7 @@ impl GpuTracer<'_> {
                 work,
                 pipes: &pipes,
                 scene_bg: &self.scene.bind_group,
-                sorter: self.sorter.as_ref(),
+                sorters: &self.sorters,
                 capture: self
                     .capture
                     .as_ref()
@@ -258,7 +273,6 @@ impl GpuTracer<'_> {
         &self,
         plan: &BatchPlan,
         settings: &TraceSettings,
-        sorting: bool,
         permute: bool,
     ) -> Result<(), KernelError> {
         TraceSettings {
@@ -268,9 +282,14 @@ impl GpuTracer<'_> {
         }
         .validate()?;
         let wavefront = self.work.as_ref().is_some_and(|w| w.key.wavefront);
+        let capacity = self.work.as_ref().map_or(0, |w| w.key.capacity);
         let sorts = plan.sorts(settings.max_bounces);
+        let sorter = self
+            .sorters
+            .iter()
+            .any(|s| s.plan().key_bits == plan.reorder.key_bits && s.max_len() == capacity);
         let ok = (plan.schedule == Schedule::Megakernel || wavefront)
-            && (!sorts || sorting)
+            && (!sorts || sorter)
             && (!sorts || plan.reorder.mode != ReorderMode::SortPermute || permute);
         if ok {
             Ok(())
@@ -289,7 +308,8 @@ struct BatchRecorder<'r> {
     work: &'r WorkBuffers,
     pipes: &'r HashMap<&'static str, wgpu::ComputePipeline>,
     scene_bg: &'r wgpu::BindGroup,
-    sorter: Option<&'r RadixSorter>,
+    /// One per sorted key width.
+    sorters: &'r [RadixSorter],
     capture: Option<(u32, &'r CaptureBuffers)>,
     ray_groups: (u32, u32),
     pixel_groups: (u32, u32),
@@ -346,8 +366,10 @@ impl<'r> BatchRecorder<'r> {
                 // bounce reads, with their count at the same parity.
                 let q = (depth & 1) as usize;
                 let sorter = self
-                    .sorter
-                    .expect("check_plan: a sorting plan has a sorter");
+                    .sorters
+                    .iter()
+                    .find(|s| s.plan().key_bits == plan.reorder.key_bits)
+                    .expect("check_plan: a sorting plan has its sorter");
                 out.push(Stage {
                     label: "sort_keys",
                     depth: Some(depth),

@@ -101,8 +101,9 @@ fn propagate(
         let out = wg_base + slot;
         ray_queue_out[out] = r;
         if (bounce.sort_next != 0u) {
-            // The next bounce is sorted: keys beside the compacted queue, live rays only.
-            ray_keys[out] = key;
+            // The next bounce is sorted: keys beside the compacted queue, live rays only, by
+            // their top 30 - sort_shift bits.
+            ray_keys[out] = key >> bounce.sort_shift;
         }
     }
 }

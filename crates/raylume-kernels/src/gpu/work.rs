@@ -220,9 +220,15 @@ impl WorkBuffers {
         let stride = self.bounce_stride as usize;
         let mut bytes = vec![0u8; (max_bounces as usize + 1) * stride];
         for depth in 0..=max_bounces {
+            let sort_next = depth < max_bounces && reorder.sorts_before(depth + 1);
             let u = BounceUniforms {
                 depth,
-                sort_next: u32::from(depth < max_bounces && reorder.sorts_before(depth + 1)),
+                sort_next: u32::from(sort_next),
+                sort_shift: if sort_next {
+                    raylume_sort::RAY_KEY_BITS - reorder.key_bits
+                } else {
+                    0
+                },
                 ..Default::default()
             };
             let at = depth as usize * stride;
