@@ -147,9 +147,10 @@ impl GpuTracer<'_> {
                 c.buffers = Some(CaptureBuffers::new(ctx, capacity)?);
             }
         }
+        let base = self.data.uniforms(settings);
+        self.warm_pipelines(&pipes, &base, capacity)?;
         self.work.as_mut().expect("allocated above").reset(ctx)?;
 
-        let base = self.data.uniforms(settings);
         let max_dim = ctx.limits.max_compute_workgroups_per_dimension;
         let mut clock = StageClock::new(ctx);
         let mut samples_done = 0u64;
@@ -266,6 +267,55 @@ impl GpuTracer<'_> {
             depths,
             batches: timings_of_batches,
         })
+    }
+
+    /// Runs every pipeline of the render once on an empty batch (no rays, no pixels: each
+    /// kernel returns at once), outside the timed batches: some drivers finish compiling a
+    /// pipeline at its first dispatch (lavapipe took 0.7 s there), which would otherwise land
+    /// in the first batch and mislead a policy comparing batches.
+    fn warm_pipelines(
+        &self,
+        pipes: &HashMap<&'static str, wgpu::ComputePipeline>,
+        base: &SceneUniforms,
+        capacity: u32,
+    ) -> Result<(), KernelError> {
+        let ctx = self.ctx;
+        let w = self.work.as_ref().expect("allocated before");
+        let empty = SceneUniforms {
+            pixel_count: 0,
+            sample_count: 0,
+            rays_in_batch: 0,
+            batch_index: 0,
+            queue_capacity: capacity,
+            ..*base
+        };
+        ctx.scoped("preparing the tracer's pipelines", || {
+            ctx.queue
+                .write_buffer(&self.scene.uniforms, 0, bytemuck::bytes_of(&empty));
+            let mut enc = ctx.device.create_command_encoder(&Default::default());
+            enc.clear_buffer(&w.queue_counts, 0, None);
+            {
+                let mut pass = enc.begin_compute_pass(&Default::default());
+                for (name, pipe) in pipes {
+                    pass.set_pipeline(pipe);
+                    pass.set_bind_group(0, &self.scene.bind_group, &[]);
+                    pass.set_bind_group(1, &w.bind_groups[0], &[0]);
+                    match *name {
+                        "prepare_propagate" => {
+                            pass.set_bind_group(2, &w.args_bind_group, &[]);
+                        }
+                        "permute_rays" => {
+                            pass.set_bind_group(2, &w.permute_bind_groups[0], &[]);
+                        }
+                        _ => {}
+                    }
+                    pass.dispatch_workgroups(1, 1, 1);
+                }
+            }
+            ctx.queue.submit([enc.finish()]);
+        })?;
+        ctx.wait("preparing the tracer's pipelines")?;
+        Ok(())
     }
 
     /// Fails unless this render's buffers and sorter can run `plan`.
