@@ -1,4 +1,5 @@
-//! The tracer on the Cornell box: GPU megakernel and wavefront, and the CPU mirror.
+//! The tracer on the Cornell box: GPU megakernel, wavefront, the wavefront sorting its rays
+//! before every bounce (through the index, and permuting the states), and the CPU mirror.
 //!
 //! Sizes: the paper's 1000x1000, 10 bounces, at `RAYLUME_BENCH_SPP` samples per pixel
 //! (default 100) on a hardware GPU; 64x64 at 4 spp on a software adapter (lavapipe) and on
@@ -11,7 +12,9 @@ use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use raylume_gpu::{ContextOptions, GpuContext};
-use raylume_kernels::{CpuTracer, GpuTracer, Schedule, TraceOutput, TraceSettings};
+use raylume_kernels::{
+    CpuTracer, GpuTracer, Reorder, ReorderMode, Schedule, TraceOutput, TraceSettings,
+};
 
 #[path = "../tests/support/mod.rs"]
 mod support;
@@ -60,7 +63,22 @@ fn bench(c: &mut Criterion) {
                 (1000, env_u32("RAYLUME_BENCH_SPP", 100))
             };
             eprintln!("adapter: {}", ctx.describe());
-            for schedule in [Schedule::Megakernel, Schedule::Wavefront] {
+            for (schedule, reorder) in [
+                (Schedule::Megakernel, Reorder::OFF),
+                (Schedule::Wavefront, Reorder::OFF),
+                (
+                    Schedule::Wavefront,
+                    Reorder::every_bounce(ReorderMode::SortIndex),
+                ),
+                (
+                    Schedule::Wavefront,
+                    Reorder::every_bounce(ReorderMode::SortPermute),
+                ),
+            ] {
+                let name = match reorder.mode {
+                    ReorderMode::Off => schedule.name().to_string(),
+                    mode => format!("{}_{}", schedule.name(), mode.name()),
+                };
                 let s = TraceSettings {
                     width: side,
                     height: side,
@@ -69,15 +87,14 @@ fn bench(c: &mut Criterion) {
                     seed: 0,
                     batch_spp: env_u32("RAYLUME_BENCH_BATCH_SPP", 20),
                     schedule,
-                    reorder: raylume_kernels::Reorder::OFF,
+                    reorder,
                 };
                 let mut tracer = GpuTracer::new(&ctx, &scene, &bvh).expect("GPU tracer");
                 let out = tracer.render(&s, &mut |_, _| {}).expect("render");
-                report(&format!("gpu {}", schedule.name()), &s, &out);
-                group.bench_function(
-                    format!("gpu_{}_{side}x{side}_{spp}spp", schedule.name()),
-                    |b| b.iter(|| tracer.render_to_buffer(&s, &mut |_, _| {}).expect("render")),
-                );
+                report(&format!("gpu {name}"), &s, &out);
+                group.bench_function(format!("gpu_{name}_{side}x{side}_{spp}spp"), |b| {
+                    b.iter(|| tracer.render_to_buffer(&s, &mut |_, _| {}).expect("render"))
+                });
             }
         }
         Err(e) => eprintln!("no GPU adapter ({e}); GPU benches skipped"),
