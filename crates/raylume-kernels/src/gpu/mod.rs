@@ -2,6 +2,7 @@
 //! scene's features, and the two schedules (megakernel, wavefront) run batch by batch, the
 //! wavefront optionally sorting its rays between bounces (raylume-sort).
 
+mod batch;
 mod capture;
 mod clock;
 mod layout;

@@ -1,0 +1,149 @@
+//! The stages of one batch, recorded for [`super::clock::StageClock`]: the megakernel, or the
+//! wavefront with its sorts (raylume-sort), permutations and test copies between bounces.
+
+use std::collections::HashMap;
+
+use raylume_gpu::wgpu;
+use raylume_sort::{RadixSorter, SortLen};
+
+use super::BatchPlan;
+use super::capture::CaptureBuffers;
+use super::clock::{Record, Stage};
+use super::render::sort_error;
+use super::work::WorkBuffers;
+use crate::{ReorderMode, Schedule};
+
+/// Builds the stages of one batch.
+#[derive(Clone, Copy)]
+pub(crate) struct BatchRecorder<'r> {
+    pub work: &'r WorkBuffers,
+    pub pipes: &'r HashMap<&'static str, wgpu::ComputePipeline>,
+    pub scene_bg: &'r wgpu::BindGroup,
+    /// One per sorted key width.
+    pub sorters: &'r [RadixSorter],
+    pub capture: Option<(u32, &'r CaptureBuffers)>,
+    pub ray_groups: (u32, u32),
+    pub pixel_groups: (u32, u32),
+}
+
+impl<'r> BatchRecorder<'r> {
+    /// Groups 0 and 1 of `pipe` at bounce `depth` (0 for every other stage), reading ray-state
+    /// buffer `states`.
+    fn bind(&self, pass: &mut wgpu::ComputePass<'_>, pipe: &str, depth: u32, states: usize) {
+        let w = self.work;
+        pass.set_pipeline(&self.pipes[pipe]);
+        pass.set_bind_group(0, self.scene_bg, &[]);
+        let parity = (depth & 1) as usize;
+        pass.set_bind_group(
+            1,
+            &w.bind_groups[2 * states + parity],
+            &[depth * w.bounce_stride],
+        );
+    }
+
+    /// `prepare_propagate` of bounce `depth`: the indirect dispatch size over its live rays.
+    fn prepare(&self, pass: &mut wgpu::ComputePass<'_>, depth: u32, states: usize) {
+        self.bind(pass, "prepare_propagate", depth, states);
+        pass.set_bind_group(2, &self.work.args_bind_group, &[]);
+        pass.dispatch_workgroups(1, 1, 1);
+    }
+
+    pub fn stages(self, plan: &BatchPlan, max_bounces: u32) -> Vec<Stage<'r>> {
+        let (rx, ry) = self.ray_groups;
+        let (px, py) = self.pixel_groups;
+        let resolve = move |pass: &mut wgpu::ComputePass<'_>| {
+            self.bind(pass, "resolve", 0, 0);
+            pass.dispatch_workgroups(px, py, 1);
+        };
+        let mut out = Vec::new();
+        if plan.schedule == Schedule::Megakernel {
+            out.push(Stage::pass("trace_paths", None, move |pass| {
+                self.bind(pass, "trace_paths", 0, 0);
+                pass.dispatch_workgroups(rx, ry, 1);
+            }));
+            out.push(Stage::pass("resolve", None, resolve));
+            return out;
+        }
+        out.push(Stage::pass("raygen", None, move |pass| {
+            self.bind(pass, "raygen", 0, 0);
+            pass.dispatch_workgroups(rx, ry, 1);
+        }));
+        // The ray-state buffer the rays are in: permute_rays moves them to the other one.
+        let mut states = 0usize;
+        let w = self.work;
+        for depth in 0..=max_bounces {
+            if plan.reorder.sorts_before(depth) {
+                // propagate(depth - 1) left the live rays and their keys in the queue this
+                // bounce reads, with their count at the same parity.
+                let q = (depth & 1) as usize;
+                let sorter = self
+                    .sorters
+                    .iter()
+                    .find(|s| s.plan().key_bits == plan.reorder.key_bits)
+                    .expect("check_plan: a sorting plan has its sorter");
+                out.push(Stage {
+                    label: "sort_keys",
+                    depth: Some(depth),
+                    submit_after: false,
+                    record: Record::Encoder(Box::new(move |enc, ts| {
+                        let len = SortLen::Indirect {
+                            count_buffer: &w.queue_counts,
+                            offset: 4 * q as u64,
+                        };
+                        sorter
+                            .encode(enc, &w.ray_keys, &w.ray_queues[q], len, ts)
+                            .map_err(sort_error)
+                    })),
+                });
+                if plan.reorder.mode == ReorderMode::SortPermute {
+                    let s = states;
+                    out.push(Stage::pass("permute_rays", Some(depth), move |pass| {
+                        self.prepare(pass, depth, s);
+                        self.bind(pass, "permute_rays", depth, s);
+                        pass.set_bind_group(2, &w.permute_bind_groups[s], &[]);
+                        pass.dispatch_workgroups_indirect(&w.dispatch_args, 0);
+                    }));
+                    states = 1 - states;
+                }
+            }
+            if let Some((at, c)) = self.capture
+                && at == depth
+            {
+                let s = states;
+                let q = (depth & 1) as usize;
+                out.push(Stage {
+                    label: "capture",
+                    depth: Some(depth),
+                    submit_after: false,
+                    record: Record::Untimed(Box::new(move |enc| {
+                        let size = |b: &wgpu::Buffer, d: &wgpu::Buffer| b.size().min(d.size());
+                        enc.copy_buffer_to_buffer(&w.queue_counts, 0, &c.counts, 0, 16);
+                        enc.copy_buffer_to_buffer(
+                            &w.ray_keys,
+                            0,
+                            &c.keys,
+                            0,
+                            size(&w.ray_keys, &c.keys),
+                        );
+                        let rq = &w.ray_queues[q];
+                        enc.copy_buffer_to_buffer(rq, 0, &c.rays, 0, size(rq, &c.rays));
+                        let st = &w.ray_states[s];
+                        enc.copy_buffer_to_buffer(st, 0, &c.states, 0, size(st, &c.states));
+                    })),
+                });
+            }
+            let s = states;
+            let mut stage = Stage::pass("propagate", Some(depth), move |pass| {
+                self.prepare(pass, depth, s);
+                self.bind(pass, "propagate", depth, s);
+                pass.dispatch_workgroups_indirect(&w.dispatch_args, 0);
+            });
+            // When the next bounce sorts, let the GPU trace this one while the sort is
+            // recorded.
+            stage.submit_after = plan.reorder.sorts_before(depth + 1);
+            out.push(stage);
+        }
+        out.push(Stage::pass("resolve", None, resolve));
+        out
+    }
+}
