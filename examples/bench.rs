@@ -130,6 +130,8 @@ struct Row {
     schedule: String,
     /// What the policy did (`RenderStats::reorder`).
     reorder: String,
+    /// The key width `on` and `auto` sorted by (0 for `off`).
+    key_bits: u32,
     spp: u32,
     width: u32,
     height: u32,
@@ -289,6 +291,11 @@ fn run(args: Args) -> Result<(), String> {
                     config: config.name(),
                     schedule: s.schedule.clone(),
                     reorder: s.reorder.clone(),
+                    key_bits: if config.reorder == ReorderPolicy::Off {
+                        0
+                    } else {
+                        config.key_bits
+                    },
                     spp,
                     width: w,
                     height: h,
@@ -349,7 +356,8 @@ fn print_runs(rows: &[Row]) {
 }
 
 /// Table 1's shape: one row per scene and spp, a column per configuration, then `auto`
-/// against the better of `on` and `off`.
+/// against the better of `on` and `off` (the `on` runs of auto's key width: the candidates
+/// `auto` measures).
 fn print_pivot(rows: &[Row], configs: &[Config]) {
     let names: Vec<String> = configs.iter().map(Config::name).collect();
     let mut head = String::from("| scene | prims | spp |");
@@ -388,13 +396,14 @@ fn print_pivot(rows: &[Row], configs: &[Config]) {
             };
         }
         if has_auto {
-            let best = rows
-                .iter()
-                .filter(|r| r.scene == scene && r.spp == spp && !r.config.starts_with("auto"))
-                .min_by(|a, b| a.trace_s.total_cmp(&b.trace_s));
             let auto = rows
                 .iter()
                 .find(|r| r.scene == scene && r.spp == spp && r.config.starts_with("auto"));
+            let best = rows
+                .iter()
+                .filter(|r| r.scene == scene && r.spp == spp && !r.config.starts_with("auto"))
+                .filter(|r| r.key_bits == 0 || auto.is_none_or(|a| a.key_bits == r.key_bits))
+                .min_by(|a, b| a.trace_s.total_cmp(&b.trace_s));
             match (best, auto) {
                 (Some(b), Some(a)) => {
                     let chose = a
