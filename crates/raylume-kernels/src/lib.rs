@@ -367,7 +367,8 @@ pub struct TraceOutput {
     /// Samples whose radiance was not finite or above [`math::MAX_SAMPLE_RADIANCE`] (so bright
     /// that summing them could overflow): written as zero and counted here.
     pub dropped_samples: u64,
-    /// Seconds per stage: "upload", then "raygen" + "propagate" (wavefront) or "trace_paths"
+    /// Seconds per stage: "upload", then "raygen" + "propagate" (wavefront, with "sort" for
+    /// the `sort_keys` passes and "permute_rays" when rays were reordered) or "trace_paths"
     /// (megakernel), "resolve", and "trace", the whole batch loop (the paper's ray-tracing
     /// phase without the upload). GPU stages come from timestamps when the adapter has them.
     pub timings: Vec<(&'static str, f64)>,
