@@ -63,6 +63,9 @@ pub struct RenderStats {
     pub kernel_seconds: Vec<(String, f64)>,
     /// BVH nodes.
     pub bvh_nodes: usize,
+    /// True when the BVH came from the tracer's cache (the same geometry as the last render:
+    /// `seconds.bvh` is then the time to recognise it).
+    pub bvh_cached: bool,
     /// The post-processing passes that ran, in order (`bloom_threshold`, `bloom_h`, ...).
     /// Empty when the scene calls for no post effect: then none is scheduled at all.
     pub post_passes: Vec<&'static str>,

@@ -250,3 +250,33 @@ fn gpu_schedules_no_bloom_pass_for_a_scene_without_bloom() {
         assert_eq!(timed, raylume_post::BLOOM_STAGES);
     }
 }
+
+/// The BVH is reused while the geometry is the same, and rebuilt as soon as any vertex moves.
+#[test]
+fn bvh_is_cached_per_geometry() {
+    let mut t = Tracer::new(Backend::Cpu);
+    let mut scene = cornell(12, 12, 1);
+    let first = t.render(&scene).unwrap();
+    assert!(!first.stats.bvh_cached);
+    scene.render.spp = 2;
+    scene.materials[0].albedo *= 0.5; // materials do not shape the tree
+    let second = t.render(&scene).unwrap();
+    assert!(
+        second.stats.bvh_cached,
+        "same geometry, other settings and materials"
+    );
+    // A fresh tracer (no cache) gives the same image: the cached tree is the same tree.
+    assert_eq!(
+        Tracer::new(Backend::Cpu).render(&scene).unwrap().pixels,
+        second.pixels
+    );
+    let mut moved = scene.clone();
+    moved.triangles[0].positions[0].y += 1e-3;
+    let third = t.render(&moved).unwrap();
+    assert!(!third.stats.bvh_cached, "one vertex moved by 1e-3: rebuilt");
+    t.bvh_quality = raylume::BvhQuality::Fast;
+    assert!(
+        !t.render(&moved).unwrap().stats.bvh_cached,
+        "another preset: rebuilt"
+    );
+}
