@@ -78,7 +78,9 @@ fn structs_have_the_rust_layouts() {
     let (module, _) = parse();
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(module.to_ctx()).expect("layout");
-    let expected: [(&str, usize, Vec<(&str, usize)>); 3] = [
+    // (struct, size, [(member, offset)]) as Rust lays them out.
+    type Layout<'a> = (&'a str, usize, Vec<(&'a str, usize)>);
+    let expected: [Layout; 3] = [
         (
             "BvhNode",
             size_of::<BvhNode>(),
