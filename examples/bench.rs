@@ -238,10 +238,7 @@ fn run(args: Args) -> Result<(), String> {
                 scene.render.spp = spp;
                 let mut exploring = Vec::new();
                 if config.reorder == ReorderPolicy::Auto {
-                    // Until auto has decided and a batch after the decision confirmed it.
-                    while !tracer.auto_decision(&scene).is_some_and(|d| d.confirmed)
-                        && exploring.len() < 16
-                    {
+                    while tracer.auto_decision(&scene).is_none() && exploring.len() < 12 {
                         let r = tracer.render(&scene).map_err(|e| e.to_string())?;
                         exploring.push(r.stats.seconds.trace);
                     }

@@ -8,11 +8,8 @@
 //! per-bounce times of the unsorted wavefront and of each sorted one give the depths where
 //! sorting paid for itself (sort + permute + sorted `propagate` below unsorted `propagate`);
 //! if sorting only there is predicted to beat every measured candidate by more than 1 %, it
-//! is measured too (twice). Candidates within 5 % of the best get a second batch, and plans are
-//! compared by the mean of their batches, so that one lucky batch does not decide. A scene's
-//! very first full batch is a warm-up and not counted (it runs cold); the decided plan is
-//! confirmed by one more batch after the trials, and if that batch shows it slower than another
-//! plan's mean, the decision is revised (at most twice). The fastest measured plan is then kept
+//! is measured too. Candidates within 5 % of the best get a second batch (the minimum of two
+//! is kept), so that one noisy batch does not decide. The fastest measured plan is then kept
 //! for the rest of the render and cached in the [`crate::Tracer`] under a fingerprint of the
 //! scene, image size, bounces and batch shape, so later renders of the same scene run it from
 //! their first batch.
@@ -36,16 +33,11 @@ use raylume_scene::{Environment, Scene};
 const REMEASURE_WITHIN: f64 = 0.05;
 /// A per-depth mask is tried when predicted to beat the best measured plan by this fraction.
 const MASK_MIN_GAIN: f64 = 0.01;
-/// How often a confirmation batch may overturn a decision.
-const MAX_REVISIONS: u32 = 2;
 
 /// What `auto` chose for a scene, and why.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AutoDecision {
     pub plan: BatchPlan,
-    /// True once a batch run after the decision confirmed it (a slower confirmation can revise
-    /// the decision; a benchmark of the steady state waits for this).
-    pub confirmed: bool,
     /// E.g. `wavefront, sort-index before depths 2..=10 (measured per 1000000-ray batch:
     /// megakernel 3.21 ms, ...)`.
     pub summary: String,
@@ -62,14 +54,8 @@ struct Trial {
 }
 
 impl Trial {
-    /// The mean of its batches: a plan is judged by what it costs on average, so a single
-    /// lucky batch does not decide (the minimum did, and picked plans whose steady state was
-    /// 50 % slower than their one good trial on the H100).
     fn best(&self) -> Option<f64> {
-        if self.seconds.is_empty() {
-            return None;
-        }
-        Some(self.seconds.iter().sum::<f64>() / self.seconds.len() as f64)
+        self.seconds.iter().copied().reduce(f64::min)
     }
 }
 
@@ -91,13 +77,6 @@ pub(crate) struct AutoState {
     in_flight: Option<BatchPlan>,
     /// Batches this fingerprint ran as trials, and renders that ran any.
     pub trial_batches: u32,
-    /// Whether the first full batch (a warm-up: caches, clocks and lazily created GPU state
-    /// are cold on a scene's first batch) has run; it is not counted.
-    warmed_up: bool,
-    /// Whether the decision was confirmed by a batch run after it was made.
-    confirmed: bool,
-    /// Decisions revised by a confirmation batch (at most [`MAX_REVISIONS`]).
-    revisions: u32,
 }
 
 impl AutoState {
@@ -132,9 +111,6 @@ impl AutoState {
             default: plain(off_schedule),
             in_flight: None,
             trial_batches: 0,
-            warmed_up: false,
-            confirmed: false,
-            revisions: 0,
         }
     }
 
@@ -211,9 +187,8 @@ impl AutoState {
                     masks.push((predicted, plan));
                 }
             }
-            // The more promising mask only: two verification batches.
+            // The more promising mask only: one verification batch.
             if let Some((_, plan)) = masks.into_iter().min_by(|a, b| a.0.total_cmp(&b.0)) {
-                self.queue.push_back(plan);
                 self.queue.push_back(plan);
             }
         }
@@ -243,7 +218,6 @@ impl AutoState {
             .collect();
         self.decision = Some(AutoDecision {
             plan,
-            confirmed: self.confirmed,
             summary: format!(
                 "{} (fastest measured per {}-ray batch: {})",
                 plan.describe(self.max_bounces),
@@ -307,13 +281,10 @@ impl BatchPolicy for AutoPolicy<'_> {
     fn plan(&mut self, index: usize, batches: &[Batch]) -> BatchPlan {
         let s = &mut *self.state;
         s.in_flight = None;
-        let full = batches.iter().map(|b| b.rays()).max().unwrap_or(0);
         if let Some(d) = &s.decision {
-            if !s.confirmed && batches[index].rays() == full {
-                s.in_flight = Some(d.plan);
-            }
             return d.plan;
         }
+        let full = batches.iter().map(|b| b.rays()).max().unwrap_or(0);
         if batches[index].rays() == full
             && let Some(plan) = s.queue.front().copied()
         {
@@ -326,37 +297,14 @@ impl BatchPolicy for AutoPolicy<'_> {
 
     fn observe(&mut self, t: &BatchTiming) {
         let s = &mut *self.state;
-        if s.in_flight.take() != Some(t.plan) || !t.full {
-            return;
-        }
-        if let Some(d) = &s.decision {
-            // The confirmation batch: the decided plan measured once more, after the trials.
-            // If it is slower than its trials said and another plan now scores better, decide
-            // again (and confirm that one).
-            let decided = d.plan;
-            s.trial_batches += 1;
-            s.confirmed = true;
-            s.trial_mut(decided).seconds.push(t.wall_seconds);
-            if s.best().is_some_and(|(p, _)| p != decided) && s.revisions < MAX_REVISIONS {
-                s.revisions += 1;
-                s.confirmed = false;
-                s.decide();
-            } else {
-                s.decide(); // refresh the summary with the confirmed mean
-            }
+        if s.decision.is_some() || s.in_flight.take() != Some(t.plan) || !t.full {
             return;
         }
         if s.batch_rays == 0 {
             s.batch_rays = t.batch.rays();
         }
-        s.trial_batches += 1;
-        if !s.warmed_up {
-            // A scene's first full batch runs cold: it does real work but is not a measurement;
-            // the same plan runs again as the first trial.
-            s.warmed_up = true;
-            return;
-        }
         s.queue.pop_front();
+        s.trial_batches += 1;
         let max_bounces = s.max_bounces;
         let trial = s.trial_mut(t.plan);
         trial.seconds.push(t.wall_seconds);
@@ -565,8 +513,7 @@ mod tests {
         );
         // The trials were few, and every batch after them runs the decision.
         let trials = s.trial_batches as usize;
-        // Warm-up + 4 candidates + 2 mask batches + second batches + 1 confirmation.
-        assert!(trials <= 1 + 2 * 4 + 2 + 1, "{trials}");
+        assert!(trials <= 2 * 4 + 1, "{trials}");
         assert!(
             ran[..trials].contains(&want),
             "the mask was measured, not guessed"
@@ -607,7 +554,7 @@ mod tests {
                 assert!(s.describe().contains("still measuring"), "{}", s.describe());
             }
             renders += 1;
-            assert!(renders <= 12, "undecided after {renders} renders");
+            assert!(renders <= 9, "undecided after {renders} renders");
         }
         // Sorting everywhere pays (0.2 + 0.4 < 1 at every depth): sort-index, every bounce.
         assert_eq!(
@@ -626,36 +573,6 @@ mod tests {
         t.full = false;
         p.observe(&t);
         assert_eq!(s.trial_batches, 0);
-    }
-
-    #[test]
-    fn a_decision_whose_confirmation_batch_is_slow_is_revised() {
-        let m = Model {
-            mk: 4.6,
-            sorted: [1.0, 1.0, 1.0, 0.5, 0.5],
-        };
-        let mut s = AutoState::new(Schedule::Megakernel, BOUNCES, 30);
-        // Trials only (a render of many batches would confirm at once).
-        while s.decision().is_none() {
-            m.run(&mut s, 1);
-        }
-        let first = s.decision().unwrap().plan;
-        assert!(first.sorts(BOUNCES), "the mask wins the trials: {first:?}");
-        // Its confirmation batch takes 3x what the trials said: the mean (4.4, 4.4, 13.2)
-        // now loses to the megakernel's 4.6.
-        let bs = batches(1);
-        let mut p = AutoPolicy { state: &mut s };
-        let plan = p.plan(0, &bs);
-        assert_eq!(plan, first);
-        let mut t = m.timing(0, bs[0], plan);
-        t.wall_seconds *= 3.0;
-        p.observe(&t);
-        let second = s.decision().unwrap().plan;
-        assert_eq!(second, plain(Schedule::Megakernel), "{}", s.describe());
-        // The new decision is confirmed by its own batch, which agrees: it stays.
-        m.run(&mut s, 1);
-        assert_eq!(s.decision().unwrap().plan, second);
-        assert!(s.confirmed);
     }
 
     #[test]
