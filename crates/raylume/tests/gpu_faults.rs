@@ -9,6 +9,8 @@
 //! `shader_errors_come_back_as_validation_errors` shows that they come back as
 //! `GpuError::Validation` naming the operation.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -17,23 +19,6 @@ use raylume::{Backend, Error, Scene, Tracer};
 use raylume_gpu::{ContextOptions, GpuContext};
 use raylume_kernels::KernelError;
 use raylume_scene::{Camera, Environment, Material, RenderSettings, Sphere, Texture};
-
-fn render_exe() -> PathBuf {
-    let exe = std::env::current_exe().expect("test binary path");
-    let profile_dir = exe
-        .parent()
-        .and_then(Path::parent)
-        .expect("target/<profile>");
-    let p = profile_dir
-        .join("examples")
-        .join(format!("render{}", std::env::consts::EXE_SUFFIX));
-    assert!(
-        p.exists(),
-        "{} not built; run through `cargo test`",
-        p.display()
-    );
-    p
-}
 
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("raylume-faults-{}-{name}", std::process::id()));
@@ -47,7 +32,7 @@ fn repo() -> PathBuf {
 
 /// Runs `render SCENE -o OUT -q --size 8x8 --spp 1 ARGS` with the environment `env`.
 fn render(scene: &Path, out: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
-    let mut cmd = Command::new(render_exe());
+    let mut cmd = Command::new(common::render_exe());
     cmd.arg(scene)
         .args([
             "-o",
@@ -295,7 +280,7 @@ fn an_image_larger_than_a_binding_says_what_does_not_fit() {
     }
     let out = tmp("image").join("out.png");
     let size = format!("{side}x{side}");
-    let mut cmd = Command::new(render_exe());
+    let mut cmd = Command::new(common::render_exe());
     let o = cmd
         .args([
             cornell().to_str().unwrap(),

@@ -6,28 +6,11 @@
 //! Each row of the tables below is (scene file, extra flags, fragments the message must
 //! contain). A control row renders the corpus's valid scenes, so a broken harness cannot pass.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
-
-/// The `render` example binary: Cargo builds examples before integration tests, into
-/// `target/<profile>/examples/` beside this test's `deps/` folder.
-fn render_exe() -> PathBuf {
-    let exe = std::env::current_exe().expect("test binary path");
-    let profile_dir = exe
-        .parent()
-        .and_then(Path::parent)
-        .expect("target/<profile>");
-    let p = profile_dir
-        .join("examples")
-        .join(format!("render{}", std::env::consts::EXE_SUFFIX));
-    assert!(
-        p.exists(),
-        "{} not built; run through `cargo test`",
-        p.display()
-    );
-    p
-}
 
 /// A private copy of the corpus with the generated binary files added (`generated/`), made
 /// once per test binary. Commands run inside it, so messages name files as the table does.
@@ -152,7 +135,7 @@ fn run(scene: &str, extra: &[&str], out: &Path) -> Output {
     let out_s = out.to_str().unwrap();
     let mut args = vec![scene, "-o", out_s, "--backend", "cpu", "-q"];
     args.extend(extra);
-    Command::new(render_exe())
+    Command::new(common::render_exe())
         .args(&args)
         .current_dir(corpus())
         .env("XDG_RUNTIME_DIR", std::env::temp_dir())

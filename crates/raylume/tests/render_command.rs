@@ -2,32 +2,17 @@
 //! paths. Cargo builds examples before integration tests, so the binary sits in
 //! `target/<profile>/examples/` beside this test's `deps/` folder.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-
-fn render_exe() -> PathBuf {
-    let exe = std::env::current_exe().expect("test binary path");
-    let profile_dir = exe
-        .parent()
-        .and_then(Path::parent)
-        .expect("target/<profile>");
-    let p = profile_dir
-        .join("examples")
-        .join(format!("render{}", std::env::consts::EXE_SUFFIX));
-    assert!(
-        p.exists(),
-        "{} not built; run through `cargo test`",
-        p.display()
-    );
-    p
-}
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
 fn run(args: &[&str]) -> Output {
-    Command::new(render_exe())
+    Command::new(common::render_exe())
         .args(args)
         .current_dir(repo())
         .env("XDG_RUNTIME_DIR", std::env::temp_dir())
