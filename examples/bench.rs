@@ -14,10 +14,14 @@
 //! `off` runs once per schedule; `on` runs the wavefront once per reorder mode and key width
 //! (whatever the schedule); `auto` runs once (its first candidate is the first schedule
 //! listed, its sorted candidates use the first key width). Before
-//! timing `auto` at a sample count, the bench renders until `auto` has decided (at most 12
-//! renders; a 1-spp render is one batch, so it measures one candidate per render) and reports
+//! timing `auto` at a sample count, the bench renders until `auto` has decided (at most 20
+//! renders: each exploring render measures one candidate, whole) and reports
 //! those renders separately (`auto_exploring_s` in the JSON): the table times the decided
 //! `auto`, as a user re-rendering a scene gets it.
+//!
+//! Each cell is the best of `--repeat` renders per configuration (more for short cells, until
+//! `--min-seconds` of renders per configuration, at most 30), taken in rounds that go through
+//! every configuration once, so that a drift of the machine over the run touches all alike.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -64,9 +68,14 @@ struct Args {
     /// Samples per pixel per batch.
     #[arg(long)]
     batch_spp: Option<u32>,
-    /// Best of this many runs per cell.
+    /// Best of at least this many runs per cell (see --min-seconds).
     #[arg(long, default_value_t = 3)]
     repeat: u32,
+    /// Short cells repeat (beyond --repeat, up to 30 rounds) until each configuration's
+    /// renders add up to this many seconds of `trace`: the best of 3 sub-millisecond renders
+    /// varies by more than the few per cent being compared.
+    #[arg(long, default_value_t = 0.05)]
+    min_seconds: f64,
     /// Write every measurement as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -199,6 +208,19 @@ fn stem(path: &std::path::Path) -> String {
     }
 }
 
+/// The most rounds of renders a cell runs to reach `--min-seconds`.
+const MAX_ROUNDS: u32 = 30;
+
+/// Sets the tracer up to run `config`.
+fn apply(tracer: &mut Tracer, config: &Config) {
+    tracer.schedule = config.schedule;
+    tracer.reorder = config.reorder;
+    if config.reorder == ReorderPolicy::On {
+        tracer.reorder_mode = config.mode;
+    }
+    tracer.reorder_key_bits = config.key_bits;
+}
+
 fn run(args: Args) -> Result<(), String> {
     let (w, h) = args
         .size
@@ -224,54 +246,66 @@ fn run(args: Args) -> Result<(), String> {
         scene.render.width = w;
         scene.render.height = h;
         scene.render.max_bounces = args.bounces;
+        // Warm-up, per configuration: compiles pipelines, touches every buffer once.
         for config in &configs {
-            tracer.schedule = config.schedule;
-            tracer.reorder = config.reorder;
-            if config.reorder == ReorderPolicy::On {
-                tracer.reorder_mode = config.mode;
-            }
-            tracer.reorder_key_bits = config.key_bits;
-            // Warm-up: compiles pipelines, touches every buffer once.
+            apply(&mut tracer, config);
             scene.render.spp = 1;
             tracer.render(&scene).map_err(|e| e.to_string())?;
-            for &spp in &args.spp {
-                scene.render.spp = spp;
-                let mut exploring = Vec::new();
-                if config.reorder == ReorderPolicy::Auto {
-                    while tracer.auto_decision(&scene).is_none() && exploring.len() < 12 {
-                        let r = tracer.render(&scene).map_err(|e| e.to_string())?;
-                        exploring.push(r.stats.seconds.trace);
-                    }
-                    match tracer.auto_decision(&scene) {
-                        Some(d) => eprintln!(
-                            "  auto at {spp} spp decided after {} renders ({}): {}",
-                            exploring.len(),
-                            exploring
-                                .iter()
-                                .map(|s| format!("{s:.4}"))
-                                .collect::<Vec<_>>()
-                                .join(", "),
-                            d.summary
-                        ),
-                        None => eprintln!(
-                            "  auto at {spp} spp still undecided after {} renders",
-                            exploring.len()
-                        ),
-                    }
+        }
+        for &spp in &args.spp {
+            scene.render.spp = spp;
+            let mut exploring = vec![Vec::new(); configs.len()];
+            for (config, exploring) in configs.iter().zip(&mut exploring) {
+                if config.reorder != ReorderPolicy::Auto {
+                    continue;
                 }
-                let mut best: Option<raylume::Render> = None;
-                let mut all = Vec::new();
-                for _ in 0..args.repeat.max(1) {
+                apply(&mut tracer, config);
+                while tracer.auto_decision(&scene).is_none() && exploring.len() < 20 {
                     let r = tracer.render(&scene).map_err(|e| e.to_string())?;
-                    all.push(r.stats.seconds.trace);
-                    if best
+                    exploring.push(r.stats.seconds.trace);
+                }
+                match tracer.auto_decision(&scene) {
+                    Some(d) => eprintln!(
+                        "  auto at {spp} spp decided after {} renders ({}): {}",
+                        exploring.len(),
+                        exploring
+                            .iter()
+                            .map(|s| format!("{s:.4}"))
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                        d.summary
+                    ),
+                    None => eprintln!(
+                        "  auto at {spp} spp still undecided after {} renders",
+                        exploring.len()
+                    ),
+                }
+            }
+            // The repeats go round the configurations (one render of each, then the next
+            // round), so that a drift of the machine (clocks, temperature) over the run
+            // touches every configuration alike instead of the last one timed.
+            let mut best: Vec<Option<raylume::Render>> = configs.iter().map(|_| None).collect();
+            let mut all: Vec<Vec<f64>> = vec![Vec::new(); configs.len()];
+            let mut rounds = 0;
+            while rounds < args.repeat.max(1)
+                || (rounds < MAX_ROUNDS
+                    && all.iter().any(|a| a.iter().sum::<f64>() < args.min_seconds))
+            {
+                rounds += 1;
+                for (ci, config) in configs.iter().enumerate() {
+                    apply(&mut tracer, config);
+                    let r = tracer.render(&scene).map_err(|e| e.to_string())?;
+                    all[ci].push(r.stats.seconds.trace);
+                    if best[ci]
                         .as_ref()
                         .is_none_or(|b| r.stats.seconds.trace < b.stats.seconds.trace)
                     {
-                        best = Some(r);
+                        best[ci] = Some(r);
                     }
                 }
-                let best = best.expect("repeat >= 1");
+            }
+            for (ci, config) in configs.iter().enumerate() {
+                let best = best[ci].take().expect("repeat >= 1");
                 let s = &best.stats;
                 eprintln!(
                     "  {} [{}] spp={spp}: trace {:.4} s (sort {:.4} s), total {:.4} s, {:.0} Mrays/s; {}",
@@ -305,8 +339,8 @@ fn run(args: Args) -> Result<(), String> {
                     total_s: s.seconds.total,
                     rays_traced: s.rays_traced,
                     mrays_per_s: s.mrays_per_s,
-                    all_trace_s: all,
-                    auto_exploring_s: exploring,
+                    all_trace_s: std::mem::take(&mut all[ci]),
+                    auto_exploring_s: std::mem::take(&mut exploring[ci]),
                     depths: s.depth_seconds.clone(),
                 });
                 if let Some(dir) = &args.images {

@@ -84,8 +84,8 @@ pub mod surface;
 pub use cpu::CpuTracer;
 pub use error::KernelError;
 pub use gpu::{
-    BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, SortCapture, StageTime,
-    TraceStats, WavefrontBuffers,
+    BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, GpuWorkspace, SortCapture,
+    StageTime, TraceStats, WavefrontBuffers,
 };
 
 use raylume_scene::RenderSettings;

@@ -1,24 +1,31 @@
 //! `--reorder auto`: choosing the schedule and the ray sorting of a scene from measurement.
 //!
 //! The candidates are the schedule `off` would run, the other schedule, and the wavefront
-//! sorting before every bounce in each [`ReorderMode`]. Each is measured on a *full* batch of
-//! a real render (every batch does real work, so nothing is thrown away; the price of a trial
-//! is only that a slower candidate runs that batch): the batch's wall-clock time, what it adds
-//! to the render's `trace` time, and its per-bounce GPU times. When all are measured, the
-//! per-bounce times of the unsorted wavefront and of each sorted one give the depths where
-//! sorting paid for itself (sort + permute + sorted `propagate` below unsorted `propagate`);
-//! if sorting only there is predicted to beat every measured candidate by more than 1 %, it
-//! is measured too. Candidates within 5 % of the best get a second batch (the minimum of two
-//! is kept), so that one noisy batch does not decide. The fastest measured plan is then kept
-//! for the rest of the render and cached in the [`crate::Tracer`] under a fingerprint of the
-//! scene, image size, bounces and batch shape, so later renders of the same scene run it from
-//! their first batch.
+//! sorting before every bounce in each [`ReorderMode`]. **A trial is a whole render**: every
+//! batch of an exploring render runs the same candidate, and the tracer prepares that
+//! candidate alone (its buffers, pipelines and sorter), so a trial render is exactly the render
+//! that candidate gives when it is kept. Its cost is the render's batch time per camera
+//! sample. (An earlier design measured candidates on single batches inside one render; on the
+//! H100 such trials misjudged sorted plans systematically, by up to 50 %, so it was replaced:
+//! see `docs/RESULTS.md`.)
 //!
-//! A render shorter than the trials (a 1-spp render is one batch) measures what it can and
-//! the next render of the same fingerprint continues where it stopped: the first render runs
-//! exactly what `off` runs, and no render does extra work. So `auto` costs nothing over `off`
-//! on a scene's first render, and after a few renders (up to 2 x candidates + 1 batches in
-//! all) runs the measured best.
+//! When every candidate has run once, the per-depth times of the unsorted wavefront and of each
+//! sorted one give the depths where sorting paid for itself (sort + permute + sorted
+//! `propagate` below unsorted `propagate`); if sorting only there is predicted to beat every
+//! measured candidate by more than 1 %, that mask is measured too. Then every candidate runs a
+//! second time, in the opposite order (on the lent H100, whole stretches of seconds ran every
+//! kernel 1.5-4x slower; a one-round comparison then favours whichever candidates ran after
+//! such a stretch). Then the leader (the lowest cost so far, each plan judged by its fastest
+//! render) is measured until it has [`LEADER_RENDERS`] renders; when it still leads, it is
+//! kept, cached in the [`crate::Tracer`] under a fingerprint of the scene, image size, bounces
+//! and batch shape.
+//!
+//! So the first render of a scene runs exactly what `off` runs (`auto` costs nothing over `off`
+//! on it), the next renders of the same scene (about ten) try the other candidates (a trial is a
+//! real render of the same image: nothing is thrown away, but a slower candidate makes that
+//! render slower), and from then on every render runs the measured best. A single long render
+//! runs the `off` schedule throughout: `auto` pays where a scene is rendered repeatedly
+//! (previews, animations of a static scene, benchmarks), which is where it can measure.
 
 use std::collections::VecDeque;
 use std::hash::{Hash, Hasher};
@@ -29,17 +36,19 @@ use raylume_kernels::{
 };
 use raylume_scene::{Environment, Scene};
 
-/// Candidates within this fraction of the best are measured a second time.
-const REMEASURE_WITHIN: f64 = 0.05;
+/// Renders of the leader before it is kept (the best of three, as the bench reports).
+pub const LEADER_RENDERS: usize = 3;
 /// A per-depth mask is tried when predicted to beat the best measured plan by this fraction.
 const MASK_MIN_GAIN: f64 = 0.01;
+/// Trial renders after which the leader is kept whatever is left to measure.
+const MAX_TRIAL_RENDERS: u32 = 16;
 
 /// What `auto` chose for a scene, and why.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AutoDecision {
     pub plan: BatchPlan,
-    /// E.g. `wavefront, sort-index before depths 2..=10 (measured per 1000000-ray batch:
-    /// megakernel 3.21 ms, ...)`.
+    /// E.g. `wavefront, sort-index before depths 2..=10 (fastest measured, ms per million
+    /// camera samples: megakernel 3.210 (1 render), ...)`.
     pub summary: String,
 }
 
@@ -47,9 +56,10 @@ pub struct AutoDecision {
 #[derive(Clone, Debug)]
 struct Trial {
     plan: BatchPlan,
-    /// Wall-clock seconds of each full batch it ran.
+    /// Seconds per camera sample of each render it ran (batch wall-clock time over samples).
     seconds: Vec<f64>,
-    /// Per depth: `propagate`, and `sort_keys` + `permute_rays` before it, from its first batch.
+    /// Per depth, per camera sample: `propagate`, and `sort_keys` + `permute_rays` before it,
+    /// from its first render.
     depths: Vec<(f64, f64)>,
 }
 
@@ -63,20 +73,16 @@ impl Trial {
 #[derive(Clone, Debug)]
 pub(crate) struct AutoState {
     max_bounces: u32,
-    /// Rays per full batch (set by the first batch seen).
-    batch_rays: u32,
     trials: Vec<Trial>,
-    /// Plans still to measure, in order.
+    /// Plans still to measure, a render each, in order.
     queue: VecDeque<BatchPlan>,
-    /// Whether the second round (masks, re-measurements) was planned.
+    /// Whether the per-depth mask was considered.
     refined: bool,
+    /// Whether every candidate was queued for its second render.
+    second_round: bool,
     decision: Option<AutoDecision>,
-    /// The plan that runs batches a trial cannot use (partial ones) before a decision.
-    default: BatchPlan,
-    /// Plan of the batch in flight, if it is a trial.
-    in_flight: Option<BatchPlan>,
-    /// Batches this fingerprint ran as trials, and renders that ran any.
-    pub trial_batches: u32,
+    /// Renders this fingerprint ran as trials.
+    pub trial_renders: u32,
 }
 
 impl AutoState {
@@ -103,19 +109,28 @@ impl AutoState {
         }
         Self {
             max_bounces,
-            batch_rays: 0,
             trials: Vec::new(),
             queue,
             refined: false,
+            second_round: false,
             decision: None,
-            default: plain(off_schedule),
-            in_flight: None,
-            trial_batches: 0,
+            trial_renders: 0,
         }
     }
 
     pub fn decision(&self) -> Option<&AutoDecision> {
         self.decision.as_ref()
+    }
+
+    /// The plan the next render runs, all its batches.
+    fn next_plan(&self) -> BatchPlan {
+        match &self.decision {
+            Some(d) => d.plan,
+            None => *self
+                .queue
+                .front()
+                .expect("an undecided state always has a plan queued"),
+        }
     }
 
     fn trial_mut(&mut self, plan: BatchPlan) -> &mut Trial {
@@ -131,98 +146,137 @@ impl AutoState {
         }
     }
 
-    /// The measured plan with the shortest batch, and its seconds.
-    fn best(&self) -> Option<(BatchPlan, f64)> {
+    /// The measured plan with the lowest cost, and its cost.
+    fn leader(&self) -> Option<(BatchPlan, f64)> {
         self.trials
             .iter()
             .filter_map(|t| Some((t.plan, t.best()?)))
             .min_by(|a, b| a.1.total_cmp(&b.1))
     }
 
-    /// After the first round: a per-depth mask per sort mode where predicted to pay, and
-    /// second batches for the close candidates.
-    fn refine(&mut self) {
-        self.refined = true;
-        let Some((_, best)) = self.best() else { return };
+    /// Records a trial render of `plan` and queues what to measure next (or decides).
+    fn record(&mut self, plan: BatchPlan, seconds: f64, depths: Vec<(f64, f64)>) {
+        if self.decision.is_some() || self.queue.front() != Some(&plan) {
+            return;
+        }
+        self.queue.pop_front();
+        self.trial_renders += 1;
+        let trial = self.trial_mut(plan);
+        trial.seconds.push(seconds);
+        if trial.depths.is_empty() {
+            trial.depths = depths;
+        }
+        if !self.queue.is_empty() {
+            return;
+        }
+        if !self.refined {
+            self.refined = true;
+            if let Some(mask) = self.mask() {
+                self.queue.push_back(mask);
+                return;
+            }
+        }
+        if !self.second_round {
+            // Every candidate once more, in the opposite order: a machine that is slower for
+            // a while (another tenant, clocks) then weighs on each candidate's first or second
+            // render, not on the first candidates only.
+            self.second_round = true;
+            self.queue.extend(self.trials.iter().rev().map(|t| t.plan));
+            return;
+        }
+        let Some((leader, _)) = self.leader() else {
+            return;
+        };
+        let leader_runs = self
+            .trials
+            .iter()
+            .find(|t| t.plan == leader)
+            .map_or(0, |t| t.seconds.len());
+        if leader_runs < LEADER_RENDERS && self.trial_renders < MAX_TRIAL_RENDERS {
+            self.queue.push_back(leader);
+            return;
+        }
+        self.decide(leader);
+    }
+
+    /// The per-depth mask predicted to beat every measured plan by [`MASK_MIN_GAIN`], if any:
+    /// sorting only before the depths where a sorted trial's sort + propagate took less time
+    /// than the unsorted wavefront's propagate.
+    fn mask(&self) -> Option<BatchPlan> {
+        let (_, best) = self.leader()?;
         let unsorted = self
             .trials
             .iter()
-            .find(|t| t.plan.schedule == Schedule::Wavefront && !t.plan.sorts(self.max_bounces))
-            .cloned();
-        if let Some(unsorted) = unsorted {
-            let mut masks = Vec::new();
-            for t in &self.trials {
-                let Some(wall) = t.best() else { continue };
-                if !t.plan.sorts(self.max_bounces) || t.depths.len() != unsorted.depths.len() {
-                    continue;
-                }
-                // gain_d: what sorting before depth d saved (negative: what it cost).
-                // (Bit 63 also stands for the depths past 63, which follow depth 63.)
-                let mut depths = 0u64;
-                let mut predicted = wall;
-                for d in 1..=self.max_bounces.min(63) as usize {
-                    let (Some(&(p_off, _)), Some(&(p_on, s_on))) =
-                        (unsorted.depths.get(d), t.depths.get(d))
-                    else {
-                        continue;
-                    };
-                    let gain = p_off - (p_on + s_on);
-                    if gain > 0.0 {
-                        depths |= 1 << d;
-                    } else {
-                        predicted += gain;
-                    }
-                }
-                let plan = BatchPlan {
-                    schedule: Schedule::Wavefront,
-                    reorder: Reorder {
-                        depths,
-                        ..t.plan.reorder
-                    },
-                };
-                if plan.sorts(self.max_bounces)
-                    && plan != t.plan
-                    && predicted < best * (1.0 - MASK_MIN_GAIN)
-                {
-                    masks.push((predicted, plan));
-                }
-            }
-            // The more promising mask only: one verification batch.
-            if let Some((_, plan)) = masks.into_iter().min_by(|a, b| a.0.total_cmp(&b.0)) {
-                self.queue.push_back(plan);
-            }
-        }
+            .find(|t| t.plan.schedule == Schedule::Wavefront && !t.plan.sorts(self.max_bounces))?;
+        let mut masks = Vec::new();
         for t in &self.trials {
-            if let Some(s) = t.best()
-                && t.seconds.len() < 2
-                && s <= best * (1.0 + REMEASURE_WITHIN)
+            let Some(cost) = t.best() else { continue };
+            if !t.plan.sorts(self.max_bounces) || t.depths.len() != unsorted.depths.len() {
+                continue;
+            }
+            // gain_d: what sorting before depth d saved (negative: what it cost).
+            // (Bit 63 also stands for the depths past 63, which follow depth 63.)
+            let mut depths = 0u64;
+            let mut predicted = cost;
+            for d in 1..=self.max_bounces.min(63) as usize {
+                let (Some(&(p_off, _)), Some(&(p_on, s_on))) =
+                    (unsorted.depths.get(d), t.depths.get(d))
+                else {
+                    continue;
+                };
+                let gain = p_off - (p_on + s_on);
+                if gain > 0.0 {
+                    depths |= 1 << d;
+                } else {
+                    predicted += gain;
+                }
+            }
+            let plan = BatchPlan {
+                schedule: Schedule::Wavefront,
+                reorder: Reorder {
+                    depths,
+                    ..t.plan.reorder
+                },
+            };
+            if plan.sorts(self.max_bounces)
+                && plan != t.plan
+                && predicted < best * (1.0 - MASK_MIN_GAIN)
             {
-                self.queue.push_back(t.plan);
+                masks.push((predicted, plan));
             }
         }
+        // The more promising mask only.
+        masks
+            .into_iter()
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(_, plan)| plan)
     }
 
-    fn decide(&mut self) {
-        let Some((plan, _)) = self.best() else { return };
-        let ms = |s: f64| format!("{:.3} ms", s * 1e3);
-        let measured: Vec<String> = self
-            .trials
+    /// What was measured, per candidate, in ms per million camera samples: `megakernel 3.210
+    /// (2 renders)`.
+    fn measured(&self) -> Vec<String> {
+        self.trials
             .iter()
             .filter_map(|t| {
                 Some(format!(
-                    "{} {}",
+                    "{} {:.3} ({} render{})",
                     t.plan.describe(self.max_bounces),
-                    ms(t.best()?)
+                    t.best()? * 1e9,
+                    t.seconds.len(),
+                    if t.seconds.len() == 1 { "" } else { "s" }
                 ))
             })
-            .collect();
+            .collect()
+    }
+
+    fn decide(&mut self, plan: BatchPlan) {
+        self.queue.clear();
         self.decision = Some(AutoDecision {
             plan,
             summary: format!(
-                "{} (fastest measured per {}-ray batch: {})",
+                "{} (fastest measured, ms per million camera samples: {})",
                 plan.describe(self.max_bounces),
-                self.batch_rays,
-                measured.join(", ")
+                self.measured().join(", ")
             ),
         });
     }
@@ -232,99 +286,79 @@ impl AutoState {
         match &self.decision {
             Some(d) => format!("auto: {}", d.summary),
             None => {
-                let measured: Vec<String> = self
-                    .trials
-                    .iter()
-                    .filter_map(|t| {
-                        Some(format!(
-                            "{} {:.3} ms",
-                            t.plan.describe(self.max_bounces),
-                            t.best()? * 1e3
-                        ))
-                    })
-                    .collect();
+                let measured = self.measured();
                 format!(
-                    "auto: still measuring ({} trial batches so far: {}; {} to go); later \
-                     renders of this scene continue",
-                    self.trial_batches,
+                    "auto: still measuring ({} trial renders so far{}); later renders of this \
+                     scene continue, one candidate per render",
+                    self.trial_renders,
                     if measured.is_empty() {
-                        "none full".to_string()
+                        String::new()
                     } else {
-                        measured.join(", ")
+                        format!(", ms per million camera samples: {}", measured.join(", "))
                     },
-                    self.queue.len() + usize::from(!self.refined)
                 )
             }
         }
     }
 }
 
-/// The [`BatchPolicy`] of one render with `auto`.
+/// The [`BatchPolicy`] of one render with `auto`: every batch runs the plan the state gives at
+/// the render's start; the render's cost is recorded when its last batch is observed.
 pub(crate) struct AutoPolicy<'s> {
-    pub state: &'s mut AutoState,
+    state: &'s mut AutoState,
+    plan: BatchPlan,
+    /// Whether this render is a trial (no decision yet).
+    trial: bool,
+    /// The render's batch count (known from the first `plan` call).
+    batches: usize,
+    seconds: f64,
+    samples: u64,
+    /// Per depth: `propagate`, and `sort_keys` + `permute_rays`, summed over the batches.
+    depths: Vec<(f64, f64)>,
+}
+
+impl<'s> AutoPolicy<'s> {
+    pub fn new(state: &'s mut AutoState) -> Self {
+        Self {
+            plan: state.next_plan(),
+            trial: state.decision.is_none(),
+            state,
+            batches: 0,
+            seconds: 0.0,
+            samples: 0,
+            depths: Vec::new(),
+        }
+    }
 }
 
 impl BatchPolicy for AutoPolicy<'_> {
     fn candidates(&self) -> Vec<BatchPlan> {
-        match &self.state.decision {
-            Some(d) => vec![d.plan],
-            // Every plan a trial may run (mask plans need what the every-bounce ones need).
-            None => {
-                let mut v: Vec<BatchPlan> = self.state.queue.iter().copied().collect();
-                v.extend(self.state.trials.iter().map(|t| t.plan));
-                v.push(self.state.default);
-                v
-            }
-        }
+        vec![self.plan]
     }
 
-    fn plan(&mut self, index: usize, batches: &[Batch]) -> BatchPlan {
-        let s = &mut *self.state;
-        s.in_flight = None;
-        if let Some(d) = &s.decision {
-            return d.plan;
-        }
-        let full = batches.iter().map(|b| b.rays()).max().unwrap_or(0);
-        if batches[index].rays() == full
-            && let Some(plan) = s.queue.front().copied()
-        {
-            s.in_flight = Some(plan);
-            return plan;
-        }
-        // A partial batch (or nothing left to try): the best so far.
-        s.best().map_or(s.default, |(p, _)| p)
+    fn plan(&mut self, _index: usize, batches: &[Batch]) -> BatchPlan {
+        self.batches = batches.len();
+        self.plan
     }
 
     fn observe(&mut self, t: &BatchTiming) {
-        let s = &mut *self.state;
-        if s.decision.is_some() || s.in_flight.take() != Some(t.plan) || !t.full {
+        if !self.trial || t.plan != self.plan {
             return;
         }
-        if s.batch_rays == 0 {
-            s.batch_rays = t.batch.rays();
+        self.seconds += t.wall_seconds;
+        self.samples += u64::from(t.batch.rays());
+        let max_bounces = self.state.max_bounces;
+        self.depths.resize(max_bounces as usize + 1, (0.0, 0.0));
+        for (d, e) in self.depths.iter_mut().enumerate() {
+            let d = d as u32;
+            e.0 += t.stage_seconds("propagate", d);
+            e.1 += t.stage_seconds("sort_keys", d) + t.stage_seconds("permute_rays", d);
         }
-        s.queue.pop_front();
-        s.trial_batches += 1;
-        let max_bounces = s.max_bounces;
-        let trial = s.trial_mut(t.plan);
-        trial.seconds.push(t.wall_seconds);
-        if trial.depths.is_empty() {
-            trial.depths = (0..=max_bounces)
-                .map(|d| {
-                    (
-                        t.stage_seconds("propagate", d),
-                        t.stage_seconds("sort_keys", d) + t.stage_seconds("permute_rays", d),
-                    )
-                })
-                .collect();
-        }
-        if s.queue.is_empty() {
-            if !s.refined {
-                s.refine();
-            }
-            if s.queue.is_empty() {
-                s.decide();
-            }
+        if t.index + 1 == self.batches && self.samples > 0 {
+            let n = self.samples as f64;
+            let depths = self.depths.iter().map(|&(p, s)| (p / n, s / n)).collect();
+            self.state.record(self.plan, self.seconds / n, depths);
+            self.trial = false;
         }
     }
 }
@@ -414,27 +448,34 @@ mod tests {
             .collect()
     }
 
-    /// A made-up cost model: per depth, unsorted propagate 1.0, sorted propagate
-    /// `sorted[d]`, sort 0.2, permute 0.1 (sort-permute), megakernel `mk` in all.
+    /// A made-up cost model per batch: per depth, unsorted propagate 1.0, sorted propagate
+    /// `sorted[d]`, sort 0.2, permute 0.1 (sort-permute), megakernel `mk` in all; every time
+    /// multiplied by the machine's `slowness` at that render.
     struct Model {
         mk: f64,
         sorted: [f64; BOUNCES as usize + 1],
     }
 
     impl Model {
-        fn timing(&self, index: usize, b: Batch, plan: BatchPlan) -> BatchTiming {
+        fn new(mk: f64, sorted: [f64; BOUNCES as usize + 1]) -> Self {
+            Self { mk, sorted }
+        }
+
+        fn timing(&self, index: usize, b: Batch, plan: BatchPlan, slowness: f64) -> BatchTiming {
             let mut stages = Vec::new();
             let mut wall = 0.0;
             if plan.schedule == Schedule::Megakernel {
+                let s = self.mk * slowness;
                 stages.push(StageTime {
                     label: "trace_paths",
                     depth: None,
-                    seconds: self.mk,
+                    seconds: s,
                 });
-                wall = self.mk;
+                wall = s;
             } else {
                 for d in 0..=BOUNCES {
-                    let mut push = |label, seconds| {
+                    let mut push = |label, seconds: f64| {
+                        let seconds = seconds * slowness;
                         stages.push(StageTime {
                             label,
                             depth: Some(d),
@@ -463,18 +504,37 @@ mod tests {
             }
         }
 
-        /// Runs renders of `n` batches until `auto` decides; returns the plans each batch ran.
-        fn run(&self, state: &mut AutoState, n: usize) -> Vec<BatchPlan> {
+        /// One render of `n` batches; returns the plans its batches ran (checking that the
+        /// tracer was asked to prepare exactly them).
+        fn render(&self, state: &mut AutoState, n: usize, slowness: f64) -> Vec<BatchPlan> {
             let bs = batches(n);
-            let mut policy = AutoPolicy { state };
+            let mut policy = AutoPolicy::new(state);
+            let prepared = policy.candidates();
             let mut ran = Vec::new();
             for i in 0..n {
                 let plan = policy.plan(i, &bs);
+                assert!(prepared.contains(&plan));
                 ran.push(plan);
-                let t = self.timing(i, bs[i], plan);
-                policy.observe(&t);
+                policy.observe(&self.timing(i, bs[i], plan, slowness));
             }
             ran
+        }
+
+        /// Renders of `n` batches until `auto` decides; returns the plan of each render.
+        fn run(&self, state: &mut AutoState, n: usize) -> Vec<BatchPlan> {
+            let mut renders = Vec::new();
+            while state.decision().is_none() {
+                let ran = self.render(state, n, 1.0);
+                assert!(ran.iter().all(|&p| p == ran[0]), "one plan per render");
+                renders.push(ran[0]);
+                assert!(
+                    renders.len() <= MAX_TRIAL_RENDERS as usize,
+                    "undecided after {} renders: {}",
+                    renders.len(),
+                    state.describe()
+                );
+            }
+            renders
         }
     }
 
@@ -486,18 +546,19 @@ mod tests {
     }
 
     #[test]
-    fn the_first_batch_runs_what_off_runs_and_the_fastest_measured_plan_wins() {
+    fn the_first_render_runs_what_off_runs_and_the_fastest_measured_plan_wins() {
         // Sorting makes propagate at depths 3 and 4 cheap (0.5) and elsewhere no cheaper:
         // unsorted wavefront 5.0, sorted everywhere 0.2*4 + 1 + 1 + 1 + 0.5 + 0.5 = 4.8,
         // sort-index before 3..=4 only: 1 + 1 + 1 + 0.7 + 0.7 = 4.4; megakernel 4.6.
-        let m = Model {
-            mk: 4.6,
-            sorted: [1.0, 1.0, 1.0, 0.5, 0.5],
-        };
+        let m = Model::new(4.6, [1.0, 1.0, 1.0, 0.5, 0.5]);
         let mut s = AutoState::new(Schedule::Megakernel, BOUNCES, 30);
-        let ran = m.run(&mut s, 20);
-        assert_eq!(ran[0], plain(Schedule::Megakernel), "first batch = off");
-        let d = s.decision().expect("decided within 20 batches").clone();
+        let renders = m.run(&mut s, 3);
+        assert_eq!(
+            renders[0],
+            plain(Schedule::Megakernel),
+            "first render = off"
+        );
+        let d = s.decision().expect("decided").clone();
         let want = BatchPlan {
             schedule: Schedule::Wavefront,
             reorder: Reorder {
@@ -511,51 +572,92 @@ mod tests {
             "{}",
             d.summary
         );
-        // The trials were few, and every batch after them runs the decision.
-        let trials = s.trial_batches as usize;
-        assert!(trials <= 2 * 4 + 1, "{trials}");
+        // The mask was measured, not guessed, as often as the leader must be; every other
+        // candidate twice (two rounds).
+        let count = |p: BatchPlan| renders.iter().filter(|&&r| r == p).count();
+        assert_eq!(count(want), LEADER_RENDERS);
+        assert_eq!(count(plain(Schedule::Megakernel)), 2);
+        assert_eq!(s.trial_renders as usize, renders.len());
+        // Every render after the decision runs it, whole.
+        assert!(m.render(&mut s, 3, 1.0).iter().all(|&p| p == want));
+        assert_eq!(s.trial_renders as usize, renders.len());
+        // Costs are per camera sample: 4.4 s per 100-sample batch is 4.4e7 ms per million.
         assert!(
-            ran[..trials].contains(&want),
-            "the mask was measured, not guessed"
+            d.summary
+                .contains("sort-index before depths 3..=4 44000000.000 (3 renders)"),
+            "{}",
+            d.summary
         );
-        assert!(ran[trials..].iter().all(|&p| p == want));
     }
 
     #[test]
     fn when_sorting_never_pays_auto_keeps_an_unsorted_schedule() {
-        let m = Model {
-            mk: 5.5,
-            sorted: [1.0; 5],
-        };
+        let m = Model::new(5.5, [1.0; 5]);
         let mut s = AutoState::new(Schedule::Megakernel, BOUNCES, 30);
-        m.run(&mut s, 20);
+        m.run(&mut s, 2);
         assert_eq!(s.decision().unwrap().plan, plain(Schedule::Wavefront));
-        let m = Model {
-            mk: 3.0,
-            sorted: [1.0; 5],
-        };
+        let m = Model::new(3.0, [1.0; 5]);
         let mut s = AutoState::new(Schedule::Wavefront, BOUNCES, 30);
-        m.run(&mut s, 20);
+        m.run(&mut s, 2);
         assert_eq!(s.decision().unwrap().plan, plain(Schedule::Megakernel));
     }
 
     #[test]
-    fn one_batch_renders_measure_across_renders() {
-        let m = Model {
-            mk: 6.0,
-            sorted: [1.0, 0.4, 0.4, 0.4, 0.4],
-        };
+    fn a_slow_first_render_of_the_best_plan_does_not_decide() {
+        // The megakernel costs 4.8 per batch but 5.6 on its first render (cold); the unsorted
+        // wavefront costs 5.0, sorting never pays. One render each would keep the wavefront.
+        let m = Model::new(4.8, [1.0; 5]);
         let mut s = AutoState::new(Schedule::Megakernel, BOUNCES, 30);
-        let mut renders = 0;
-        while s.decision().is_none() {
-            let ran = m.run(&mut s, 1);
-            if renders == 0 {
-                assert_eq!(ran[0], plain(Schedule::Megakernel));
-                assert!(s.describe().contains("still measuring"), "{}", s.describe());
-            }
-            renders += 1;
-            assert!(renders <= 9, "undecided after {renders} renders");
+        let first = m.render(&mut s, 2, 5.6 / 4.8);
+        assert_eq!(first[0], plain(Schedule::Megakernel));
+        m.run(&mut s, 2);
+        assert_eq!(
+            s.decision().unwrap().plan,
+            plain(Schedule::Megakernel),
+            "{}",
+            s.describe()
+        );
+    }
+
+    #[test]
+    fn a_slow_stretch_of_the_machine_does_not_favour_the_later_candidates() {
+        // The wavefront (5.0) beats the megakernel (5.5) and sorting (5.8, 6.2), but the
+        // machine runs 1.6x slower during the first three renders (megakernel, wavefront,
+        // sort-index): one round would keep sort-permute (6.2 < 1.6 x 5.0).
+        let m = Model::new(5.5, [1.0; 5]);
+        let mut s = AutoState::new(Schedule::Megakernel, BOUNCES, 30);
+        for _ in 0..3 {
+            m.render(&mut s, 2, 1.6);
         }
+        m.render(&mut s, 2, 1.0);
+        let after_one_round = s.leader().unwrap().0;
+        assert_eq!(
+            after_one_round.reorder.mode,
+            ReorderMode::SortPermute,
+            "{}",
+            s.describe()
+        );
+        m.run(&mut s, 2);
+        assert_eq!(
+            s.decision().unwrap().plan,
+            plain(Schedule::Wavefront),
+            "{}",
+            s.describe()
+        );
+    }
+
+    #[test]
+    fn one_batch_renders_decide_over_renders() {
+        let m = Model::new(6.0, [1.0, 0.4, 0.4, 0.4, 0.4]);
+        let mut s = AutoState::new(Schedule::Megakernel, BOUNCES, 30);
+        let first = m.render(&mut s, 1, 1.0);
+        assert_eq!(first[0], plain(Schedule::Megakernel));
+        assert!(
+            s.describe().contains("still measuring (1 trial renders"),
+            "{}",
+            s.describe()
+        );
+        m.run(&mut s, 1);
         // Sorting everywhere pays (0.2 + 0.4 < 1 at every depth): sort-index, every bounce.
         assert_eq!(
             s.decision().unwrap().plan,
@@ -564,15 +666,19 @@ mod tests {
                 reorder: Reorder::every_bounce(ReorderMode::SortIndex),
             }
         );
-        // Partial batches never count as trials.
+    }
+
+    #[test]
+    fn a_render_that_fails_midway_records_nothing() {
+        let m = Model::new(6.0, [1.0; 5]);
         let mut s = AutoState::new(Schedule::Megakernel, BOUNCES, 30);
-        let mut p = AutoPolicy { state: &mut s };
-        let bs = batches(1);
+        let bs = batches(3);
+        let mut p = AutoPolicy::new(&mut s);
         let plan = p.plan(0, &bs);
-        let mut t = m.timing(0, bs[0], plan);
-        t.full = false;
-        p.observe(&t);
-        assert_eq!(s.trial_batches, 0);
+        p.observe(&m.timing(0, bs[0], plan, 1.0));
+        // (the render stops here: an error after the first batch)
+        assert_eq!(s.trial_renders, 0);
+        assert_eq!(s.next_plan(), plain(Schedule::Megakernel), "tried again");
     }
 
     #[test]

@@ -7,7 +7,8 @@ use std::time::Instant;
 use raylume_bvh::{BvhQuality, GpuBvh};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, GpuError};
 use raylume_kernels::{
-    BatchPlan, CpuTracer, GpuTracer, Reorder, ReorderMode, Schedule, TraceSettings, TraceStats,
+    BatchPlan, CpuTracer, GpuTracer, GpuWorkspace, Reorder, ReorderMode, Schedule, TraceSettings,
+    TraceStats,
 };
 use raylume_scene::Scene;
 
@@ -143,6 +144,9 @@ pub struct Tracer {
     progress: Option<ProgressFn>,
     gpu: Option<GpuContext>,
     gpu_bloom: Option<raylume_post::GpuBloom>,
+    /// The GPU work buffers and ray sorters of the last render, handed to the next one so that
+    /// repeated renders reuse them instead of reallocating (see `GpuWorkspace`).
+    gpu_workspace: Option<GpuWorkspace>,
     /// `Auto`'s measurements and decisions, by [`fingerprint`].
     auto: HashMap<u64, AutoState>,
     /// The last BVH built, for the geometry it was built from: rendering the same scene
@@ -234,6 +238,7 @@ impl Tracer {
             progress: None,
             gpu: None,
             gpu_bloom: None,
+            gpu_workspace: None,
             auto: HashMap::new(),
             bvh_cache: None,
         }
@@ -249,6 +254,7 @@ impl Tracer {
     pub fn with_gpu_context(mut self, ctx: GpuContext) -> Self {
         self.gpu = Some(ctx);
         self.gpu_bloom = None;
+        self.gpu_workspace = None;
         // Measurements belong to an adapter.
         self.auto.clear();
         self
@@ -465,6 +471,7 @@ impl Tracer {
             // A lost device stays lost: the next render starts over on a new one.
             self.gpu = None;
             self.gpu_bloom = None;
+            self.gpu_workspace = None;
         }
         let pixels = result?;
         stats.seconds.total = t_total.elapsed().as_secs_f64();
@@ -497,6 +504,9 @@ impl Tracer {
         stats.adapter = ctx.describe();
         let t = Instant::now();
         let mut tracer = GpuTracer::new(ctx, scene, bvh)?;
+        if let Some(workspace) = self.gpu_workspace.take() {
+            tracer.use_workspace(workspace);
+        }
         stats.seconds.upload = t.elapsed().as_secs_f64();
         let out = match auto_key {
             None => tracer.render_to_buffer(settings, report)?,
@@ -506,7 +516,8 @@ impl Tracer {
                     .auto
                     .entry(key)
                     .or_insert_with(|| AutoState::new(off_schedule, settings.max_bounces, bits));
-                let out = tracer.render_with_policy(settings, &mut AutoPolicy { state }, report)?;
+                let out =
+                    tracer.render_with_policy(settings, &mut AutoPolicy::new(state), report)?;
                 stats.reorder = state.describe();
                 out
             }
@@ -563,7 +574,9 @@ impl Tracer {
         }
         stats.seconds.post = t.elapsed().as_secs_f64();
         let pixels = (settings.width * settings.height) as usize;
-        Ok(ctx.read_buffer::<[f32; 3]>(image, pixels)?)
+        let pixels = ctx.read_buffer::<[f32; 3]>(image, pixels)?;
+        self.gpu_workspace = Some(tracer.take_workspace());
+        Ok(pixels)
     }
 
     /// Traces on the CPU and runs bloom there.

@@ -104,8 +104,8 @@ fn reorder_on_renders_the_image_off_renders() {
 }
 
 #[test]
-fn auto_measures_on_real_batches_then_keeps_the_fastest() {
-    if raylume_gpu::testing::context_or_skip("auto_measures_on_real_batches_then_keeps_the_fastest")
+fn auto_measures_whole_renders_then_keeps_the_fastest() {
+    if raylume_gpu::testing::context_or_skip("auto_measures_whole_renders_then_keeps_the_fastest")
         .is_none()
     {
         return;
@@ -114,22 +114,40 @@ fn auto_measures_on_real_batches_then_keeps_the_fastest() {
     let off = gpu_tracer(Schedule::Megakernel, ReorderPolicy::Off, 1)
         .render(&s)
         .unwrap();
-    // 12 batches of 1 spp: enough for every trial (4 candidates, at most 4 second batches and
-    // one per-depth mask) in the first render.
+    // 12 batches of 1 spp; each exploring render runs one candidate in all of them.
     let mut t = gpu_tracer(Schedule::Megakernel, ReorderPolicy::Auto, 1);
     assert!(t.auto_decision(&s).is_none());
     let first = t.render(&s).unwrap();
     assert_eq!(
         first.pixels, off.pixels,
-        "trials are real batches of the same image"
+        "the first render runs what off runs"
     );
-    assert_eq!(first.stats.rays_traced, off.stats.rays_traced);
-    assert_eq!(first.stats.schedule, "megakernel + wavefront (auto trials)");
-    let decision = t
-        .auto_decision(&s)
-        .expect("decided in the first render")
-        .clone();
-    assert_eq!(first.stats.reorder, format!("auto: {}", decision.summary));
+    assert_eq!(first.stats.schedule, "megakernel");
+    assert_eq!(first.stats.seconds.sort, 0.0);
+    let mut renders = 1;
+    let mut last = first;
+    while t.auto_decision(&s).is_none() {
+        last = t.render(&s).unwrap();
+        assert_eq!(
+            last.pixels, off.pixels,
+            "trials are real renders of the same image"
+        );
+        assert_eq!(last.stats.rays_traced, off.stats.rays_traced);
+        assert!(
+            ["megakernel", "wavefront"].contains(&last.stats.schedule.as_str()),
+            "one schedule per render: {}",
+            last.stats.schedule
+        );
+        renders += 1;
+        // 4 candidates, one mask, the leader 3 times, the close ones twice: at most 16.
+        assert!(renders <= 16, "undecided after {renders} renders");
+    }
+    assert!(
+        renders >= 4 + 2,
+        "every candidate measured, the leader thrice: {renders}"
+    );
+    let decision = t.auto_decision(&s).expect("decided").clone();
+    assert_eq!(last.stats.reorder, format!("auto: {}", decision.summary));
     // The summary lists what was measured: every candidate with its time.
     for c in [
         "megakernel ",
@@ -139,6 +157,7 @@ fn auto_measures_on_real_batches_then_keeps_the_fastest() {
     ] {
         assert!(decision.summary.contains(c), "{c} in {}", decision.summary);
     }
+    let first = last;
     // Later renders of the same scene run the decision from their first batch.
     let again = t.render(&s).unwrap();
     assert_eq!(again.pixels, off.pixels);
@@ -184,14 +203,15 @@ fn auto_on_one_batch_renders_starts_as_off_and_decides_over_renders() {
             assert_eq!(r.stats.schedule, "wavefront");
             assert_eq!(r.stats.seconds.sort, 0.0);
             assert!(
-                r.stats.reorder.starts_with("auto: still measuring"),
+                r.stats
+                    .reorder
+                    .starts_with("auto: still measuring (1 trial renders"),
                 "{}",
                 r.stats.reorder
             );
         }
         renders += 1;
-        // 4 candidates, at most 4 second measurements and one mask.
-        assert!(renders <= 9, "undecided after {renders} renders");
+        assert!(renders <= 16, "undecided after {renders} renders");
     }
     assert!(renders >= 4, "every candidate measured: {renders} renders");
     let r = t.render(&s).unwrap();
@@ -233,4 +253,117 @@ fn reorder_on_without_a_sorting_mode_is_an_error() {
         .render(&scene("cornell-box.toml", 8, 8, 1, 2))
         .unwrap_err();
     assert!(matches!(e, raylume::Error::Settings(_)), "{e}");
+}
+
+#[test]
+fn a_tracer_reusing_its_gpu_buffers_renders_what_fresh_tracers_render() {
+    if raylume_gpu::testing::context_or_skip(
+        "a_tracer_reusing_its_gpu_buffers_renders_what_fresh_tracers_render",
+    )
+    .is_none()
+    {
+        return;
+    }
+    // One tracer keeps its work buffers and sorters from render to render, growing them to
+    // cover every need seen (`GpuWorkspace`): buffers larger than a render needs, left over
+    // from another scene, schedule, size or batch shape, must not change any image.
+    let steps: [(
+        &str,
+        u32,
+        u32,
+        u32,
+        u32,
+        Schedule,
+        ReorderPolicy,
+        ReorderMode,
+    ); 7] = [
+        (
+            "cornell-box.toml",
+            16,
+            12,
+            4,
+            2,
+            Schedule::Megakernel,
+            ReorderPolicy::Off,
+            ReorderMode::SortIndex,
+        ),
+        (
+            "cornell-plus.toml",
+            16,
+            12,
+            6,
+            3,
+            Schedule::Wavefront,
+            ReorderPolicy::On,
+            ReorderMode::SortPermute,
+        ),
+        (
+            "cornell-plus.toml",
+            16,
+            12,
+            2,
+            1,
+            Schedule::Wavefront,
+            ReorderPolicy::Off,
+            ReorderMode::SortIndex,
+        ),
+        (
+            "spheres.toml",
+            16,
+            12,
+            3,
+            3,
+            Schedule::Wavefront,
+            ReorderPolicy::On,
+            ReorderMode::SortIndex,
+        ),
+        (
+            "cornell-box.toml",
+            10,
+            9,
+            5,
+            5,
+            Schedule::Wavefront,
+            ReorderPolicy::On,
+            ReorderMode::SortIndex,
+        ),
+        (
+            "cornell-box.toml",
+            10,
+            9,
+            2,
+            2,
+            Schedule::Megakernel,
+            ReorderPolicy::Off,
+            ReorderMode::SortIndex,
+        ),
+        (
+            "cornell-box.toml",
+            16,
+            12,
+            4,
+            2,
+            Schedule::Megakernel,
+            ReorderPolicy::Off,
+            ReorderMode::SortIndex,
+        ),
+    ];
+    let mut kept = Tracer::new(Backend::Gpu);
+    for (i, &(file, w, h, spp, batch_spp, schedule, reorder, mode)) in steps.iter().enumerate() {
+        let s = scene(file, w, h, spp, 4);
+        let setup = |t: &mut Tracer| {
+            t.schedule = schedule;
+            t.reorder = reorder;
+            t.reorder_mode = mode;
+            t.batch_spp = batch_spp;
+        };
+        setup(&mut kept);
+        let mut fresh = Tracer::new(Backend::Gpu);
+        setup(&mut fresh);
+        let a = kept.render(&s).unwrap();
+        let b = fresh.render(&s).unwrap();
+        assert_eq!(a.pixels, b.pixels, "step {i}: {file} {w}x{h}");
+        assert_eq!(a.stats.rays_traced, b.stats.rays_traced, "step {i}");
+        assert_eq!(a.stats.dropped_samples, b.stats.dropped_samples, "step {i}");
+    }
 }

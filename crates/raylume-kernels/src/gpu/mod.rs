@@ -72,6 +72,25 @@ struct SceneBuffers {
     bind_group: wgpu::BindGroup,
 }
 
+/// What a [`GpuTracer`] allocates for rendering rather than for its scene: the work buffers
+/// (ray states, queues, keys, the image) and the ray sorters. Handing it from one tracer to the
+/// next of the same [`GpuContext`] ([`GpuTracer::take_workspace`],
+/// [`GpuTracer::use_workspace`]) spares the next render the allocation of up to gigabytes.
+#[derive(Default)]
+pub struct GpuWorkspace {
+    work: Option<WorkBuffers>,
+    sorters: Vec<RadixSorter>,
+}
+
+impl std::fmt::Debug for GpuWorkspace {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuWorkspace")
+            .field("work", &self.work.as_ref().map(|w| w.key))
+            .field("sorters", &self.sorters.len())
+            .finish()
+    }
+}
+
 /// Renders a scene on the GPU. Holds the uploaded scene, the compiled pipelines and the
 /// work buffers of the last render size; `render` may be called many times.
 pub struct GpuTracer<'a> {
@@ -309,6 +328,24 @@ impl<'a> GpuTracer<'a> {
             })?;
         self.pipelines.insert(entry, p.clone());
         Ok(p)
+    }
+
+    /// Takes the work buffers and ray sorters out of this tracer (its next render allocates
+    /// them again), for another tracer of the same context: see [`GpuWorkspace`].
+    pub fn take_workspace(&mut self) -> GpuWorkspace {
+        self.last_batch = None;
+        GpuWorkspace {
+            work: self.work.take(),
+            sorters: std::mem::take(&mut self.sorters),
+        }
+    }
+
+    /// Renders with the work buffers and sorters of `workspace` (taken from a tracer of the
+    /// same context), reusing what fits and replacing what does not.
+    pub fn use_workspace(&mut self, workspace: GpuWorkspace) {
+        self.work = workspace.work;
+        self.sorters = workspace.sorters;
+        self.last_batch = None;
     }
 
     /// The image of the last render: mean linear radiance, packed RGB `f32` triples

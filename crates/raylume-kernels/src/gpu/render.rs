@@ -66,13 +66,20 @@ impl GpuTracer<'_> {
             (ctx.max_binding_bytes() / per_ray).min(self.batch_ray_limit.unwrap_or(u64::MAX));
         let batches = plan_batches(pixels, settings.spp, settings.batch_spp, max_rays);
         let capacity = batches.iter().map(|b| b.rays()).max().unwrap_or(1);
-        let key = work::WorkKey {
+        let need = work::WorkKey {
             wavefront,
             permute,
             capacity,
             pixels,
             batches: batches.len() as u32,
             bounces: max_bounces + 1,
+        };
+        // Buffers that can run this render are kept (they may be larger); otherwise they are
+        // reallocated to cover both the old need and this one, if the image is the same.
+        let key = match self.work.as_ref() {
+            Some(w) if w.key.covers(&need) => w.key,
+            Some(w) if w.key.pixels == need.pixels => w.key.union(&need),
+            _ => need,
         };
         if self.work.as_ref().is_none_or(|w| w.key != key) {
             self.work = None; // free the old buffers first
@@ -110,18 +117,19 @@ impl GpuTracer<'_> {
         key_bits.sort_unstable();
         key_bits.dedup();
         // A sorter of an indirect length needs key and value buffers of its `max_len`: one
-        // per key width, for exactly this capacity.
+        // per key width, for exactly the capacity of the work buffers it sorts.
+        let work_capacity = key.capacity;
         for bits in key_bits {
             if self
                 .sorters
                 .iter()
-                .any(|s| s.plan().key_bits == bits && s.max_len() == capacity)
+                .any(|s| s.plan().key_bits == bits && s.max_len() == work_capacity)
             {
                 continue;
             }
             self.sorters.retain(|s| s.plan().key_bits != bits);
             let opts = SortOptions::ray_keys().with_key_bits(bits);
-            let sorter = RadixSorter::new(ctx, capacity, opts).map_err(sort_error)?;
+            let sorter = RadixSorter::new(ctx, work_capacity, opts).map_err(sort_error)?;
             // One sort now, so that wgpu's lazy zeroing of the sorter's scratch buffers and
             // the first use of its pipelines do not land in a timed batch.
             let w = self.work.as_ref().expect("allocated above");

@@ -23,6 +23,35 @@ pub(crate) struct WorkKey {
     pub bounces: u32,
 }
 
+impl WorkKey {
+    /// True when buffers sized for `self` can run a render that needs `need`: the same image,
+    /// and at least its rays, batches and bounces, and the buffers of its schedules.
+    pub fn covers(&self, need: &WorkKey) -> bool {
+        self.pixels == need.pixels
+            && self.capacity >= need.capacity
+            && self.batches >= need.batches
+            && self.bounces >= need.bounces
+            && (self.wavefront || !need.wavefront)
+            && (self.permute || !need.permute)
+    }
+
+    /// The smallest key covering both `self` and `need` (which must have the same image):
+    /// what a render reallocates to, so that renders alternating between two needs (as
+    /// `auto`'s trials do) settle on one allocation instead of freeing and allocating
+    /// gigabytes each time.
+    pub fn union(&self, need: &WorkKey) -> WorkKey {
+        debug_assert_eq!(self.pixels, need.pixels);
+        WorkKey {
+            wavefront: self.wavefront || need.wavefront,
+            permute: self.permute || need.permute,
+            capacity: self.capacity.max(need.capacity),
+            pixels: need.pixels,
+            batches: self.batches.max(need.batches),
+            bounces: self.bounces.max(need.bounces),
+        }
+    }
+}
+
 pub(crate) struct WorkBuffers {
     pub key: WorkKey,
     pub accumulation: wgpu::Buffer,
