@@ -14,12 +14,13 @@
 //! `off` runs once per schedule; `on` runs the wavefront once per reorder mode and key width
 //! (whatever the schedule); `auto` runs once (its first candidate is the first schedule
 //! listed, its sorted candidates use the first key width). Before
-//! timing `auto` at a sample count, the bench renders until `auto` has decided (at most 20
+//! timing `auto` at a sample count, the bench renders until `auto` has decided (at most 30
 //! renders: each exploring render measures one candidate, whole) and reports
 //! those renders separately (`auto_exploring_s` in the JSON): the table times the decided
 //! `auto`, as a user re-rendering a scene gets it.
 //!
-//! Each cell is the best of `--repeat` renders per configuration (more for short cells, until
+//! Each sample count starts with `--warmup-seconds` of untimed renders; each cell is the best
+//! of `--repeat` renders per configuration (more for short cells, until
 //! `--min-seconds` of renders per configuration, at most 30), taken in rounds that go through
 //! every configuration once, so that a drift of the machine over the run touches all alike.
 
@@ -76,6 +77,10 @@ struct Args {
     /// varies by more than the few per cent being compared.
     #[arg(long, default_value_t = 0.05)]
     min_seconds: f64,
+    /// Seconds of untimed renders (every fixed configuration in turn) before each sample
+    /// count's timed renders.
+    #[arg(long, default_value_t = 1.0)]
+    warmup_seconds: f64,
     /// Write every measurement as JSON here.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -254,13 +259,29 @@ fn run(args: Args) -> Result<(), String> {
         }
         for &spp in &args.spp {
             scene.render.spp = spp;
+            // Warm-up at this size: rounds of untimed renders of every fixed configuration
+            // for --warmup-seconds (on the H100, the first second after buffers grow runs
+            // slow). `auto` is left out: its exploring renders are its warm-up.
+            let t_warm = Instant::now();
+            // (Not on the CPU, whose renders take seconds and have nothing to settle.)
+            let warmup = if args.backend == Backend::Cpu {
+                0.0
+            } else {
+                args.warmup_seconds
+            };
+            while t_warm.elapsed().as_secs_f64() < warmup {
+                for config in configs.iter().filter(|c| c.reorder != ReorderPolicy::Auto) {
+                    apply(&mut tracer, config);
+                    tracer.render(&scene).map_err(|e| e.to_string())?;
+                }
+            }
             let mut exploring = vec![Vec::new(); configs.len()];
             for (config, exploring) in configs.iter().zip(&mut exploring) {
                 if config.reorder != ReorderPolicy::Auto {
                     continue;
                 }
                 apply(&mut tracer, config);
-                while tracer.auto_decision(&scene).is_none() && exploring.len() < 20 {
+                while tracer.auto_decision(&scene).is_none() && exploring.len() < 30 {
                     let r = tracer.render(&scene).map_err(|e| e.to_string())?;
                     exploring.push(r.stats.seconds.trace);
                 }
