@@ -260,8 +260,8 @@ fn run(args: Args) -> Result<(), String> {
         for &spp in &args.spp {
             scene.render.spp = spp;
             // Warm-up at this size: rounds of untimed renders of every fixed configuration
-            // for --warmup-seconds (on the H100, the first second after buffers grow runs
-            // slow). `auto` is left out: its exploring renders are its warm-up.
+            // for --warmup-seconds (on the H100, renders right after a change of render size
+            // often ran slow for a while). `auto` is left out: its exploring renders are its warm-up.
             let t_warm = Instant::now();
             // (Not on the CPU, whose renders take seconds and have nothing to settle.)
             let warmup = if args.backend == Backend::Cpu {

@@ -14,10 +14,10 @@
 //! `propagate` below unsorted `propagate`); if sorting only there is predicted to beat every
 //! measured candidate by more than 1 %, that mask is measured too. Then every candidate runs a
 //! second time, in the opposite order, and more rounds follow (at most four in all) while a
-//! round still makes some candidate more than 3 % faster than before: on the lent H100,
-//! stretches of a second or so after new buffers were allocated ran every kernel 1.2-4x slower,
-//! easing off render by render, and a one-round comparison favours whichever candidates ran
-//! last. Then the leader (the lowest cost so far, each plan judged by its fastest
+//! round still makes some candidate more than 3 % faster than before: on the lent H100, some
+//! stretches of a run (often right after the render size changed) ran every kernel 1.2-4.7x
+//! slower, easing off render by render, and a one-round comparison favours whichever
+//! candidates ran last. Then the leader (the lowest cost so far, each plan judged by its fastest
 //! render) is measured until it has [`LEADER_RENDERS`] renders; when it still leads, it is
 //! kept, cached in the [`crate::Tracer`] under a fingerprint of the scene, image size, bounces
 //! and batch shape.
