@@ -42,7 +42,9 @@ struct Args {
     /// Samples per pixel per batch (default 20, the paper's).
     #[arg(long)]
     batch_spp: Option<u32>,
-    /// Ray reordering between bounces: off, on or auto.
+    /// Ray reordering between bounces: off, on or auto. (`auto` decides over repeated renders
+    /// of a scene in one process, as a library user or `bench` renders; this command renders
+    /// once, so with `auto` it runs what `off` runs and says so.)
     #[arg(long, default_value = "off")]
     reorder: ReorderPolicy,
     /// GPU schedule: megakernel (bounces in registers) or wavefront (the paper's kernels).

@@ -199,7 +199,7 @@ impl AutoState {
             self.round += 1;
             self.improved = false;
             let mut plans: Vec<BatchPlan> = self.trials.iter().map(|t| t.plan).collect();
-            if self.round % 2 == 0 {
+            if self.round.is_multiple_of(2) {
                 plans.reverse();
             }
             self.queue.extend(plans);
@@ -309,9 +309,10 @@ impl AutoState {
             None => {
                 let measured = self.measured();
                 format!(
-                    "auto: still measuring ({} trial renders so far{}); later renders of this \
+                    "auto: still measuring ({} trial render{} so far{}); later renders of this \
                      scene continue, one candidate per render",
                     self.trial_renders,
+                    if self.trial_renders == 1 { "" } else { "s" },
                     if measured.is_empty() {
                         String::new()
                     } else {
@@ -559,6 +560,12 @@ mod tests {
         }
     }
 
+    /// Fails unless `s` decided `want`, showing what it measured.
+    fn assert_decided(s: &AutoState, want: BatchPlan) {
+        let got = s.decision().map(|d| d.plan);
+        assert_eq!(got, Some(want), "{}", s.describe());
+    }
+
     fn plain(schedule: Schedule) -> BatchPlan {
         BatchPlan {
             schedule,
@@ -632,12 +639,7 @@ mod tests {
         let first = m.render(&mut s, 2, 5.6 / 4.8);
         assert_eq!(first[0], plain(Schedule::Megakernel));
         m.run(&mut s, 2);
-        assert_eq!(
-            s.decision().unwrap().plan,
-            plain(Schedule::Megakernel),
-            "{}",
-            s.describe()
-        );
+        assert_decided(&s, plain(Schedule::Megakernel));
     }
 
     #[test]
@@ -659,12 +661,7 @@ mod tests {
             s.describe()
         );
         m.run(&mut s, 2);
-        assert_eq!(
-            s.decision().unwrap().plan,
-            plain(Schedule::Wavefront),
-            "{}",
-            s.describe()
-        );
+        assert_decided(&s, plain(Schedule::Wavefront));
     }
 
     #[test]
@@ -682,12 +679,7 @@ mod tests {
             assert!(k <= MAX_TRIAL_RENDERS, "{}", s.describe());
         }
         assert!(s.round > 2, "{}", s.describe());
-        assert_eq!(
-            s.decision().unwrap().plan,
-            plain(Schedule::Wavefront),
-            "{}",
-            s.describe()
-        );
+        assert_decided(&s, plain(Schedule::Wavefront));
     }
 
     #[test]
@@ -697,7 +689,8 @@ mod tests {
         let first = m.render(&mut s, 1, 1.0);
         assert_eq!(first[0], plain(Schedule::Megakernel));
         assert!(
-            s.describe().contains("still measuring (1 trial renders"),
+            s.describe()
+                .contains("still measuring (1 trial render so far"),
             "{}",
             s.describe()
         );

@@ -205,7 +205,7 @@ fn auto_on_one_batch_renders_starts_as_off_and_decides_over_renders() {
             assert!(
                 r.stats
                     .reorder
-                    .starts_with("auto: still measuring (1 trial renders"),
+                    .starts_with("auto: still measuring (1 trial render so far"),
                 "{}",
                 r.stats.reorder
             );
@@ -267,89 +267,61 @@ fn a_tracer_reusing_its_gpu_buffers_renders_what_fresh_tracers_render() {
     // One tracer keeps its work buffers and sorters from render to render, growing them to
     // cover every need seen (`GpuWorkspace`): buffers larger than a render needs, left over
     // from another scene, schedule, size or batch shape, must not change any image.
-    let steps: [(
-        &str,
-        u32,
-        u32,
-        u32,
-        u32,
-        Schedule,
-        ReorderPolicy,
-        ReorderMode,
-    ); 7] = [
+    // (scene, [width, height, spp, batch_spp], schedule, reorder, mode)
+    type Step = (&'static str, [u32; 4], Schedule, ReorderPolicy, ReorderMode);
+    let steps: [Step; 7] = [
         (
             "cornell-box.toml",
-            16,
-            12,
-            4,
-            2,
+            [16, 12, 4, 2],
             Schedule::Megakernel,
             ReorderPolicy::Off,
             ReorderMode::SortIndex,
         ),
         (
             "cornell-plus.toml",
-            16,
-            12,
-            6,
-            3,
+            [16, 12, 6, 3],
             Schedule::Wavefront,
             ReorderPolicy::On,
             ReorderMode::SortPermute,
         ),
         (
             "cornell-plus.toml",
-            16,
-            12,
-            2,
-            1,
+            [16, 12, 2, 1],
             Schedule::Wavefront,
             ReorderPolicy::Off,
             ReorderMode::SortIndex,
         ),
         (
             "spheres.toml",
-            16,
-            12,
-            3,
-            3,
+            [16, 12, 3, 3],
             Schedule::Wavefront,
             ReorderPolicy::On,
             ReorderMode::SortIndex,
         ),
         (
             "cornell-box.toml",
-            10,
-            9,
-            5,
-            5,
+            [10, 9, 5, 5],
             Schedule::Wavefront,
             ReorderPolicy::On,
             ReorderMode::SortIndex,
         ),
         (
             "cornell-box.toml",
-            10,
-            9,
-            2,
-            2,
+            [10, 9, 2, 2],
             Schedule::Megakernel,
             ReorderPolicy::Off,
             ReorderMode::SortIndex,
         ),
         (
             "cornell-box.toml",
-            16,
-            12,
-            4,
-            2,
+            [16, 12, 4, 2],
             Schedule::Megakernel,
             ReorderPolicy::Off,
             ReorderMode::SortIndex,
         ),
     ];
     let mut kept = Tracer::new(Backend::Gpu);
-    for (i, &(file, w, h, spp, batch_spp, schedule, reorder, mode)) in steps.iter().enumerate() {
+    for (i, &(file, [w, h, spp, batch_spp], schedule, reorder, mode)) in steps.iter().enumerate() {
         let s = scene(file, w, h, spp, 4);
         let setup = |t: &mut Tracer| {
             t.schedule = schedule;
@@ -365,5 +337,9 @@ fn a_tracer_reusing_its_gpu_buffers_renders_what_fresh_tracers_render() {
         assert_eq!(a.pixels, b.pixels, "step {i}: {file} {w}x{h}");
         assert_eq!(a.stats.rays_traced, b.stats.rays_traced, "step {i}");
         assert_eq!(a.stats.dropped_samples, b.stats.dropped_samples, "step {i}");
+        if i == 3 {
+            // Freed, then allocated afresh by the next step.
+            kept.release_memory();
+        }
     }
 }
