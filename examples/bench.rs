@@ -284,6 +284,9 @@ fn run(args: Args) -> Result<(), String> {
                 while tracer.auto_decision(&scene).is_none() && exploring.len() < 30 {
                     let r = tracer.render(&scene).map_err(|e| e.to_string())?;
                     exploring.push(r.stats.seconds.trace);
+                    if r.stats.backend == "cpu" {
+                        break; // the CPU never reorders: nothing to decide
+                    }
                 }
                 match tracer.auto_decision(&scene) {
                     Some(d) => eprintln!(
@@ -297,7 +300,8 @@ fn run(args: Args) -> Result<(), String> {
                         d.summary
                     ),
                     None => eprintln!(
-                        "  auto at {spp} spp still undecided after {} renders",
+                        "  auto at {spp} spp: no decision after {} renders (the CPU backend \
+                         never reorders; on a GPU, more renders would be needed)",
                         exploring.len()
                     ),
                 }
