@@ -269,12 +269,27 @@ fn a_tracer_reusing_its_gpu_buffers_renders_what_fresh_tracers_render() {
     // from another scene, schedule, size or batch shape, must not change any image.
     // (scene, [width, height, spp, batch_spp], schedule, reorder, mode)
     type Step = (&'static str, [u32; 4], Schedule, ReorderPolicy, ReorderMode);
-    let steps: [Step; 7] = [
+    let steps: [Step; 8] = [
         (
             "cornell-box.toml",
             [16, 12, 4, 2],
             Schedule::Megakernel,
             ReorderPolicy::Off,
+            ReorderMode::SortIndex,
+        ),
+        // The wavefront, then more rays per batch and a sorter, then a second state buffer.
+        (
+            "cornell-plus.toml",
+            [16, 12, 2, 2],
+            Schedule::Wavefront,
+            ReorderPolicy::Off,
+            ReorderMode::SortIndex,
+        ),
+        (
+            "cornell-plus.toml",
+            [16, 12, 6, 3],
+            Schedule::Wavefront,
+            ReorderPolicy::On,
             ReorderMode::SortIndex,
         ),
         (
@@ -284,20 +299,15 @@ fn a_tracer_reusing_its_gpu_buffers_renders_what_fresh_tracers_render() {
             ReorderPolicy::On,
             ReorderMode::SortPermute,
         ),
+        // Fewer rays than the buffers hold.
         (
-            "cornell-plus.toml",
+            "spheres.toml",
             [16, 12, 2, 1],
             Schedule::Wavefront,
             ReorderPolicy::Off,
             ReorderMode::SortIndex,
         ),
-        (
-            "spheres.toml",
-            [16, 12, 3, 3],
-            Schedule::Wavefront,
-            ReorderPolicy::On,
-            ReorderMode::SortIndex,
-        ),
+        // Another image size (after `release_memory`), then back.
         (
             "cornell-box.toml",
             [10, 9, 5, 5],
@@ -337,7 +347,7 @@ fn a_tracer_reusing_its_gpu_buffers_renders_what_fresh_tracers_render() {
         assert_eq!(a.pixels, b.pixels, "step {i}: {file} {w}x{h}");
         assert_eq!(a.stats.rays_traced, b.stats.rays_traced, "step {i}");
         assert_eq!(a.stats.dropped_samples, b.stats.dropped_samples, "step {i}");
-        if i == 3 {
+        if i == 4 {
             // Freed, then allocated afresh by the next step.
             kept.release_memory();
         }
