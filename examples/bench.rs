@@ -69,6 +69,9 @@ struct Args {
     /// Samples per pixel per batch.
     #[arg(long)]
     batch_spp: Option<u32>,
+    /// Estimator: plain (the paper's) or nee (next-event estimation with MIS).
+    #[arg(long, default_value = "plain", value_parser = parse_estimator)]
+    estimator: raylume::Estimator,
     /// Best of at least this many runs per cell (see --min-seconds).
     #[arg(long, default_value_t = 3)]
     repeat: u32,
@@ -216,6 +219,14 @@ fn stem(path: &std::path::Path) -> String {
 /// The most rounds of renders a cell runs to reach `--min-seconds`.
 const MAX_ROUNDS: u32 = 30;
 
+fn parse_estimator(s: &str) -> Result<raylume::Estimator, String> {
+    match s {
+        "plain" => Ok(raylume::Estimator::Plain),
+        "nee" => Ok(raylume::Estimator::Nee),
+        _ => Err(format!("unknown estimator `{s}`: use plain or nee")),
+    }
+}
+
 /// Sets the tracer up to run `config`.
 fn apply(tracer: &mut Tracer, config: &Config) {
     tracer.schedule = config.schedule;
@@ -235,6 +246,7 @@ fn run(args: Args) -> Result<(), String> {
     let configs = configs(&args);
     let mut rows = Vec::new();
     let mut tracer = Tracer::new(args.backend);
+    tracer.estimator = args.estimator;
     if let Some(b) = args.batch_spp {
         tracer.batch_spp = b;
     }

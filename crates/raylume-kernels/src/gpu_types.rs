@@ -41,6 +41,22 @@ pub const DEAD_RAY_KEY: u32 = raylume_sort::DEAD_RAY_KEY;
 pub const DIM_CAMERA: u32 = 0;
 /// Random-number dimension of the scattering decision at a hit.
 pub const DIM_SCATTER: u32 = 1;
+/// Random-number dimension of next-event estimation at a hit: the light, then the point on it.
+pub const DIM_LIGHT: u32 = 2;
+
+/// `RayState::alive` of a live ray whose last vertex did not sample the lights; any other
+/// nonzero value is the `f32` bits of the BSDF pdf of a live ray's last direction, sampled at a
+/// vertex that also sampled the lights (the multiple-importance weight of the emission it hits
+/// next needs it). The bits of 1 are a denormal no such pdf takes.
+pub const RAY_ALIVE: u32 = 1;
+
+/// Rec. 709 luminance weights: the light list chooses lights by area times the luminance of
+/// their emission.
+pub const LUMINANCE: [f32; 3] = [0.2126, 0.7152, 0.0722];
+
+/// A shadow ray toward a point on a light ends this fraction of the way there, so that it
+/// does not find the light's own triangle (the watertight test's `t` is exact to ~1e-6).
+pub const SHADOW_T_SCALE: f32 = 0.9999;
 
 /// The far end of every ray: the largest finite `f32` (WGSL has no infinity literal).
 pub const T_MAX: f32 = f32::MAX;
@@ -74,7 +90,9 @@ pub struct SceneUniforms {
     pub scene_min: [f32; 3],
     pub seed: u32,
     pub scene_extent: [f32; 3],
-    pub _pad0: u32,
+    /// Emissive triangles in the light list that next-event estimation samples; 0 for the
+    /// paper's plain estimator.
+    pub light_count: u32,
     /// Map rotation about +y, in turns (degrees / 360).
     pub environment_rotation: f32,
     pub environment_width: u32,
@@ -100,7 +118,9 @@ pub struct SceneUniforms {
     pub primitive_count: u32,
     pub material_count: u32,
     pub texture_count: u32,
-    pub _pad1: u32,
+    /// The sum of area times emitted luminance over the light list (next-event estimation's
+    /// light-selection pdf of a light is its share).
+    pub light_power: f32,
 }
 
 /// One material, 48 bytes so that a warp's materials share few cache lines.
@@ -158,6 +178,25 @@ pub struct TextureHeader {
     pub _pad0: u32,
 }
 
+/// An emissive triangle of the light list that next-event estimation samples: a point
+/// `p0 + u e1 + v e2`, chosen with probability `cdf - previous cdf` (proportional to area
+/// times emitted luminance).
+///
+/// `repr(C)`, `Pod`, 64 bytes. WGSL: `LightTriangle`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct LightTriangle {
+    pub p0: [f32; 3],
+    /// The running sum of selection probabilities up to and including this light.
+    pub cdf: f32,
+    pub e1: [f32; 3],
+    pub area: f32,
+    pub e2: [f32; 3],
+    pub _pad0: u32,
+    pub emission: [f32; 3],
+    pub _pad1: u32,
+}
+
 /// One ray of the wavefront, between two `propagate` launches.
 ///
 /// `repr(C)`, `Pod`, 64 bytes. WGSL: `RayState`.
@@ -174,7 +213,8 @@ pub struct RayState {
     /// Segments traced so far (0 for a camera ray).
     pub depth: u32,
     pub radiance: [f32; 3],
-    /// 1 while the path goes on, 0 once it has ended.
+    /// 0 once the path has ended; else [`RAY_ALIVE`], or the bits of the BSDF pdf of its
+    /// direction when its last vertex sampled the lights (see [`RAY_ALIVE`]).
     pub alive: u32,
 }
 
@@ -206,7 +246,7 @@ const _: () = assert!(offset_of!(SceneUniforms, scene_min) == 80);
 const _: () = assert!(offset_of!(SceneUniforms, environment_rotation) == 112);
 const _: () = assert!(offset_of!(SceneUniforms, sample_begin) == 128);
 const _: () = assert!(offset_of!(SceneUniforms, batch_index) == 144);
-const _: () = assert!(offset_of!(SceneUniforms, _pad1) == 172);
+const _: () = assert!(offset_of!(SceneUniforms, light_power) == 172);
 const _: () = assert!(size_of::<GpuMaterial>() == 48);
 const _: () = assert!(offset_of!(GpuMaterial, emission) == 16);
 const _: () = assert!(offset_of!(GpuMaterial, ior) == 32);
@@ -215,6 +255,10 @@ const _: () = assert!(offset_of!(TriangleShading, n1) == 16);
 const _: () = assert!(offset_of!(TriangleShading, v1) == 48);
 const _: () = assert!(offset_of!(TriangleShading, flags) == 60);
 const _: () = assert!(size_of::<TextureHeader>() == 16);
+const _: () = assert!(size_of::<LightTriangle>() == 64);
+const _: () = assert!(offset_of!(LightTriangle, e1) == 16);
+const _: () = assert!(offset_of!(LightTriangle, e2) == 32);
+const _: () = assert!(offset_of!(LightTriangle, emission) == 48);
 const _: () = assert!(size_of::<RayState>() == 64);
 const _: () = assert!(offset_of!(RayState, dir) == 16);
 const _: () = assert!(offset_of!(RayState, throughput) == 32);
@@ -236,9 +280,16 @@ pub fn wgsl_constants() -> String {
     s += &u("SHADING_HAS_UVS", SHADING_HAS_UVS);
     s += &u("DIM_CAMERA", DIM_CAMERA);
     s += &u("DIM_SCATTER", DIM_SCATTER);
+    s += &u("DIM_LIGHT", DIM_LIGHT);
+    s += &u("RAY_ALIVE", RAY_ALIVE);
     s += &u("WORKGROUP_SIZE", crate::WORKGROUP_SIZE);
     // `{:e}` prints the shortest representation that round-trips, so the WGSL literal is the
     // same f32.
+    s += &format!("const SHADOW_T_SCALE: f32 = {:e};\n", SHADOW_T_SCALE);
+    s += &format!(
+        "const LUMINANCE: vec3<f32> = vec3<f32>({:e}, {:e}, {:e});\n",
+        LUMINANCE[0], LUMINANCE[1], LUMINANCE[2]
+    );
     s += &format!("const T_MAX: f32 = {:e};\n", T_MAX);
     s
 }

@@ -15,7 +15,7 @@ struct SceneUniforms {
     scene_min: vec3<f32>,
     seed: u32,
     scene_extent: vec3<f32>,
-    _pad0: u32,
+    light_count: u32,
     environment_rotation: f32,
     environment_width: u32,
     environment_height: u32,
@@ -31,7 +31,7 @@ struct SceneUniforms {
     primitive_count: u32,
     material_count: u32,
     texture_count: u32,
-    _pad1: u32,
+    light_power: f32,
 }
 
 struct GpuMaterial {
@@ -63,6 +63,17 @@ struct TextureHeader {
     width: u32,
     height: u32,
     _pad0: u32,
+}
+
+struct LightTriangle {
+    p0: vec3<f32>,
+    cdf: f32,
+    e1: vec3<f32>,
+    area: f32,
+    e2: vec3<f32>,
+    _pad0: u32,
+    emission: vec3<f32>,
+    _pad1: u32,
 }
 
 struct RayState {

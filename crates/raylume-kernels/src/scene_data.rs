@@ -7,13 +7,15 @@ use glam::Vec3;
 use raylume_bvh::{GpuBvh, PRIM_SPHERE, PRIM_TRIANGLE};
 use raylume_scene::{Camera, Environment, MaterialKind, Scene, Texture};
 
+use crate::Estimator;
 use crate::KernelError;
 use crate::TraceSettings;
 use crate::camera::camera_basis;
+use crate::gpu_types::LUMINANCE;
 use crate::gpu_types::{
-    ENVIRONMENT_BLACK, ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuMaterial, MATERIAL_DIFFUSE,
-    MATERIAL_GLASS, MATERIAL_METAL, NO_TEXTURE, SHADING_HAS_NORMALS, SHADING_HAS_UVS,
-    SceneUniforms, TextureHeader, TriangleShading,
+    ENVIRONMENT_BLACK, ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuMaterial, LightTriangle,
+    MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL, NO_TEXTURE, SHADING_HAS_NORMALS,
+    SHADING_HAS_UVS, SceneUniforms, TextureHeader, TriangleShading,
 };
 
 /// The scene's data in the tracer's layout.
@@ -40,6 +42,50 @@ pub struct SceneData {
     pub environment_offset: u32,
     pub scene_min: Vec3,
     pub scene_extent: Vec3,
+    /// The emissive triangles, for next-event estimation (empty when none emits).
+    pub lights: Vec<LightTriangle>,
+    /// Their total area times emitted luminance.
+    pub light_power: f32,
+    /// Which estimator the uniforms ask for ([`SceneData::uniforms`]).
+    pub estimator: Estimator,
+}
+
+/// Every emissive triangle with its selection probability proportional to its area times its
+/// emitted luminance ([`LUMINANCE`]), as a running sum, and the total of area times luminance;
+/// empty when nothing emits.
+fn light_list(scene: &Scene) -> (Vec<LightTriangle>, f32) {
+    let mut lights = Vec::new();
+    let mut total = 0.0f64;
+    for t in &scene.triangles {
+        let Some(m) = scene.materials.get(t.material as usize) else {
+            continue;
+        };
+        let [p0, p1, p2] = t.positions;
+        let (e1, e2) = (p1 - p0, p2 - p0);
+        let area = 0.5 * e1.cross(e2).length();
+        let luminance = m.emission.dot(Vec3::from(LUMINANCE));
+        if !(area > 0.0 && luminance > 0.0 && area.is_finite()) {
+            continue;
+        }
+        total += f64::from(area) * f64::from(luminance);
+        lights.push(LightTriangle {
+            p0: p0.into(),
+            cdf: total as f32, // the running sum, normalised below
+            e1: e1.into(),
+            area,
+            e2: e2.into(),
+            _pad0: 0,
+            emission: m.emission.into(),
+            _pad1: 0,
+        });
+    }
+    for l in &mut lights {
+        l.cdf = (f64::from(l.cdf) / total) as f32;
+    }
+    if let Some(last) = lights.last_mut() {
+        last.cdf = 1.0;
+    }
+    (lights, total as f32)
 }
 
 fn append_texture(texels: &mut Vec<f32>, t: &Texture, what: &str) -> Result<u32, KernelError> {
@@ -199,6 +245,9 @@ impl SceneData {
             environment_offset: 0,
             scene_min: Vec3::ZERO,
             scene_extent: Vec3::ZERO,
+            lights: Vec::new(),
+            light_power: 0.0,
+            estimator: Estimator::Plain,
         };
         match &scene.environment {
             Environment::Black => {}
@@ -222,6 +271,7 @@ impl SceneData {
             }
         }
         data.texels = texels;
+        (data.lights, data.light_power) = light_list(scene);
         let bounds = scene.bounds();
         if !bounds.is_empty() {
             data.scene_min = bounds.min;
@@ -255,6 +305,11 @@ impl SceneData {
             primitive_count: self.prim_materials.len() as u32,
             material_count: self.materials.len() as u32,
             texture_count: self.texture_headers.len() as u32,
+            light_count: match self.estimator {
+                Estimator::Plain => 0,
+                Estimator::Nee => self.lights.len() as u32,
+            },
+            light_power: self.light_power,
             ..Default::default()
         }
     }

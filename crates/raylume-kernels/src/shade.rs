@@ -3,20 +3,29 @@
 //! [`trace_ray`] in a loop with the path in registers, the wavefront calls it once per
 //! `propagate` launch with the path loaded from and stored to a [`RayState`].
 //!
-//! The estimator is the paper's plain one: emission is collected where a path hits it
+//! The estimator is the paper's plain one unless the uniforms hold a light list
+//! (`light_count > 0`, [`crate::Estimator::Nee`]): emission is collected where a path hits it
 //! (two-sided, on every material), escaping paths collect the environment, and each hit
-//! scatters one new direction sampled from the material; no light sampling, no Russian
-//! roulette. Diffuse and metal surfaces are two-sided (their normals are flipped towards the
+//! scatters one new direction sampled from the material; no Russian roulette. With the light
+//! list, a diffuse hit also sends a shadow ray to a point on an emissive triangle
+//! ([`sample_lights`]), and the two estimates of the light an emissive triangle sends there,
+//! the shadow ray's and the scattered ray's if it hits one, are weighted by multiple
+//! importance sampling (Veach's power heuristic, [`mis_weight`]): each wins where its pdf is
+//! the larger (the shadow ray for small, far lights; the scattered ray close to a light,
+//! where the shadow ray's 1/distance² would make fireflies). Spheres and the environment
+//! have no light samples and always count in full. Diffuse and metal surfaces are two-sided (their normals are flipped towards the
 //! incoming ray, decided by the geometric normal); a scattered direction on the wrong side of
 //! the geometric surface (possible with shading normals) ends the path rather than leaking
 //! light through it.
 
 use glam::{Vec2, Vec3, Vec4};
-use raylume_bvh::{GpuBvh, Ray};
+use raylume_bvh::{GpuBvh, PRIM_TRIANGLE, Ray};
 
 use crate::gpu_types::{
-    DIM_SCATTER, GpuMaterial, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL, RayState, T_MAX,
+    DIM_LIGHT, DIM_SCATTER, GpuMaterial, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_GLASS,
+    MATERIAL_METAL, RAY_ALIVE, RayState, SHADOW_T_SCALE, T_MAX,
 };
+use crate::math::INV_PI;
 use crate::rng::rand4;
 use crate::sampling::{sample_diffuse, sample_glass, sample_metal};
 use crate::surface::{
@@ -31,6 +40,9 @@ pub struct PathState {
     pub throughput: Vec3,
     pub radiance: Vec3,
     pub alive: bool,
+    /// The BSDF pdf (solid angle) of the current direction when the vertex that sampled it
+    /// also sampled the lights; 0 when it did not (the emission it hits counts in full).
+    pub mis_pdf: f32,
 }
 
 impl PathState {
@@ -42,6 +54,7 @@ impl PathState {
             throughput: Vec3::ONE,
             radiance: Vec3::ZERO,
             alive: true,
+            mis_pdf: 0.0,
         }
     }
 
@@ -53,6 +66,11 @@ impl PathState {
             throughput: r.throughput.into(),
             radiance: r.radiance.into(),
             alive: r.alive != 0,
+            mis_pdf: if r.alive > RAY_ALIVE {
+                f32::from_bits(r.alive)
+            } else {
+                0.0
+            },
         }
     }
 
@@ -63,19 +81,31 @@ impl PathState {
         r.throughput = self.throughput.into();
         r.radiance = self.radiance.into();
         r.depth = depth;
-        r.alive = u32::from(self.alive);
+        r.alive = match (self.alive, self.mis_pdf > 0.0) {
+            (false, _) => 0,
+            (true, false) => RAY_ALIVE,
+            (true, true) => self.mis_pdf.to_bits(),
+        };
     }
 }
 
-/// Adds the surface's emission (times the throughput) to the path; then, unless this is the
-/// path's `last` segment, samples the material with the random numbers `rnd` and sets up the
-/// next ray, or ends the path when it is absorbed.
+/// Adds the surface's emission (times the throughput and `emission_weight`) to the path;
+/// then, unless this is the path's `last` segment, samples the material with the random
+/// numbers `rnd` and sets up the next ray, or ends the path when it is absorbed. Returns the
+/// pdf of a diffuse scattering direction (0 for other materials).
 #[inline]
-pub fn shade_hit(path: &mut PathState, hit: &SurfaceHit, mat: &GpuMaterial, rnd: Vec4, last: bool) {
-    path.radiance += path.throughput * Vec3::from(mat.emission);
+pub fn shade_hit(
+    path: &mut PathState,
+    hit: &SurfaceHit,
+    mat: &GpuMaterial,
+    rnd: Vec4,
+    last: bool,
+    emission_weight: f32,
+) -> f32 {
+    path.radiance += path.throughput * Vec3::from(mat.emission) * emission_weight;
     if last {
         path.alive = false;
-        return;
+        return 0.0;
     }
     let ng = hit.geometric_normal;
     let front = path.dir.dot(ng) < 0.0;
@@ -89,9 +119,11 @@ pub fn shade_hit(path: &mut PathState, hit: &SurfaceHit, mat: &GpuMaterial, rnd:
     let mut wi = path.dir;
     let mut weight = Vec3::ZERO;
     let mut reflected = true;
+    let mut pdf = 0.0;
     if mat.kind == MATERIAL_DIFFUSE {
         wi = sample_diffuse(ns_facing, Vec2::new(rnd.x, rnd.y));
         weight = color;
+        pdf = wi.dot(ns_facing).max(0.0) * INV_PI;
     } else if mat.kind == MATERIAL_METAL {
         let s = sample_metal(path.dir, ns_facing, mat.alpha, Vec2::new(rnd.x, rnd.y));
         wi = s.dir;
@@ -115,6 +147,7 @@ pub fn shade_hit(path: &mut PathState, hit: &SurfaceHit, mat: &GpuMaterial, rnd:
         if cos_g > 0.0 { ng_facing } else { -ng_facing },
     );
     path.dir = wi;
+    pdf
 }
 
 /// Traces the path's current ray (its segment number `depth`, 0 for the camera ray): adds
@@ -139,8 +172,116 @@ pub fn trace_ray(
     };
     let surface = surface_at(g, &hit, path.origin, path.dir);
     let mat = material_at(g, &surface);
+    let last = depth >= g.scene.max_bounces;
+    // An emissive triangle hit by a direction sampled where the lights were sampled too: the
+    // shadow ray there could have found this point; weigh the two estimates.
+    let prim = g.primitives[hit.prim as usize];
+    let emission_weight = if path.mis_pdf > 0.0 && prim.kind() == PRIM_TRIANGLE {
+        let [a, b, c] = [prim.a, prim.b, prim.c].map(|v| Vec3::new(v[0], v[1], v[2]));
+        let n = (b - a).cross(c - a);
+        let cos_l = n.dot(path.dir).abs() / n.length();
+        mis_weight(
+            path.mis_pdf,
+            light_pdf(g, Vec3::from(mat.emission), hit.t * hit.t, cos_l),
+        )
+    } else {
+        1.0
+    };
+    let sample_here = g.scene.light_count > 0 && mat.kind == MATERIAL_DIFFUSE && !last;
+    if sample_here {
+        let rnd = rand4(g.scene.seed, pixel, sample, depth, DIM_LIGHT);
+        path.radiance += path.throughput * sample_lights(g, bvh, &surface, &mat, path.dir, rnd);
+    }
     let rnd = rand4(g.scene.seed, pixel, sample, depth, DIM_SCATTER);
-    shade_hit(path, &surface, &mat, rnd, depth >= g.scene.max_bounces);
+    let pdf = shade_hit(path, &surface, &mat, rnd, last, emission_weight);
+    path.mis_pdf = if sample_here { pdf } else { 0.0 };
+}
+
+/// The solid-angle pdf with which [`sample_lights`] picks a direction toward a point of a light
+/// emitting `emission`, `dist2` away, seen at `cos_l` to its normal: its selection probability
+/// (area times luminance over the list's total) over its area, converted to solid angle. The
+/// area cancels.
+#[inline]
+pub fn light_pdf(g: &Globals, emission: Vec3, dist2: f32, cos_l: f32) -> f32 {
+    emission.dot(Vec3::from(LUMINANCE)) * dist2 / (g.scene.light_power * cos_l)
+}
+
+/// Veach's power heuristic: the weight of a sample drawn with pdf `a` when pdf `b` could have
+/// drawn it too.
+#[inline]
+pub fn mis_weight(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
+}
+
+/// Next-event estimation at a diffuse hit reached along `dir_in`: the light of the list
+/// chosen by `rnd.x` (with probability `cdf - previous cdf`), a uniform point on it from
+/// `rnd.y, rnd.z`, and a shadow ray to it; returns the reflected radiance it carries
+/// (`albedo / π · cos θ_surface · L_e · cos θ_light · area / (distance² · p_select)`), zero
+/// when the point is behind the surface (geometric or shading normal) or occluded; times
+/// its multiple-importance weight against diffuse scattering.
+#[inline]
+pub fn sample_lights(
+    g: &Globals,
+    bvh: &GpuBvh,
+    hit: &SurfaceHit,
+    mat: &GpuMaterial,
+    dir_in: Vec3,
+    rnd: Vec4,
+) -> Vec3 {
+    // The first light whose running probability exceeds rnd.x.
+    let mut lo = 0u32;
+    let mut hi = g.scene.light_count - 1;
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if g.lights[mid as usize].cdf > rnd.x {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    let light = g.lights[lo as usize];
+    let before = if lo > 0 {
+        g.lights[lo as usize - 1].cdf
+    } else {
+        0.0
+    };
+    let p_select = light.cdf - before;
+    // Uniform on the triangle (the square-root parameterisation).
+    let su = rnd.y.sqrt();
+    let (e1, e2) = (Vec3::from(light.e1), Vec3::from(light.e2));
+    let point = Vec3::from(light.p0) + e1 * (su * (1.0 - rnd.z)) + e2 * (su * rnd.z);
+    let ng = hit.geometric_normal;
+    let front = dir_in.dot(ng) < 0.0;
+    let ng_facing = if front { ng } else { -ng };
+    let ns_facing = if front {
+        hit.shading_normal
+    } else {
+        -hit.shading_normal
+    };
+    let origin = offset_ray_origin(hit, dir_in, ng_facing);
+    let to = point - origin;
+    let dist2 = to.length_squared();
+    let nl = e1.cross(e2);
+    if !(p_select > 0.0 && dist2 > 0.0) {
+        return Vec3::ZERO;
+    }
+    let dist = dist2.sqrt();
+    let wi = to / dist;
+    let cos_s = ns_facing.dot(wi);
+    let cos_l = nl.dot(wi).abs() / nl.length();
+    if !(cos_s > 0.0 && ng_facing.dot(wi) > 0.0 && cos_l > 0.0) {
+        return Vec3::ZERO;
+    }
+    let shadow = Ray { origin, dir: wi };
+    if bvh.trace_any(&shadow, 0.0, dist * SHADOW_T_SCALE) {
+        return Vec3::ZERO;
+    }
+    let emission = Vec3::from(light.emission);
+    let w = mis_weight(light_pdf(g, emission, dist2, cos_l), cos_s * INV_PI);
+    Vec3::from(mat.color)
+        * emission
+        * (INV_PI * cos_s * cos_l * light.area / (dist2 * p_select) * w)
 }
 
 /// The WGSL source of the functions above.

@@ -6,15 +6,18 @@ struct PathState {
     throughput: vec3<f32>,
     radiance: vec3<f32>,
     alive: bool,
+    // The BSDF pdf of the current direction when the vertex that sampled it also sampled the
+    // lights; 0 when it did not (shade.rs `PathState::mis_pdf`).
+    mis_pdf: f32,
 }
 
-fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, rnd: vec4<f32>, last: bool) {
+fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, rnd: vec4<f32>, last: bool, emission_weight: f32) -> f32 {
     if (HAS_EMISSION) {
-        (*path).radiance += (*path).throughput * mat.emission;
+        (*path).radiance += (*path).throughput * mat.emission * emission_weight;
     }
     if (last) {
         (*path).alive = false;
-        return;
+        return 0.0;
     }
     let ng = hit.geometric_normal;
     let front = dot((*path).dir, ng) < 0.0;
@@ -23,9 +26,11 @@ fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, 
     var wi = (*path).dir;
     var weight = vec3<f32>(0.0);
     var reflected = true;
+    var pdf = 0.0;
     if (HAS_DIFFUSE && mat.kind == MATERIAL_DIFFUSE) {
         wi = sample_diffuse(ns_facing, rnd.xy);
         weight = mat.color;
+        pdf = max(dot(wi, ns_facing), 0.0) * INV_PI;
     } else if ((HAS_METAL || HAS_ROUGH_METAL) && mat.kind == MATERIAL_METAL) {
         var alpha = mat.alpha;
         if (!HAS_ROUGH_METAL) {
@@ -48,6 +53,7 @@ fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, 
     (*path).alive = right_side && max(t.x, max(t.y, t.z)) > 0.0;
     (*path).origin = offset_ray_origin(hit, (*path).dir, select(-ng_facing, ng_facing, cos_g > 0.0));
     (*path).dir = wi;
+    return pdf;
 }
 
 fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32) {
@@ -59,6 +65,84 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     }
     let surface = surface_at(hit, (*path).origin, (*path).dir);
     let mat = material_at(surface);
+    let last = depth >= scene.max_bounces;
+    // An emissive triangle hit by a direction sampled where the lights were sampled too:
+    // weigh the scattered ray's estimate against the shadow ray's (shade.rs).
+    var emission_weight = 1.0;
+    var sample_here = false;
+    if (HAS_EMISSION && HAS_DIFFUSE) {
+        let prim = bvh_primitives[hit.prim];
+        if ((*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_TRIANGLE) {
+            let n = cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz);
+            let cos_l = abs(dot(n, (*path).dir)) / length(n);
+            emission_weight = mis_weight((*path).mis_pdf, light_pdf(mat.emission, hit.t * hit.t, cos_l));
+        }
+        sample_here = scene.light_count > 0u && mat.kind == MATERIAL_DIFFUSE && !last;
+        if (sample_here) {
+            let rnd_light = rand4(scene.seed, pixel, sample, depth, DIM_LIGHT);
+            (*path).radiance += (*path).throughput * sample_lights(surface, mat, (*path).dir, rnd_light);
+        }
+    }
     let rnd = rand4(scene.seed, pixel, sample, depth, DIM_SCATTER);
-    shade_hit(path, surface, mat, rnd, depth >= scene.max_bounces);
+    let pdf = shade_hit(path, surface, mat, rnd, last, emission_weight);
+    (*path).mis_pdf = select(0.0, pdf, sample_here);
+}
+
+fn light_pdf(emission: vec3<f32>, dist2: f32, cos_l: f32) -> f32 {
+    return dot(emission, LUMINANCE) * dist2 / (scene.light_power * cos_l);
+}
+
+fn mis_weight(a: f32, b: f32) -> f32 {
+    let a2 = a * a;
+    let b2 = b * b;
+    if (a2 + b2 > 0.0) {
+        return a2 / (a2 + b2);
+    }
+    return 0.0;
+}
+
+// Next-event estimation at a diffuse hit (shade.rs `sample_lights`): a point on the light
+// chosen by rnd.x, a shadow ray to it, the reflected radiance it carries.
+fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4<f32>) -> vec3<f32> {
+    var lo = 0u;
+    var hi = scene.light_count - 1u;
+    while (lo < hi) {
+        let mid = (lo + hi) / 2u;
+        if (lights[mid].cdf > rnd.x) {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    let light = lights[lo];
+    var before = 0.0;
+    if (lo > 0u) {
+        before = lights[lo - 1u].cdf;
+    }
+    let p_select = light.cdf - before;
+    let su = sqrt(rnd.y);
+    let point = light.p0 + light.e1 * (su * (1.0 - rnd.z)) + light.e2 * (su * rnd.z);
+    let ng = hit.geometric_normal;
+    let front = dot(dir_in, ng) < 0.0;
+    let ng_facing = select(-ng, ng, front);
+    let ns_facing = select(-hit.shading_normal, hit.shading_normal, front);
+    let origin = offset_ray_origin(hit, dir_in, ng_facing);
+    let to = point - origin;
+    let dist2 = dot(to, to);
+    let nl = cross(light.e1, light.e2);
+    if (!(p_select > 0.0 && dist2 > 0.0)) {
+        return vec3<f32>(0.0);
+    }
+    let dist = sqrt(dist2);
+    let wi = to / dist;
+    let cos_s = dot(ns_facing, wi);
+    let cos_l = abs(dot(nl, wi)) / length(nl);
+    if (!(cos_s > 0.0 && dot(ng_facing, wi) > 0.0 && cos_l > 0.0)) {
+        return vec3<f32>(0.0);
+    }
+    if (trace_any(Ray(origin, wi), 0.0, dist * SHADOW_T_SCALE)) {
+        return vec3<f32>(0.0);
+    }
+    let w = mis_weight(light_pdf(light.emission, dist2, cos_l), cos_s * INV_PI);
+    return mat.color * light.emission * (INV_PI * cos_s * cos_l * light.area / (dist2 * p_select) * w);
 }

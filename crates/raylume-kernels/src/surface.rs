@@ -24,7 +24,7 @@ use glam::{Vec2, Vec3};
 use raylume_bvh::{Hit, PRIM_SPHERE, Primitive};
 
 use crate::gpu_types::{
-    ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuMaterial, MATERIAL_GLASS, NO_TEXTURE,
+    ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuMaterial, LightTriangle, MATERIAL_GLASS, NO_TEXTURE,
     SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms, TextureHeader, TriangleShading,
 };
 use crate::math::{INV_2PI, INV_PI, acos_poly, atan2_poly, normalize};
@@ -40,6 +40,8 @@ pub struct Globals<'a> {
     pub triangle_shading: &'a [TriangleShading],
     pub texture_headers: &'a [TextureHeader],
     pub texels: &'a [f32],
+    /// The light list (next-event estimation reads the first `scene.light_count`).
+    pub lights: &'a [LightTriangle],
 }
 
 /// The surface a ray hit.
@@ -415,6 +417,7 @@ mod tests {
                 triangle_shading: &[],
                 texture_headers: &[],
                 texels: &[],
+                lights: &[],
             };
             // A ray from outside at a random point of the primitive.
             let (a, b, c) = (
@@ -505,6 +508,7 @@ mod tests {
                 triangle_shading: &[],
                 texture_headers: &[],
                 texels: &[],
+                lights: &[],
             };
             let closest = |ray: &Ray| {
                 let sr = shear_ray(ray);

@@ -3,21 +3,40 @@
 
 mod support;
 
-use raylume_kernels::{CpuTracer, GpuTracer, Schedule, TraceSettings};
+use raylume_kernels::{CpuTracer, Estimator, GpuTracer, Schedule, TraceSettings};
 use support::*;
 
 fn compare(name: &str, scene: &raylume_scene::Scene, w: u32, h: u32, spp: u32, bounces: u32) {
+    compare_with(
+        name,
+        scene,
+        [w, h, spp, bounces],
+        Schedule::Megakernel,
+        Estimator::Plain,
+    );
+}
+
+fn compare_with(
+    name: &str,
+    scene: &raylume_scene::Scene,
+    [w, h, spp, bounces]: [u32; 4],
+    schedule: Schedule,
+    estimator: Estimator,
+) {
     let Some(ctx) = raylume_gpu::testing::context_or_skip(name) else {
         return;
     };
-    let s = settings(w, h, spp, bounces, Schedule::Megakernel);
+    let s = settings(w, h, spp, bounces, schedule);
     let bvh = bvh(scene);
-    let cpu_tracer = CpuTracer::new(scene, &bvh).unwrap();
-    let cpu = CpuTracer::new(scene, &bvh)
-        .unwrap()
-        .render(&s, &mut |_, _| {})
-        .unwrap();
+    let cpu_with = || {
+        let mut t = CpuTracer::new(scene, &bvh).unwrap();
+        t.set_estimator(estimator);
+        t
+    };
+    let cpu_tracer = cpu_with();
+    let cpu = cpu_with().render(&s, &mut |_, _| {}).unwrap();
     let mut gpu_tracer = GpuTracer::new(ctx, scene, &bvh).unwrap();
+    gpu_tracer.set_estimator(estimator);
     let gpu = gpu_tracer.render(&s, &mut |_, _| {}).unwrap();
     let (batch, samples) = gpu_tracer.last_batch_samples().unwrap().unwrap();
     assert_eq!(batch.rays(), w * h * spp, "one batch holds every sample");
@@ -38,8 +57,7 @@ fn compare(name: &str, scene: &raylume_scene::Scene, w: u32, h: u32, spp: u32, b
     }
     let e = relative_rmse(&gpu.radiance, &cpu.radiance);
     // The noise scale: two CPU renders that differ only in their seed.
-    let other_seed = CpuTracer::new(scene, &bvh)
-        .unwrap()
+    let other_seed = cpu_with()
         .render(
             &TraceSettings {
                 seed: s.seed + 1,
@@ -105,4 +123,20 @@ fn environment_lit_matches_cpu() {
         4,
         6,
     );
+}
+
+/// Next-event estimation: the same shadow rays and light choices on both backends, in both
+/// schedules (the wavefront carries "the last hit sampled the lights" between launches in
+/// its ray states).
+#[test]
+fn cornell_box_with_next_event_estimation_matches_cpu() {
+    for schedule in [Schedule::Megakernel, Schedule::Wavefront] {
+        compare_with(
+            "cornell_box_with_next_event_estimation_matches_cpu",
+            &cornell_box(),
+            [32, 32, 4, 4],
+            schedule,
+            Estimator::Nee,
+        );
+    }
 }

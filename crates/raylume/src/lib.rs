@@ -36,5 +36,5 @@ pub use stats::{DepthSeconds, RenderStats, StageSeconds};
 pub use tracer::{Backend, Progress, Render, ReorderPolicy, Tracer};
 
 pub use raylume_bvh::BvhQuality;
-pub use raylume_kernels::{BatchPlan, Reorder, ReorderMode, Schedule};
+pub use raylume_kernels::{BatchPlan, Estimator, Reorder, ReorderMode, Schedule};
 pub use raylume_scene::{Feature, Features, RenderSettings, Scene};

@@ -47,6 +47,8 @@ pub struct RenderStats {
     /// `megakernel` or `wavefront` (`megakernel + wavefront (auto trials)` when
     /// `--reorder auto` measured both in this render).
     pub schedule: String,
+    /// `plain` (the paper's estimator) or `nee` (next-event estimation with MIS).
+    pub estimator: String,
     /// The reorder policy and what it ran: `off`, `on: wavefront, sort-index before depths
     /// 1..=10`, `auto: <the plan> (fastest measured per N-ray batch: ...)`, `auto: still
     /// measuring (...)`, or why it did not run (the CPU backend).

@@ -7,8 +7,8 @@ use std::time::Instant;
 use raylume_bvh::{BvhQuality, GpuBvh};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, GpuError};
 use raylume_kernels::{
-    BatchPlan, CpuTracer, GpuTracer, GpuWorkspace, Reorder, ReorderMode, Schedule, TraceSettings,
-    TraceStats,
+    BatchPlan, CpuTracer, Estimator, GpuTracer, GpuWorkspace, Reorder, ReorderMode, Schedule,
+    TraceSettings, TraceStats,
 };
 use raylume_scene::Scene;
 
@@ -136,6 +136,10 @@ pub struct Tracer {
     /// paper's whole key; 16 takes half the radix passes). See [`Reorder::key_bits`].
     pub reorder_key_bits: u32,
     pub schedule: Schedule,
+    /// The estimator: the paper's plain one (default), or next-event estimation with multiple
+    /// importance sampling (far less noise per sample where emissive triangles light the
+    /// scene; each diffuse hit also casts a shadow ray). The same on both backends.
+    pub estimator: Estimator,
     pub bvh_quality: BvhQuality,
     /// Run the scene's bloom, if it has one (`--no-bloom` clears this).
     pub bloom: bool,
@@ -214,6 +218,7 @@ impl std::fmt::Debug for Tracer {
             .field("reorder_mode", &self.reorder_mode)
             .field("reorder_key_bits", &self.reorder_key_bits)
             .field("schedule", &self.schedule)
+            .field("estimator", &self.estimator)
             .field("bloom", &self.bloom)
             .finish()
     }
@@ -232,6 +237,7 @@ impl Tracer {
             reorder_mode: ReorderMode::SortIndex,
             reorder_key_bits: raylume_sort::RAY_KEY_BITS,
             schedule: Schedule::default(),
+            estimator: Estimator::default(),
             bvh_quality: BvhQuality::default(),
             bloom: true,
             tone: raylume_post::ToneMap::default(),
@@ -288,7 +294,12 @@ impl Tracer {
         fingerprint(
             scene,
             &self.trace_settings(scene),
-            &format!("{:?} {}", self.bvh_quality, self.reorder_key_bits),
+            &format!(
+                "{:?} {} {}",
+                self.bvh_quality,
+                self.reorder_key_bits,
+                self.estimator.name()
+            ),
         )
     }
 
@@ -427,6 +438,7 @@ impl Tracer {
             spheres: scene.spheres.len(),
             features: scene.features().names(),
             schedule: settings.schedule.name().into(),
+            estimator: self.estimator.name().into(),
             reorder,
             ..Default::default()
         };
@@ -472,7 +484,15 @@ impl Tracer {
             )
         } else {
             stats.adapter = format!("CPU, {} threads", rayon::current_num_threads());
-            Self::trace_cpu(scene, &bvh, &settings, bloom, &mut stats, &mut report)
+            Self::trace_cpu(
+                scene,
+                &bvh,
+                &settings,
+                self.estimator,
+                bloom,
+                &mut stats,
+                &mut report,
+            )
         };
         self.progress = progress;
         self.bvh_cache = Some(BvhCacheEntry { key, bvh });
@@ -513,6 +533,7 @@ impl Tracer {
         stats.adapter = ctx.describe();
         let t = Instant::now();
         let mut tracer = GpuTracer::new(ctx, scene, bvh)?;
+        tracer.set_estimator(self.estimator);
         if let Some(workspace) = self.gpu_workspace.take() {
             tracer.use_workspace(workspace);
         }
@@ -589,15 +610,19 @@ impl Tracer {
     }
 
     /// Traces on the CPU and runs bloom there.
+    #[allow(clippy::too_many_arguments)]
     fn trace_cpu(
         scene: &Scene,
         bvh: &GpuBvh,
         settings: &TraceSettings,
+        estimator: Estimator,
         bloom: Option<raylume_post::BloomParams>,
         stats: &mut RenderStats,
         report: &mut dyn FnMut(u32, u32),
     ) -> Result<Vec<[f32; 3]>, Error> {
-        let out = CpuTracer::new(scene, bvh)?.render(settings, report)?;
+        let mut tracer = CpuTracer::new(scene, bvh)?;
+        tracer.set_estimator(estimator);
+        let out = tracer.render(settings, report)?;
         stats.take_trace(out.rays_traced, out.dropped_samples, &out.timings);
         let mut pixels = out.radiance;
         let t = Instant::now();

@@ -28,6 +28,11 @@ pub struct CpuTracer {
 }
 
 impl CpuTracer {
+    /// The estimator of the next renders (default: the paper's plain one).
+    pub fn set_estimator(&mut self, estimator: crate::Estimator) {
+        self.data.estimator = estimator;
+    }
+
     /// Flattens `scene` for the primitives of `bvh` (built from this scene).
     pub fn new(scene: &Scene, bvh: &GpuBvh) -> Result<Self, KernelError> {
         let t = Instant::now();
@@ -48,6 +53,7 @@ impl CpuTracer {
             triangle_shading: &self.data.triangle_shading,
             texture_headers: &self.data.texture_headers,
             texels: &self.data.texels,
+            lights: &self.data.lights,
         }
     }
 

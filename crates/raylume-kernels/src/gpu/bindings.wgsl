@@ -12,6 +12,9 @@
 @group(0) @binding(5) var<storage, read> triangle_shading: array<TriangleShading>;
 @group(0) @binding(6) var<storage, read> texture_headers: array<TextureHeader>;
 @group(0) @binding(7) var<storage, read> texels: array<f32>;
+// Emissive triangles for next-event estimation: the first `scene.light_count` (at least one
+// entry, a placeholder when there is none).
+@group(0) @binding(8) var<storage, read> lights: array<LightTriangle>;
 
 @group(1) @binding(0) var<storage, read_write> ray_states: array<RayState>;
 // Each sample's radiance, RGB triples, slot = sample_in_batch * pixel_count + pixel_in_batch.

@@ -24,7 +24,7 @@ use raylume_scene::{Feature, Features, Scene};
 use raylume_sort::RadixSorter;
 
 use crate::batches::Batch;
-use crate::gpu_types::{GpuMaterial, SceneUniforms, TextureHeader, TriangleShading};
+use crate::gpu_types::{GpuMaterial, LightTriangle, SceneUniforms, TextureHeader, TriangleShading};
 use crate::scene_data::SceneData;
 use crate::{KernelError, TraceOutput, TraceSettings};
 use layout::{bind_group_layouts, upload};
@@ -176,6 +176,7 @@ impl<'a> GpuTracer<'a> {
         let shading = upload::<TriangleShading>(ctx, "triangle shading data", shading)?;
         let headers = upload::<TextureHeader>(ctx, "texture headers", &data.texture_headers)?;
         let texels = upload::<f32>(ctx, "texture and environment-map data", &data.texels)?;
+        let lights = upload::<LightTriangle>(ctx, "light list", &data.lights)?;
 
         let [scene_layout, work_layout, args_layout, permute_group_layout] =
             bind_group_layouts(device);
@@ -216,6 +217,10 @@ impl<'a> GpuTracer<'a> {
                         wgpu::BindGroupEntry {
                             binding: 7,
                             resource: texels.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 8,
+                            resource: lights.as_entire_binding(),
                         },
                     ],
                 });
@@ -292,6 +297,11 @@ impl<'a> GpuTracer<'a> {
     /// exceeds the cap. The image does not depend on it.
     pub fn set_batch_ray_limit(&mut self, limit: Option<u64>) {
         self.batch_ray_limit = limit;
+    }
+
+    /// The estimator of the next renders (default: the paper's plain one).
+    pub fn set_estimator(&mut self, estimator: crate::Estimator) {
+        self.data.estimator = estimator;
     }
 
     /// The features the pipelines are specialised on.

@@ -20,7 +20,7 @@ fn raygen(
     }
     let ps = batch_ray(r);
     let path = camera_path(ps.x, ps.y);
-    ray_states[r] = RayState(path.origin, ps.x, path.dir, ps.y, path.throughput, 0u, path.radiance, 1u);
+    ray_states[r] = RayState(path.origin, ps.x, path.dir, ps.y, path.throughput, 0u, path.radiance, RAY_ALIVE);
     ray_queue_in[r] = r;
     if (r == 0u) {
         atomicStore(&queue_counts[0], scene.rays_in_batch);
@@ -60,7 +60,7 @@ fn propagate(
     if (t < n) {
         r = ray_queue_in[t];
         var ray = ray_states[r];
-        var path = PathState(ray.origin, ray.dir, ray.throughput, ray.radiance, true);
+        var path = PathState(ray.origin, ray.dir, ray.throughput, ray.radiance, true, select(0.0, bitcast<f32>(ray.alive), ray.alive > RAY_ALIVE));
         trace_ray(&path, ray.pixel, ray.sample, bounce.depth);
         traced = 1u;
         live = path.alive;
@@ -69,7 +69,7 @@ fn propagate(
         ray.throughput = path.throughput;
         ray.radiance = path.radiance;
         ray.depth = bounce.depth + 1u;
-        ray.alive = select(0u, 1u, live);
+        ray.alive = select(0u, select(RAY_ALIVE, bitcast<u32>(path.mis_pdf), path.mis_pdf > 0.0), live);
         ray_states[r] = ray;
         if (live) {
             // SORT KEY (raylume-sort's MORTON_WGSL): the paper's 30-bit origin-direction key.
