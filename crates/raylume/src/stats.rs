@@ -53,7 +53,8 @@ pub struct RenderStats {
     /// 1..=10`, `auto: <the plan> (fastest measured per N-ray batch: ...)`, `auto: still
     /// measuring (...)`, or why it did not run (the CPU backend).
     pub reorder: String,
-    /// Rays cast (every closest-hit traversal, camera rays included).
+    /// Rays cast (every closest-hit traversal, camera rays included; next-event estimation's
+    /// shadow rays are not counted).
     pub rays_traced: u64,
     /// Samples dropped because their radiance was not finite, or so large that summing them
     /// could overflow (`raylume_kernels::math::MAX_SAMPLE_RADIANCE`).
