@@ -70,7 +70,7 @@ struct Args {
     #[arg(long)]
     batch_spp: Option<u32>,
     /// Estimator: plain (the paper's) or nee (next-event estimation with MIS).
-    #[arg(long, default_value = "plain", value_parser = parse_estimator)]
+    #[arg(long, default_value = "plain")]
     estimator: raylume::Estimator,
     /// Best of at least this many runs per cell (see --min-seconds).
     #[arg(long, default_value_t = 3)]
@@ -218,14 +218,6 @@ fn stem(path: &std::path::Path) -> String {
 
 /// The most rounds of renders a cell runs to reach `--min-seconds`.
 const MAX_ROUNDS: u32 = 30;
-
-fn parse_estimator(s: &str) -> Result<raylume::Estimator, String> {
-    match s {
-        "plain" => Ok(raylume::Estimator::Plain),
-        "nee" => Ok(raylume::Estimator::Nee),
-        _ => Err(format!("unknown estimator `{s}`: use plain or nee")),
-    }
-}
 
 /// Sets the tracer up to run `config`.
 fn apply(tracer: &mut Tracer, config: &Config) {

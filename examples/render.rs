@@ -53,7 +53,7 @@ struct Args {
     /// Estimator: plain (the paper's) or nee (next-event estimation with multiple importance
     /// sampling: a shadow ray to an emissive triangle at every diffuse hit; far less noise
     /// per sample under small lights).
-    #[arg(long, value_parser = parse_estimator, default_value = "plain")]
+    #[arg(long, default_value = "plain")]
     estimator: Estimator,
     /// Skip the scene's bloom pass.
     #[arg(long)]
@@ -95,14 +95,6 @@ fn parse_exposure(s: &str) -> Result<f32, String> {
         return Err(format!("exposure {s} stops: use a value from -64 to 64"));
     }
     Ok(stops)
-}
-
-fn parse_estimator(s: &str) -> Result<Estimator, String> {
-    match s {
-        "plain" => Ok(Estimator::Plain),
-        "nee" => Ok(Estimator::Nee),
-        _ => Err(format!("unknown estimator `{s}`: use plain or nee")),
-    }
 }
 
 fn parse_schedule(s: &str) -> Result<Schedule, String> {

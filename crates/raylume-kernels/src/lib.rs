@@ -121,6 +121,19 @@ impl Estimator {
     }
 }
 
+impl std::str::FromStr for Estimator {
+    type Err = String;
+
+    /// `plain` or `nee`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "plain" => Ok(Estimator::Plain),
+            "nee" => Ok(Estimator::Nee),
+            _ => Err(format!("unknown estimator `{s}`: use plain or nee")),
+        }
+    }
+}
+
 /// How the GPU (and the CPU mirror) organises the work of a batch.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Schedule {

@@ -323,6 +323,7 @@ fn absurd_flags() {
         ("valid.toml", &["--exposure", "nan"], &["exposure nan stops"]),
         ("valid.toml", &["--exposure", "1e30"], &["exposure 1e30 stops"]),
         ("valid.toml", &["--schedule", "sideways"], &["unknown schedule `sideways`"]),
+        ("valid.toml", &["--estimator", "guess"], &["unknown estimator `guess`"]),
         ("missing-scene.toml", &[], &["missing-scene.toml", "file not found"]),
         ("valid.stl", &[], &["valid.stl", "unsupported file extension"]),
         ("generated", &[], &["generated", "unsupported file extension"]),
