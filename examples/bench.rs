@@ -64,7 +64,7 @@ struct Args {
     #[arg(long, default_value = "30", value_delimiter = ',')]
     reorder_bits: Vec<u32>,
     /// Comma-separated schedules `off` is timed with (megakernel, wavefront).
-    #[arg(long, default_value = "megakernel", value_delimiter = ',', value_parser = parse_schedule)]
+    #[arg(long, default_value = "megakernel", value_delimiter = ',')]
     schedule: Vec<Schedule>,
     /// Samples per pixel per batch.
     #[arg(long)]
@@ -97,16 +97,6 @@ fn parse_mode(s: &str) -> Result<ReorderMode, String> {
         "index" | "sort-index" => Ok(ReorderMode::SortIndex),
         "permute" | "sort-permute" => Ok(ReorderMode::SortPermute),
         _ => Err(format!("unknown reorder mode `{s}`: use index or permute")),
-    }
-}
-
-fn parse_schedule(s: &str) -> Result<Schedule, String> {
-    match s {
-        "megakernel" => Ok(Schedule::Megakernel),
-        "wavefront" => Ok(Schedule::Wavefront),
-        _ => Err(format!(
-            "unknown schedule `{s}`: use megakernel or wavefront"
-        )),
     }
 }
 

@@ -48,7 +48,7 @@ struct Args {
     #[arg(long, default_value = "off")]
     reorder: ReorderPolicy,
     /// GPU schedule: megakernel (bounces in registers) or wavefront (the paper's kernels).
-    #[arg(long, value_parser = parse_schedule)]
+    #[arg(long)]
     schedule: Option<Schedule>,
     /// Estimator: plain (the paper's) or nee (next-event estimation with multiple importance
     /// sampling: a shadow ray to an emissive triangle at every diffuse hit; far less noise
@@ -95,16 +95,6 @@ fn parse_exposure(s: &str) -> Result<f32, String> {
         return Err(format!("exposure {s} stops: use a value from -64 to 64"));
     }
     Ok(stops)
-}
-
-fn parse_schedule(s: &str) -> Result<Schedule, String> {
-    match s {
-        "megakernel" => Ok(Schedule::Megakernel),
-        "wavefront" => Ok(Schedule::Wavefront),
-        _ => Err(format!(
-            "unknown schedule `{s}`: use megakernel or wavefront"
-        )),
-    }
 }
 
 /// Fails early, before any rendering, if an output path cannot be written.

@@ -2,6 +2,8 @@
 //! 20), fewer when the per-ray buffers would not fit one storage binding, and a range of the
 //! pixels at a time when even one sample of every pixel does not fit.
 
+use crate::gpu_types::SceneUniforms;
+
 /// One batch: samples `sample_begin .. sample_begin + sample_count` of pixels
 /// `pixel_begin .. pixel_begin + pixel_count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -18,6 +20,33 @@ impl Batch {
     /// Rays (pixel samples) in the batch.
     pub fn rays(&self) -> u32 {
         self.pixel_count * self.sample_count
+    }
+
+    /// The render's uniforms `base` with this batch's fields filled in: batch `index` of a
+    /// render of `spp` samples per pixel, its ray queues `queue_capacity` long. The GPU
+    /// writes exactly these before each batch; the CPU mirror computes with them.
+    pub fn uniforms(
+        &self,
+        base: &SceneUniforms,
+        index: u32,
+        spp: u32,
+        queue_capacity: u32,
+    ) -> SceneUniforms {
+        SceneUniforms {
+            sample_begin: self.sample_begin,
+            sample_count: self.sample_count,
+            pixel_begin: self.pixel_begin,
+            pixel_count: self.pixel_count,
+            batch_index: index,
+            resolve_scale: if self.last_for_pixels {
+                1.0 / spp as f32
+            } else {
+                1.0
+            },
+            rays_in_batch: self.rays(),
+            queue_capacity,
+            ..*base
+        }
     }
 }
 

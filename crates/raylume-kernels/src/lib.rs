@@ -154,6 +154,21 @@ impl Schedule {
     }
 }
 
+impl std::str::FromStr for Schedule {
+    type Err = String;
+
+    /// `megakernel` or `wavefront`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "megakernel" => Ok(Schedule::Megakernel),
+            "wavefront" => Ok(Schedule::Wavefront),
+            _ => Err(format!(
+                "unknown schedule `{s}`: use megakernel or wavefront"
+            )),
+        }
+    }
+}
+
 /// How the wavefront reorders rays before a bounce (GPU only; the CPU never sorts, as in the
 /// paper). After `propagate` the live rays of the next queue are sorted by their 30-bit
 /// origin-direction Morton key (raylume-sort's `ray_sort_key`, `RadixSorter`); then either

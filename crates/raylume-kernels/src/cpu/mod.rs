@@ -91,21 +91,7 @@ impl CpuTracer {
         let mut samples_done = 0u64;
         let start = Instant::now();
         for (bi, b) in batches.iter().enumerate() {
-            let scene = SceneUniforms {
-                sample_begin: b.sample_begin,
-                sample_count: b.sample_count,
-                pixel_begin: b.pixel_begin,
-                pixel_count: b.pixel_count,
-                batch_index: bi as u32,
-                resolve_scale: if b.last_for_pixels {
-                    1.0 / settings.spp as f32
-                } else {
-                    1.0
-                },
-                rays_in_batch: b.rays(),
-                queue_capacity: b.rays(),
-                ..base
-            };
+            let scene = b.uniforms(&base, bi as u32, settings.spp, b.rays());
             let g = self.globals(&scene);
             let bvh = &self.bvh;
             let n = b.rays() as usize;

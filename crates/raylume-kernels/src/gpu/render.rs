@@ -171,21 +171,7 @@ impl GpuTracer<'_> {
             let plan = policy.plan(bi, &batches);
             self.check_plan(&plan, settings, permute)?;
             let t_batch = Instant::now();
-            let u = SceneUniforms {
-                sample_begin: b.sample_begin,
-                sample_count: b.sample_count,
-                pixel_begin: b.pixel_begin,
-                pixel_count: b.pixel_count,
-                batch_index: bi as u32,
-                resolve_scale: if b.last_for_pixels {
-                    1.0 / settings.spp as f32
-                } else {
-                    1.0
-                },
-                rays_in_batch: b.rays(),
-                queue_capacity: capacity,
-                ..base
-            };
+            let u = b.uniforms(&base, bi as u32, settings.spp, capacity);
             ctx.queue
                 .write_buffer(&self.scene.uniforms, 0, bytemuck::bytes_of(&u));
             if plan.schedule == Schedule::Wavefront {
