@@ -10,6 +10,7 @@
 //! - [`tonemap`]: exposure, a curve ([`ToneCurve::Clamp`], [`ToneCurve::Reinhard`],
 //!   [`ToneCurve::Aces`]), the sRGB transfer function and rounding to `u8`.
 //! - [`metrics`]: RMSE, MAE, relative MSE and SSIM.
+//! - [`blocks`]: errors of block means ("95 % of 8x8 blocks within 3 %").
 //!
 //! **Image format.** Everywhere in this crate an image is `width * height` packed RGB f32
 //! triples, `[f32; 3]` per pixel (12 bytes), row-major: pixel `(x, y)` is element
@@ -35,6 +36,7 @@
 //! **Architecture invariant:** this crate knows nothing about scenes, rays or kernels; it takes
 //! plain parameters ([`BloomParams`], [`ToneMap`]) that the facade fills from the scene.
 
+pub mod blocks;
 pub mod bloom;
 mod bloom_gpu;
 mod error;
@@ -42,6 +44,7 @@ pub mod gpu_types;
 pub mod metrics;
 pub mod tonemap;
 
+pub use blocks::{BLOCK_FLOOR, BlockErrors, block_errors, block_means};
 pub use bloom::{BloomParams, bloom_cpu};
 pub use bloom_gpu::{BLOOM_STAGES, BLOOM_WGSL, GpuBloom, PIXEL_BYTES, bloom_gpu};
 pub use error::PostError;
