@@ -74,6 +74,7 @@
 //! camera on +z looking down -z at the bounding box (vfov 40 degrees, the bounding sphere
 //! fitting the view), a black environment, [`RenderSettings::default`].
 
+pub mod conductors;
 pub mod error;
 pub mod features;
 pub mod limits;
@@ -90,6 +91,7 @@ mod validate;
 
 use std::path::Path;
 
+pub use conductors::{CONDUCTORS, ConductorIor, conductor_ior, conductor_names};
 pub use error::{Location, SceneError};
 pub use features::{Feature, Features};
 pub use model::{
