@@ -21,7 +21,7 @@ use std::time::Duration;
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use raylume_bvh::{BvhQuality, GpuBvh, Ray};
-use raylume_scene::{Camera, Scene, Sphere, Triangle};
+use raylume_scene::{Camera, FovAxis, Scene, Sphere, Triangle};
 use rayon::prelude::*;
 
 const QUALITIES: [BvhQuality; 2] = [BvhQuality::Fast, BvhQuality::Quality];
@@ -65,7 +65,8 @@ fn scenes() -> Vec<BenchScene> {
                 position: Vec3::new(0.0, 0.5, 3.0),
                 look_at: Vec3::ZERO,
                 up: Vec3::Y,
-                vfov: 45.0,
+                fov: 45.0,
+                fov_axis: FovAxis::Vertical,
             },
         });
     }
@@ -77,7 +78,7 @@ fn camera_rays(c: &Camera) -> Vec<Ray> {
     let forward = (c.look_at - c.position).normalize();
     let right = forward.cross(c.up).normalize();
     let up = right.cross(forward);
-    let tan = (c.vfov.to_radians() / 2.0).tan();
+    let tan = (c.fov.to_radians() / 2.0).tan(); // square images: either axis
     let mut rays = Vec::with_capacity((IMAGE * IMAGE) as usize);
     for j in 0..IMAGE {
         for i in 0..IMAGE {

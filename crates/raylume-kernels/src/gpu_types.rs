@@ -18,6 +18,10 @@ pub const MATERIAL_METAL: u32 = 1;
 /// `GpuMaterial::kind`: smooth dielectric.
 pub const MATERIAL_GLASS: u32 = 2;
 
+/// `GpuMaterial::flags`: the material emits from both faces (else from the front face only,
+/// the side its geometric normal points to).
+pub const MATERIAL_TWO_SIDED: u32 = 1;
+
 /// `GpuMaterial::texture` when the material has no albedo texture.
 pub const NO_TEXTURE: u32 = u32::MAX;
 
@@ -133,7 +137,7 @@ pub struct GpuMaterial {
     pub color: [f32; 3],
     /// [`MATERIAL_DIFFUSE`], [`MATERIAL_METAL`] or [`MATERIAL_GLASS`].
     pub kind: u32,
-    /// Emitted radiance (two-sided), linear RGB.
+    /// Emitted radiance, linear RGB, from the front face (both with [`MATERIAL_TWO_SIDED`]).
     pub emission: [f32; 3],
     /// GGX alpha = roughness² (metal); 0 is a perfect mirror.
     pub alpha: f32,
@@ -141,7 +145,8 @@ pub struct GpuMaterial {
     pub ior: f32,
     /// Albedo texture index, or [`NO_TEXTURE`].
     pub texture: u32,
-    pub _pad0: u32,
+    /// [`MATERIAL_TWO_SIDED`] or 0.
+    pub flags: u32,
     pub _pad1: u32,
 }
 
@@ -192,7 +197,8 @@ pub struct LightTriangle {
     pub e1: [f32; 3],
     pub area: f32,
     pub e2: [f32; 3],
-    pub _pad0: u32,
+    /// 1 when the triangle emits from both faces; 0: only toward `e1 x e2`.
+    pub two_sided: u32,
     pub emission: [f32; 3],
     pub _pad1: u32,
 }
@@ -250,6 +256,7 @@ const _: () = assert!(offset_of!(SceneUniforms, light_power) == 172);
 const _: () = assert!(size_of::<GpuMaterial>() == 48);
 const _: () = assert!(offset_of!(GpuMaterial, emission) == 16);
 const _: () = assert!(offset_of!(GpuMaterial, ior) == 32);
+const _: () = assert!(offset_of!(GpuMaterial, flags) == 40);
 const _: () = assert!(size_of::<TriangleShading>() == 64);
 const _: () = assert!(offset_of!(TriangleShading, n1) == 16);
 const _: () = assert!(offset_of!(TriangleShading, v1) == 48);
@@ -258,6 +265,7 @@ const _: () = assert!(size_of::<TextureHeader>() == 16);
 const _: () = assert!(size_of::<LightTriangle>() == 64);
 const _: () = assert!(offset_of!(LightTriangle, e1) == 16);
 const _: () = assert!(offset_of!(LightTriangle, e2) == 32);
+const _: () = assert!(offset_of!(LightTriangle, two_sided) == 44);
 const _: () = assert!(offset_of!(LightTriangle, emission) == 48);
 const _: () = assert!(size_of::<RayState>() == 64);
 const _: () = assert!(offset_of!(RayState, dir) == 16);
@@ -272,6 +280,7 @@ pub fn wgsl_constants() -> String {
     s += &u("MATERIAL_DIFFUSE", MATERIAL_DIFFUSE);
     s += &u("MATERIAL_METAL", MATERIAL_METAL);
     s += &u("MATERIAL_GLASS", MATERIAL_GLASS);
+    s += &u("MATERIAL_TWO_SIDED", MATERIAL_TWO_SIDED);
     s += &u("NO_TEXTURE", NO_TEXTURE);
     s += &u("ENVIRONMENT_BLACK", ENVIRONMENT_BLACK);
     s += &u("ENVIRONMENT_CONSTANT", ENVIRONMENT_CONSTANT);

@@ -41,7 +41,7 @@ struct GpuMaterial {
     alpha: f32,
     ior: f32,
     texture: u32,
-    _pad0: u32,
+    flags: u32,
     _pad1: u32,
 }
 
@@ -71,7 +71,7 @@ struct LightTriangle {
     e1: vec3<f32>,
     area: f32,
     e2: vec3<f32>,
-    _pad0: u32,
+    two_sided: u32,
     emission: vec3<f32>,
     _pad1: u32,
 }

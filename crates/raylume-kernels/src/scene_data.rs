@@ -14,8 +14,8 @@ use crate::camera::camera_basis;
 use crate::gpu_types::LUMINANCE;
 use crate::gpu_types::{
     ENVIRONMENT_BLACK, ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuMaterial, LightTriangle,
-    MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL, NO_TEXTURE, SHADING_HAS_NORMALS,
-    SHADING_HAS_UVS, SceneUniforms, TextureHeader, TriangleShading,
+    MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL, MATERIAL_TWO_SIDED, NO_TEXTURE,
+    SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms, TextureHeader, TriangleShading,
 };
 
 /// The scene's data in the tracer's layout.
@@ -74,7 +74,7 @@ fn light_list(scene: &Scene) -> (Vec<LightTriangle>, f32) {
             e1: e1.into(),
             area,
             e2: e2.into(),
-            _pad0: 0,
+            two_sided: u32::from(m.two_sided),
             emission: m.emission.into(),
             _pad1: 0,
         });
@@ -163,7 +163,7 @@ impl SceneData {
                 alpha,
                 ior: m.ior,
                 texture,
-                _pad0: 0,
+                flags: if m.two_sided { MATERIAL_TWO_SIDED } else { 0 },
                 _pad1: 0,
             });
         }

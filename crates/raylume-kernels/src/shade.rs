@@ -5,7 +5,7 @@
 //!
 //! The estimator is the paper's plain one unless the uniforms hold a light list
 //! (`light_count > 0`, [`crate::Estimator::Nee`]): emission is collected where a path hits it
-//! (two-sided, on every material), escaping paths collect the environment, and each hit
+//! (on every material, from the front face unless the material is two-sided), escaping paths collect the environment, and each hit
 //! scatters one new direction sampled from the material; no Russian roulette. With the light
 //! list, a diffuse hit also sends a shadow ray to a point on an emissive triangle
 //! ([`sample_lights`]), and the two estimates of the light an emissive triangle sends there,
@@ -23,7 +23,7 @@ use raylume_bvh::{GpuBvh, PRIM_TRIANGLE, Ray};
 
 use crate::gpu_types::{
     DIM_LIGHT, DIM_SCATTER, GpuMaterial, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_GLASS,
-    MATERIAL_METAL, RAY_ALIVE, RayState, SHADOW_T_SCALE, T_MAX,
+    MATERIAL_METAL, MATERIAL_TWO_SIDED, RAY_ALIVE, RayState, SHADOW_T_SCALE, T_MAX,
 };
 use crate::math::INV_PI;
 use crate::rng::rand4;
@@ -102,13 +102,15 @@ pub fn shade_hit(
     last: bool,
     emission_weight: f32,
 ) -> f32 {
-    path.radiance += path.throughput * Vec3::from(mat.emission) * emission_weight;
+    let ng = hit.geometric_normal;
+    let front = path.dir.dot(ng) < 0.0;
+    if front || mat.flags & MATERIAL_TWO_SIDED != 0 {
+        path.radiance += path.throughput * Vec3::from(mat.emission) * emission_weight;
+    }
     if last {
         path.alive = false;
         return 0.0;
     }
-    let ng = hit.geometric_normal;
-    let front = path.dir.dot(ng) < 0.0;
     let ng_facing = if front { ng } else { -ng };
     let ns_facing = if front {
         hit.shading_normal
@@ -218,7 +220,8 @@ pub fn mis_weight(a: f32, b: f32) -> f32 {
 /// chosen by `rnd.x` (with probability `cdf - previous cdf`), a uniform point on it from
 /// `rnd.y, rnd.z`, and a shadow ray to it; returns the reflected radiance it carries
 /// (`albedo / π · cos θ_surface · L_e · cos θ_light · area / (distance² · p_select)`), zero
-/// when the point is behind the surface (geometric or shading normal) or occluded; times
+/// when the point is behind the surface (geometric or shading normal), the surface is behind a
+/// one-sided light, or the shadow ray is occluded; times
 /// its multiple-importance weight against diffuse scattering.
 #[inline]
 pub fn sample_lights(
@@ -269,7 +272,13 @@ pub fn sample_lights(
     let dist = dist2.sqrt();
     let wi = to / dist;
     let cos_s = ns_facing.dot(wi);
-    let cos_l = nl.dot(wi).abs() / nl.length();
+    // The light's front face looks along e1 x e2: a one-sided light sends nothing backwards.
+    let cos_front = -nl.dot(wi) / nl.length();
+    let cos_l = if light.two_sided != 0 {
+        cos_front.abs()
+    } else {
+        cos_front
+    };
     if !(cos_s > 0.0 && ng_facing.dot(wi) > 0.0 && cos_l > 0.0) {
         return Vec3::ZERO;
     }

@@ -12,15 +12,15 @@ struct PathState {
 }
 
 fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, rnd: vec4<f32>, last: bool, emission_weight: f32) -> f32 {
-    if (HAS_EMISSION) {
+    let ng = hit.geometric_normal;
+    let front = dot((*path).dir, ng) < 0.0;
+    if (HAS_EMISSION && (front || (mat.flags & MATERIAL_TWO_SIDED) != 0u)) {
         (*path).radiance += (*path).throughput * mat.emission * emission_weight;
     }
     if (last) {
         (*path).alive = false;
         return 0.0;
     }
-    let ng = hit.geometric_normal;
-    let front = dot((*path).dir, ng) < 0.0;
     let ng_facing = select(-ng, ng, front);
     let ns_facing = select(-hit.shading_normal, hit.shading_normal, front);
     var wi = (*path).dir;
@@ -136,7 +136,9 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
     let dist = sqrt(dist2);
     let wi = to / dist;
     let cos_s = dot(ns_facing, wi);
-    let cos_l = abs(dot(nl, wi)) / length(nl);
+    // A one-sided light sends nothing behind its front face (e1 x e2).
+    let cos_front = -dot(nl, wi) / length(nl);
+    let cos_l = select(cos_front, abs(cos_front), light.two_sided != 0u);
     if (!(cos_s > 0.0 && dot(ng_facing, wi) > 0.0 && cos_l > 0.0)) {
         return vec3<f32>(0.0);
     }

@@ -5,8 +5,8 @@
 mod support;
 
 use glam::Vec3;
-use raylume_kernels::{Schedule, TraceOutput, TraceSettings};
-use raylume_scene::{Camera, Environment, Material, Scene, Sphere, Texture};
+use raylume_kernels::{CpuTracer, Estimator, Schedule, TraceOutput, TraceSettings};
+use raylume_scene::{Camera, Environment, FovAxis, Material, Scene, Sphere, Texture};
 use support::*;
 
 /// Renders on the CPU and, when there is an adapter, on the GPU with each of `schedules`.
@@ -47,7 +47,8 @@ fn camera_at(position: Vec3, look_at: Vec3, vfov: f32) -> Camera {
         position,
         look_at,
         up: Vec3::Y,
-        vfov,
+        fov: vfov,
+        fov_axis: FovAxis::Vertical,
     }
 }
 
@@ -63,6 +64,8 @@ fn camera_inside_an_emitting_diffuse_sphere_sees_the_truncated_geometric_series(
     let (a, e, n) = (0.6f32, Vec3::new(0.5, 1.0, 2.0), 5u32);
     let mut m = Material::diffuse("inside", Vec3::splat(a));
     m.emission = e;
+    // Seen from inside, the sphere shows its back face: it must emit both ways.
+    m.two_sided = true;
     let scene = Scene {
         camera: camera_at(Vec3::new(0.1, 0.2, 0.0), Vec3::new(0.0, 0.0, -1.0), 70.0),
         materials: vec![m],
@@ -100,6 +103,8 @@ fn closed_triangle_box_does_not_leak_light() {
     let (a, e, n) = (0.5f32, Vec3::new(1.0, 0.8, 0.6), 6u32);
     let mut m = Material::diffuse("walls", Vec3::splat(a));
     m.emission = e;
+    // The box's faces point outwards; from inside they must emit both ways.
+    m.two_sided = true;
     let scene = Scene {
         camera: camera_at(
             Vec3::new(0.3, -0.2, 0.5),
@@ -313,5 +318,109 @@ fn diffuse_plane_reflects_the_irradiance_of_the_sky() {
             "{backend}: mean {} vs {expected}",
             m[0]
         );
+    }
+}
+
+#[test]
+fn one_sided_lamps_emit_from_their_front_face_only() {
+    // A black quad lamp in the z = 0 plane, wound so that its front normal is +z, filling the
+    // view of a camera on its axis. In front (z = +3) every pixel sees its emission E exactly;
+    // behind (z = -3) every pixel sees 0, unless the lamp is two-sided. Both estimators, since
+    // the hit's emission is the same code for both.
+    let e = Vec3::new(3.0, 2.0, 1.0);
+    for (two_sided, z, expected) in [(false, 3.0, e), (false, -3.0, Vec3::ZERO), (true, -3.0, e)] {
+        let mut lamp = Material::emissive("lamp", e);
+        lamp.two_sided = two_sided;
+        let quad = flat_quad(Vec3::new(-1.0, -1.0, 0.0), Vec3::X * 2.0, Vec3::Y * 2.0, 0);
+        assert!(
+            (quad[0].positions[1] - quad[0].positions[0])
+                .cross(quad[0].positions[2] - quad[0].positions[0])
+                .z
+                > 0.0
+        );
+        let scene = Scene {
+            camera: camera_at(Vec3::new(0.0, 0.0, z), Vec3::ZERO, 20.0),
+            materials: vec![lamp],
+            triangles: quad.to_vec(),
+            ..Default::default()
+        };
+        let name = format!("lamp two_sided {two_sided} seen from z = {z}");
+        for estimator in [Estimator::Plain, Estimator::Nee] {
+            let mut outs = render_all(
+                &name,
+                &scene,
+                settings(8, 8, 2, 3, Schedule::Megakernel),
+                &[Schedule::Megakernel, Schedule::Wavefront],
+            );
+            let mut t = CpuTracer::new(&scene, &bvh(&scene)).unwrap();
+            t.set_estimator(estimator);
+            outs.push((
+                "cpu nee".into(),
+                t.render(&settings(8, 8, 2, 3, Schedule::Megakernel), &mut |_, _| {})
+                    .unwrap(),
+            ));
+            if expected == Vec3::ZERO {
+                for (backend, o) in &outs {
+                    assert!(
+                        o.radiance.iter().all(|p| *p == [0.0; 3]),
+                        "{name} ({backend}, {estimator:?}): {:?}",
+                        o.radiance[0]
+                    );
+                }
+            } else {
+                assert_every_pixel(&name, &outs, expected, 1e-6);
+            }
+        }
+    }
+}
+
+#[test]
+fn a_lamp_facing_away_lights_nothing_with_either_estimator() {
+    // A diffuse floor under a small lamp whose front face looks up, away from it: no light
+    // reaches the floor by any path (the environment is black, the lamp is black), so every
+    // pixel is exactly 0 with the plain estimator and with next-event estimation (whose light
+    // samples must respect the lamp's side). The camera is below the lamp, so it sees the
+    // lamp's back, which is black either way. Turned to face down, the lamp lights the floor.
+    for (faces_down, lit) in [(false, false), (true, true)] {
+        let (u, v) = if faces_down {
+            (Vec3::X * 0.5, Vec3::Z * 0.5)
+        } else {
+            (Vec3::Z * 0.5, Vec3::X * 0.5)
+        };
+        let mut triangles = flat_quad(Vec3::new(-0.25, 1.0, -0.25), u, v, 1).to_vec();
+        triangles.extend(flat_quad(
+            Vec3::new(-4.0, 0.0, 4.0),
+            Vec3::X * 8.0,
+            Vec3::NEG_Z * 8.0,
+            0,
+        ));
+        let scene = Scene {
+            camera: camera_at(Vec3::new(0.0, 0.5, 3.0), Vec3::ZERO, 40.0),
+            materials: vec![
+                Material::diffuse("floor", Vec3::splat(0.8)),
+                Material::emissive("lamp", Vec3::splat(10.0)),
+            ],
+            triangles,
+            ..Default::default()
+        };
+        for estimator in [Estimator::Plain, Estimator::Nee] {
+            let mut t = CpuTracer::new(&scene, &bvh(&scene)).unwrap();
+            t.set_estimator(estimator);
+            let o = t
+                .render(
+                    &settings(16, 16, 16, 3, Schedule::Megakernel),
+                    &mut |_, _| {},
+                )
+                .unwrap();
+            let sum: f32 = o.radiance.iter().map(|p| p[0] + p[1] + p[2]).sum();
+            if lit {
+                assert!(
+                    sum > 0.0,
+                    "{estimator:?}: a lamp facing the floor lights nothing"
+                );
+            } else {
+                assert_eq!(sum, 0.0, "{estimator:?}: a lamp facing away lit the floor");
+            }
+        }
     }
 }

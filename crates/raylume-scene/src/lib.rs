@@ -95,8 +95,8 @@ pub use conductors::{CONDUCTORS, ConductorIor, conductor_ior, conductor_names};
 pub use error::{Location, SceneError};
 pub use features::{Feature, Features};
 pub use model::{
-    Bloom, Bounds, Camera, Environment, Material, MaterialKind, PostSettings, RenderSettings,
-    Scene, Sphere, Texture, Triangle,
+    Bloom, Bounds, Camera, Environment, FovAxis, Material, MaterialKind, PostSettings,
+    RenderSettings, Scene, Sphere, Texture, Triangle,
 };
 
 use builder::{MeshOptions, SceneBuilder};

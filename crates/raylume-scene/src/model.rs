@@ -6,25 +6,72 @@
 
 use glam::{Vec2, Vec3};
 
+/// The image axis a camera's field of view spans.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum FovAxis {
+    /// Top to bottom (TOML `vfov`, glTF `yfov`): a wider `--size` shows more at the sides.
+    #[default]
+    Vertical,
+    /// Left to right (TOML `hfov`, Tungsten's `fov`, Mitsuba's `fov_axis = "x"`): a taller
+    /// `--size` shows more above and below.
+    Horizontal,
+}
+
 /// A pinhole camera.
+///
+/// The field of view keeps the axis its file gave, so that changing the image size changes
+/// the image's aspect, never the angle the file said (the other axis follows from the aspect).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
     pub position: Vec3,
     pub look_at: Vec3,
     /// Up hint; need not be orthogonal to the view direction, must not be parallel to it.
     pub up: Vec3,
-    /// Vertical field of view in degrees, in (0, 180).
-    pub vfov: f32,
+    /// Field of view in degrees along [`Camera::fov_axis`], in (0, 180).
+    pub fov: f32,
+    pub fov_axis: FovAxis,
 }
 
 impl Default for Camera {
+    /// At `(0, 0, 5)` looking at the origin, `+y` up, a vertical field of view of 45 degrees.
     fn default() -> Self {
         Self {
             position: Vec3::new(0.0, 0.0, 5.0),
             look_at: Vec3::ZERO,
             up: Vec3::Y,
-            vfov: 45.0,
+            fov: 45.0,
+            fov_axis: FovAxis::Vertical,
         }
+    }
+}
+
+impl Camera {
+    /// A camera at `position` looking at `look_at` with `+y` up and a vertical field of view
+    /// of `vfov` degrees.
+    pub fn looking_at(position: Vec3, look_at: Vec3, vfov: f32) -> Self {
+        Self {
+            position,
+            look_at,
+            up: Vec3::Y,
+            fov: vfov,
+            fov_axis: FovAxis::Vertical,
+        }
+    }
+
+    /// `tan` of half the field of view along the image's height and width, for an image of
+    /// `width x height` pixels: the image plane at distance 1 spans `[-x, x] x [-y, y]`.
+    pub fn half_extent(&self, width: u32, height: u32) -> (f32, f32) {
+        let t = (self.fov.to_radians() * 0.5).tan();
+        let aspect = width as f32 / height as f32;
+        match self.fov_axis {
+            FovAxis::Vertical => (t * aspect, t),
+            FovAxis::Horizontal => (t, t / aspect),
+        }
+    }
+
+    /// The vertical field of view in degrees for an image of `width x height` pixels.
+    pub fn vfov(&self, width: u32, height: u32) -> f32 {
+        2.0 * self.half_extent(width, height).1.atan().to_degrees()
     }
 }
 
@@ -105,6 +152,11 @@ pub struct Material {
     pub tint: Vec3,
     /// Albedo texture (index into [`Scene::textures`]), multiplied with `albedo`.
     pub albedo_texture: Option<u32>,
+    /// Whether the emission leaves both faces. By default (`false`) a surface emits from its
+    /// front face only, as in Tungsten, Mitsuba and pbrt: the side its geometric normal
+    /// points to (`u x v` for a TOML quad, the counter-clockwise winding for meshes, outward
+    /// for spheres). Scattering is two-sided either way.
+    pub two_sided: bool,
 }
 
 impl Material {
@@ -118,6 +170,7 @@ impl Material {
             ior: 1.5,
             tint: Vec3::ONE,
             albedo_texture: None,
+            two_sided: false,
         }
     }
 
@@ -138,6 +191,7 @@ impl Material {
         }
     }
 
+    /// A black surface emitting `emission` from its front face.
     pub fn emissive(name: &str, emission: Vec3) -> Self {
         Self {
             emission,

@@ -146,7 +146,8 @@ pub(crate) fn frame_bounds(bounds: Bounds) -> Camera {
         position: center + Vec3::new(0.0, 0.0, distance),
         look_at: center,
         up: Vec3::Y,
-        vfov: FRAMING_VFOV,
+        fov: FRAMING_VFOV,
+        fov_axis: crate::model::FovAxis::Vertical,
     }
 }
 

@@ -234,7 +234,7 @@ pub(crate) fn validate_with(s: &Scene, prov: &Provenance) -> Result<(), SceneErr
             });
         }
     }
-    check_vfov(file, &at, c.vfov)?;
+    check_vfov(file, &at, c.fov)?;
     check_camera_frame(file, &at, c.position, c.look_at, c.up)?;
 
     // Render settings.

@@ -53,7 +53,7 @@ fn document(buffer_uri: Option<String>, len: usize) -> Value {
             { "name": "painted", "pbrMetallicRoughness": { "baseColorFactor": [0.5, 0.6, 0.7, 1.0], "metallicFactor": 0.0, "baseColorTexture": { "index": 0 } } },
             { "name": "brass", "pbrMetallicRoughness": { "baseColorFactor": [0.9, 0.8, 0.4, 1.0], "metallicFactor": 1.0, "roughnessFactor": 0.3 } },
             { "name": "water", "extensions": { "KHR_materials_transmission": { "transmissionFactor": 1.0 }, "KHR_materials_ior": { "ior": 1.33 } } },
-            { "name": "neon", "emissiveFactor": [1.0, 0.5, 0.25], "extensions": { "KHR_materials_emissive_strength": { "emissiveStrength": 4.0 } },
+            { "name": "neon", "doubleSided": true, "emissiveFactor": [1.0, 0.5, 0.25], "extensions": { "KHR_materials_emissive_strength": { "emissiveStrength": 4.0 } },
               "pbrMetallicRoughness": { "metallicFactor": 0.2 } }
         ],
         "textures": [{ "source": 0 }],
@@ -176,9 +176,11 @@ fn hierarchy_materials_and_camera() {
     );
     let neon = m(4);
     assert_eq!(
-        (neon.kind, neon.emission),
-        (MaterialKind::Diffuse, Vec3::new(4.0, 2.0, 1.0))
+        (neon.kind, neon.emission, neon.two_sided),
+        (MaterialKind::Diffuse, Vec3::new(4.0, 2.0, 1.0), true)
     );
+    // glTF materials are single-sided by default: their emission leaves the front face only.
+    assert!(!m(1).two_sided && !m(2).two_sided);
     // A primitive without a material: the grey default diffuse, not glTF's rough metal.
     assert_eq!(
         (m(5).name.as_str(), m(5).kind),
@@ -191,7 +193,8 @@ fn hierarchy_materials_and_camera() {
         (c.position, c.look_at, c.up),
         (Vec3::new(0.0, 1.0, 5.0), Vec3::new(0.0, 1.0, 4.0), Vec3::Y)
     );
-    assert!((c.vfov - 0.5f32.to_degrees()).abs() < 1e-4);
+    assert!((c.fov - 0.5f32.to_degrees()).abs() < 1e-4);
+    assert_eq!(c.fov_axis, raylume_scene::FovAxis::Vertical);
     assert_eq!((s.render.width, s.render.height), (768, 512));
     assert_eq!(s.environment, Environment::Black);
 }
@@ -333,5 +336,5 @@ fn glb_without_a_camera_is_framed() {
     assert_eq!(s.triangles.len(), 1);
     // The triangle spans (0,0,-4)..(0,1,-3): centre (0, 0.5, -3.5).
     assert_eq!(s.camera.look_at, Vec3::new(0.0, 0.5, -3.5));
-    assert_eq!(s.camera.vfov, 40.0);
+    assert_eq!(s.camera.fov, 40.0);
 }

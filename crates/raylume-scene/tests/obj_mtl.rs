@@ -165,7 +165,7 @@ fn bare_obj_loads_as_a_scene_framed_on_its_bounds() {
     assert_eq!(s.environment, Environment::Black);
     assert_eq!(s.render, RenderSettings::default());
     let c = s.camera;
-    assert_eq!((c.look_at, c.up, c.vfov), (Vec3::splat(0.5), Vec3::Y, 40.0));
+    assert_eq!((c.look_at, c.up, c.fov), (Vec3::splat(0.5), Vec3::Y, 40.0));
     // On the +z axis through the centre, at bounding radius / sin(20 deg).
     let r = 3f32.sqrt() / 2.0;
     let want = Vec3::new(0.5, 0.5, 0.5 + r / 20f32.to_radians().sin());

@@ -426,12 +426,8 @@ fn cornell_toml_matches_tungsten_original() {
     // equals the vertical one.
     let (a, b) = (toml.camera, original.camera);
     assert_eq!((a.position, a.look_at, a.up), (b.position, b.look_at, b.up));
-    assert!(
-        (a.vfov - b.vfov).abs() < 1e-4,
-        "vfov {} vs {}",
-        a.vfov,
-        b.vfov
-    );
+    let (va, vb) = (a.vfov(1024, 1024), b.vfov(1024, 1024));
+    assert!((va - vb).abs() < 1e-4, "vfov {va} vs {vb}");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -539,11 +535,9 @@ fn living_room() {
     // Tungsten's pinhole fov (90) is horizontal: for 1280 x 720 the vertical one is
     // 2 atan(tan(45 deg) * 720 / 1280) = 58.7155 degrees.
     let vfov = 2.0 * (720.0f64 / 1280.0).atan().to_degrees();
-    assert!(
-        (scene.camera.vfov as f64 - vfov).abs() < 1e-3,
-        "vfov {}",
-        scene.camera.vfov
-    );
+    let got = scene.camera.vfov(1280, 720);
+    assert!((got as f64 - vfov).abs() < 1e-3, "vfov {got}");
+    assert_eq!(scene.camera.fov_axis, raylume_scene::FovAxis::Horizontal);
     assert_eq!((scene.render.width, scene.render.height), (1280, 720));
     // Three textures: wood.jpg, wood5.jpg, picture8.jpg.
     assert_eq!(scene.textures.len(), 3);

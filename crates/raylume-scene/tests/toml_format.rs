@@ -103,7 +103,10 @@ fn every_key_lands_in_the_scene() {
     assert_eq!(c.position, Vec3::new(0.0, 1.0, 6.8));
     assert_eq!(c.look_at, Vec3::new(0.0, 1.0, 0.0));
     assert_eq!(c.up, Vec3::new(1.0, 1.0, 0.0));
-    assert_eq!(c.vfov, 19.5);
+    assert_eq!(
+        (c.fov, c.fov_axis),
+        (19.5, raylume_scene::FovAxis::Vertical)
+    );
 
     assert_eq!(
         s.render,
@@ -257,11 +260,32 @@ fn defaults_apply_where_keys_are_absent() {
 }
 
 #[test]
+fn hfov_and_two_sided_emission_are_read() {
+    let d = TempDir::new("toml-hfov");
+    let s = toml(
+        &d.0,
+        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nhfov = 70\n\
+         [materials.lamp]\ntype = \"diffuse\"\nemission = [2, 2, 2]\ntwo_sided = true\n\
+         [materials.bulb]\ntype = \"diffuse\"\nemission = [1, 1, 1]\n\
+         [[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"lamp\"\n\
+         [[sphere]]\ncenter = [3, 0, 0]\nradius = 1\nmaterial = \"bulb\"\n",
+    )
+    .unwrap();
+    assert_eq!(
+        (s.camera.fov, s.camera.fov_axis),
+        (70.0, raylume_scene::FovAxis::Horizontal)
+    );
+    // One-sided unless said otherwise.
+    assert!(s.materials[0].two_sided);
+    assert!(!s.materials[1].two_sided);
+}
+
+#[test]
 fn no_camera_table_frames_the_bounds() {
     let d = TempDir::new("toml-frame");
     let s = toml(&d.0, "[materials.m]\ntype = \"diffuse\"\n[[sphere]]\ncenter = [1, 2, 3]\nradius = 1\nmaterial = \"m\"\n").unwrap();
     assert_eq!(s.camera.look_at, Vec3::new(1.0, 2.0, 3.0));
-    assert_eq!(s.camera.vfov, 40.0);
+    assert_eq!(s.camera.fov, 40.0);
     assert!(s.camera.position.z > 3.0 + 1.0);
 }
 
@@ -426,6 +450,38 @@ fn bad_values_are_typed_errors_at_their_place() {
         12,
     );
     check(&cam("position = [0, 0, 1]\nvfov = 40"), "MissingKey", 7, 1);
+    // The field of view: `vfov` or `hfov`, exactly one.
+    check(
+        &cam("position = [0, 0, 1]\nlook_at = [0, 0, 0]"),
+        "MissingKey",
+        7,
+        1,
+    );
+    check(
+        &cam("position = [0, 0, 1]\nlook_at = [0, 0, 0]\nvfov = 40\nhfov = 40"),
+        "InvalidValue",
+        11,
+        8,
+    );
+    check(
+        &cam("position = [0, 0, 1]\nlook_at = [0, 0, 0]\nhfov = 180"),
+        "Vfov",
+        10,
+        8,
+    );
+    // `two_sided` needs an emission to apply to.
+    check(
+        "[materials.m]\ntype = \"diffuse\"\ntwo_sided = true\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"m\"\n",
+        "InvalidValue",
+        3,
+        13,
+    );
+    check(
+        "[materials.m]\ntype = \"diffuse\"\nemission = [1, 1, 1]\ntwo_sided = 1\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"m\"\n",
+        "WrongType",
+        4,
+        13,
+    );
     check(&format!("{SPHERE}[render]\nwidth = 0"), "NonPositive", 8, 9);
     check(&format!("{SPHERE}[render]\nspp = 0"), "NonPositive", 8, 7);
     check(

@@ -9,7 +9,7 @@ use std::path::Path;
 
 use common::{TempDir, shared_external};
 use glam::{DMat4, DVec3, Vec3};
-use raylume_scene::{Environment, MaterialKind, Scene, SceneError};
+use raylume_scene::{Environment, FovAxis, MaterialKind, Scene, SceneError};
 use serde_json::Value;
 
 fn dvec3(v: &Value) -> DVec3 {
@@ -85,8 +85,8 @@ fn cornell_box() {
     // down, and has corners x in {-0.24, 0.23}, z in {-0.22, 0.16}.
     let light = s.materials.iter().find(|m| m.name == "Light").unwrap();
     assert_eq!(
-        (light.emission, light.albedo),
-        (Vec3::new(17.0, 12.0, 4.0), Vec3::ZERO)
+        (light.emission, light.albedo, light.two_sided),
+        (Vec3::new(17.0, 12.0, 4.0), Vec3::ZERO, false)
     );
     let want: Vec<Vec3> = [(-0.24, -0.22), (-0.24, 0.16), (0.23, -0.22), (0.23, 0.16)]
         .map(|(x, z)| Vec3::new(x, 1.98, z))
@@ -171,7 +171,7 @@ fn cornell_box() {
         (c.position, c.look_at, c.up),
         (Vec3::new(0.0, 1.0, 6.8), Vec3::new(0.0, 1.0, 0.0), Vec3::Y)
     );
-    assert!((c.vfov - 19.5).abs() < 1e-4);
+    assert_eq!((c.fov, c.fov_axis), (19.5, FovAxis::Horizontal));
     assert_eq!(
         (
             s.render.width,
@@ -382,7 +382,11 @@ fn living_room() {
         matches!(&s.environment, Environment::Map { image, .. } if (image.width, image.height) == (8, 4))
     );
 
-    // fov 90 is horizontal: vfov = 2 atan(tan(45 deg) * 720 / 1280).
+    // fov 90 is horizontal: at the file's 1280x720 the vertical one is 2 atan(tan(45 deg) *
+    // 720 / 1280), and at any other size the width still spans 90 degrees.
     assert_eq!((s.render.width, s.render.height), (1280, 720));
-    assert!((s.camera.vfov - 2.0 * (720.0f32 / 1280.0).atan().to_degrees()).abs() < 1e-4);
+    assert_eq!((s.camera.fov, s.camera.fov_axis), (90.0, FovAxis::Horizontal));
+    let vfov = s.camera.vfov(1280, 720);
+    assert!((vfov - 2.0 * (720.0f32 / 1280.0).atan().to_degrees()).abs() < 1e-4);
+    assert!((s.camera.vfov(500, 500) - 90.0).abs() < 1e-4);
 }

@@ -175,7 +175,7 @@ fn power_becomes_radiance_over_area_times_pi() {
     let names: std::collections::HashSet<_> = s.materials.iter().map(|m| m.name.clone()).collect();
     assert_eq!(names.len(), 4);
     // No camera: framed on the bounds.
-    assert_eq!(s.camera.vfov, 40.0);
+    assert_eq!(s.camera.fov, 40.0);
 }
 
 #[test]

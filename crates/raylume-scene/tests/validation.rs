@@ -4,8 +4,8 @@
 
 use glam::{Vec2, Vec3};
 use raylume_scene::{
-    Bloom, Camera, Environment, Feature, Features, Location, Material, Scene, SceneError, Sphere,
-    Texture, Triangle,
+    Bloom, Camera, Environment, Feature, Features, FovAxis, Location, Material, Scene, SceneError,
+    Sphere, Texture, Triangle,
 };
 
 /// A valid scene: one triangle, one sphere, two materials, a texture.
@@ -15,7 +15,8 @@ fn good() -> Scene {
             position: Vec3::new(0.0, 0.0, 5.0),
             look_at: Vec3::ZERO,
             up: Vec3::Y,
-            vfov: 45.0,
+            fov: 45.0,
+            fov_axis: FovAxis::Vertical,
         },
         ..Scene::default()
     };
@@ -150,12 +151,12 @@ fn every_invariant_has_its_error() {
     );
     check(|s| s.textures[0].width = 0, "NonPositive", "texture width");
     check(
-        |s| s.camera.vfov = 0.0,
+        |s| s.camera.fov = 0.0,
         "Vfov",
         "camera: vfov 0 degrees is outside (0, 180)",
     );
-    check(|s| s.camera.vfov = 180.0, "Vfov", "camera");
-    check(|s| s.camera.vfov = nan, "NotFinite", "camera");
+    check(|s| s.camera.fov = 180.0, "Vfov", "camera");
+    check(|s| s.camera.fov = nan, "NotFinite", "camera");
     check(
         |s| s.camera.position.z = f32::INFINITY,
         "NotFinite",

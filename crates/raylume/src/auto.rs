@@ -405,9 +405,10 @@ pub(crate) fn fingerprint(scene: &Scene, settings: &TraceSettings, policy: &str)
     v3(&mut h, c.position);
     v3(&mut h, c.look_at);
     v3(&mut h, c.up);
-    f(&mut h, c.vfov);
+    f(&mut h, c.fov);
+    c.fov_axis.hash(&mut h);
     for m in &scene.materials {
-        format!("{:?}{:?}", m.kind, m.albedo_texture).hash(&mut h);
+        format!("{:?}{:?}{}", m.kind, m.albedo_texture, m.two_sided).hash(&mut h);
         for v in [m.albedo, m.emission, m.tint] {
             v3(&mut h, v);
         }

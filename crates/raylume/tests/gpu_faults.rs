@@ -18,7 +18,7 @@ use glam::Vec3;
 use raylume::{Backend, Error, Scene, Tracer};
 use raylume_gpu::{ContextOptions, GpuContext};
 use raylume_kernels::KernelError;
-use raylume_scene::{Camera, Environment, Material, RenderSettings, Sphere, Texture};
+use raylume_scene::{Camera, FovAxis, Environment, Material, RenderSettings, Sphere, Texture};
 
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("raylume-faults-{}-{name}", std::process::id()));
@@ -161,7 +161,8 @@ fn sphere_scene() -> Scene {
             position: Vec3::new(0.0, 0.0, 5.0),
             look_at: Vec3::ZERO,
             up: Vec3::Y,
-            vfov: 40.0,
+            fov: 40.0,
+            fov_axis: FovAxis::Vertical,
         },
         materials: vec![Material::diffuse("white", Vec3::splat(0.5))],
         spheres: vec![Sphere {

@@ -191,7 +191,7 @@ fn scenes_built_by_hand_are_validated() {
         ("camera position is not finite", |s| {
             s.camera.position.x = f32::NAN
         }),
-        ("vfov 0 degrees", |s| s.camera.vfov = 0.0),
+        ("vfov 0 degrees", |s| s.camera.fov = 0.0),
         ("the scene is empty", |s| s.triangles.clear()),
         ("emission 1e30 is above 1e20", |s| {
             s.materials[0].emission = glam::Vec3::splat(1e30)

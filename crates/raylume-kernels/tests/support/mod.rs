@@ -4,7 +4,7 @@
 use glam::{Vec2, Vec3};
 use raylume_bvh::{BvhQuality, GpuBvh};
 use raylume_kernels::{CpuTracer, GpuTracer, Schedule, TraceOutput, TraceSettings};
-use raylume_scene::{Camera, Environment, Material, Scene, Sphere, Texture, Triangle};
+use raylume_scene::{Camera, Environment, FovAxis, Material, Scene, Sphere, Texture, Triangle};
 
 /// Two triangles: corner, corner + u, corner + u + v, corner + v, with uvs (0,0)..(1,1).
 pub fn quad(corner: Vec3, u: Vec3, v: Vec3, material: u32) -> [Triangle; 2] {
@@ -122,7 +122,8 @@ pub fn cornell_box() -> Scene {
             position: Vec3::new(0.0, 1.0, 6.8),
             look_at: Vec3::new(0.0, 1.0, 0.0),
             up: Vec3::Y,
-            vfov: 19.5,
+            fov: 19.5,
+            fov_axis: FovAxis::Vertical,
         },
         materials,
         triangles: t,
@@ -152,7 +153,8 @@ pub fn spheres() -> Scene {
             position: Vec3::new(0.0, 1.2, 4.0),
             look_at: Vec3::new(0.0, 0.5, 0.0),
             up: Vec3::Y,
-            vfov: 45.0,
+            fov: 45.0,
+            fov_axis: FovAxis::Vertical,
         },
         materials,
         triangles: flat_quad(
@@ -233,7 +235,8 @@ pub fn textured() -> Scene {
             position: Vec3::new(0.0, 2.0, 3.0),
             look_at: Vec3::new(0.0, 0.2, 0.0),
             up: Vec3::Y,
-            vfov: 50.0,
+            fov: 50.0,
+            fov_axis: FovAxis::Vertical,
         },
         materials: vec![
             tex_material,
@@ -287,7 +290,8 @@ pub fn environment_lit() -> Scene {
             position: Vec3::new(0.0, 0.6, 4.0),
             look_at: Vec3::new(0.0, 0.4, 0.0),
             up: Vec3::Y,
-            vfov: 60.0,
+            fov: 60.0,
+            fov_axis: FovAxis::Vertical,
         },
         materials: vec![
             Material::diffuse("white", Vec3::splat(0.8)),

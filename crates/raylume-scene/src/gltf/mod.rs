@@ -9,7 +9,8 @@
 //!   default 1.5; tint = base colour); else `metallicFactor >= 0.5` -> metal (albedo = base
 //!   colour, roughness = `roughnessFactor`, which is already perceptual: GGX alpha =
 //!   roughness^2 in both); else diffuse (albedo = base colour). Emission = `emissiveFactor` x
-//!   `KHR_materials_emissive_strength`. `baseColorTexture` is the albedo texture. Other
+//!   `KHR_materials_emissive_strength`, from the front face only unless the material is
+//!   `doubleSided`. `baseColorTexture` is the albedo texture. Other
 //!   textures (metallic-roughness, normal, emissive) are ignored with a warning. Primitives
 //!   without a material get the grey default diffuse (not glTF's default, which is a rough
 //!   metal).
@@ -157,6 +158,8 @@ impl Loader<'_> {
             Material::diffuse(&name, base)
         };
         out.emission = Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
+        // glTF 2.0 §3.9.6: a single-sided material shows its front face only.
+        out.two_sided = m.double_sided();
         if let Some(info) = pbr.base_color_texture() {
             if transmission > 0.5 {
                 b.warn(format!(
@@ -369,7 +372,8 @@ pub(crate) fn load_into(
                             position,
                             look_at: position + forward,
                             up: m.transform_vector3(Vec3::Y),
-                            vfov: p.yfov().to_degrees(),
+                            fov: p.yfov().to_degrees(),
+                            fov_axis: crate::model::FovAxis::Vertical,
                         },
                         aspect: p.aspect_ratio(),
                     });

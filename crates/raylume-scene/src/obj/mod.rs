@@ -8,7 +8,7 @@
 //!   `albedo = Ks`, `roughness = (2 / (Ns + 2))^(1/4)` (the Phong exponent's Beckmann-equivalent
 //!   `alpha = sqrt(2 / (Ns + 2))`, and raylume's `alpha = roughness^2`), 0 when `Ns` is absent;
 //! - else diffuse with `albedo = Kd` (0.8 grey if absent);
-//! - `Ke` is the emission of any of them; `map_Kd` is the albedo texture (relative to the MTL
+//! - `Ke` is the emission of any of them (from the front, counter-clockwise face only); `map_Kd` is the albedo texture (relative to the MTL
 //!   file; multiplied with `Kd` as MTL prescribes).
 //!
 //! Texture coordinates: OBJ puts v = 0 at the bottom of the image, raylume at the top, so v is

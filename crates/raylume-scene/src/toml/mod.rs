@@ -2,12 +2,16 @@
 //! keys, keys that do not apply to a material's type, wrong types and bad values are errors
 //! with `file:line:column`.
 //!
-//! Defaults: `[camera] up = [0, 1, 0]` (`position`, `look_at`, `vfov` are required; without a
-//! `[camera]` table the camera frames the scene's bounding box, as for a bare mesh);
+//! Defaults: `[camera] up = [0, 1, 0]` (`position`, `look_at` and one of `vfov` (vertical) or
+//! `hfov` (horizontal field of view, degrees) are required; the camera keeps that axis when
+//! the image size changes; without a `[camera]` table the camera frames the scene's bounding
+//! box, as for a bare mesh);
 //! `[render]` keys default to [`RenderSettings::default`](crate::RenderSettings); materials:
 //! `albedo = [0.8, 0.8, 0.8]`, `emission = [0, 0, 0]`, `roughness = 0`, `ior = 1.5`,
 //! `tint = [1, 1, 1]`; `[environment] strength = 1`, `rotation = 0`; `[[mesh]]` transform is
-//! the identity. `[post.bloom]` needs all three keys.
+//! the identity. `[post.bloom]` needs all three keys. An emissive material emits from the
+//! front faces of its surfaces only (a quad's `u x v` side, a mesh's counter-clockwise side, a
+//! sphere's outside) unless it says `two_sided = true`.
 //!
 //! Beyond the keys in `DESIGN.md`: `texture = "file.png"` on a diffuse or metal material is an
 //! albedo texture (png/jpg, sRGB; multiplied with `albedo`).
@@ -26,7 +30,9 @@ use glam::Vec3;
 
 use crate::builder::{MeshOptions, SceneBuilder};
 use crate::error::{Location, SceneError};
-use crate::model::{Bloom, Camera, Environment, Material, MaterialKind, Scene, Sphere, Triangle};
+use crate::model::{
+    Bloom, Camera, Environment, FovAxis, Material, MaterialKind, Scene, Sphere, Triangle,
+};
 use crate::transform::{Xform, frame_bounds};
 use crate::validate::{check_camera_frame, check_vfov};
 use schema::{MaterialToml, SceneToml, V3, map_toml_error};
@@ -193,6 +199,17 @@ impl Ctx<'_> {
         }
         if let Some(e) = &mt.emission {
             out.emission = self.non_negative(e, "emission")?;
+        }
+        if let Some(t) = &mt.two_sided {
+            if !out.is_emissive() {
+                return Err(SceneError::InvalidValue {
+                    file: self.file.into(),
+                    at: self.at(t),
+                    message: "`two_sided` says which faces emit: it needs a nonzero `emission`"
+                        .into(),
+                });
+            }
+            out.two_sided = *t.get_ref();
         }
         if let Some(t) = &mt.tint {
             out.tint = self.non_negative(t, "tint")?;
@@ -476,15 +493,35 @@ pub(crate) fn parse(text: &str, base_dir: &Path, file: &str) -> Result<Scene, Sc
                 .map(|u| cx.finite(u, "up"))
                 .transpose()?
                 .unwrap_or(Vec3::Y);
-            let vfov = cx.finite1(&ct.vfov, "vfov")?;
-            check_vfov(file, &cx.at(&ct.vfov), vfov)?;
+            let (key, fov, fov_axis) = match (&ct.vfov, &ct.hfov) {
+                (Some(v), None) => ("vfov", v, FovAxis::Vertical),
+                (None, Some(h)) => ("hfov", h, FovAxis::Horizontal),
+                (Some(_), Some(h)) => {
+                    return Err(SceneError::InvalidValue {
+                        file: file.into(),
+                        at: cx.at(h),
+                        message: "[camera] takes `vfov` or `hfov`, not both".into(),
+                    });
+                }
+                (None, None) => {
+                    return Err(SceneError::MissingKey {
+                        file: file.into(),
+                        at: cx.at(c),
+                        key: "vfov` or `hfov".into(),
+                    });
+                }
+            };
+            let at_fov = cx.at(fov);
+            let fov = cx.finite1(fov, key)?;
+            check_vfov(file, &at_fov, fov)?;
             let at = ct.up.as_ref().map_or_else(|| cx.at(c), |u| cx.at(u));
             check_camera_frame(file, &at, position, look_at, up)?;
             Camera {
                 position,
                 look_at,
                 up,
-                vfov,
+                fov,
+                fov_axis,
             }
         }
         None => frame_bounds(b.scene.bounds()),

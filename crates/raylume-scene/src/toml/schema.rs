@@ -36,7 +36,8 @@ pub(super) struct CameraToml {
     pub(super) position: V3,
     pub(super) look_at: V3,
     pub(super) up: Option<V3>,
-    pub(super) vfov: Spanned<f32>,
+    pub(super) vfov: Option<Spanned<f32>>,
+    pub(super) hfov: Option<Spanned<f32>>,
 }
 
 #[derive(Deserialize)]
@@ -69,6 +70,7 @@ pub(super) struct MaterialToml {
     pub(super) ior: Option<Spanned<f32>>,
     pub(super) tint: Option<V3>,
     pub(super) texture: Option<Spanned<String>>,
+    pub(super) two_sided: Option<Spanned<bool>>,
 }
 
 /// `scale = 2.0` or `scale = [1, 2, 3]`.

@@ -17,8 +17,11 @@
 //! - `mesh` loads an OBJ with the primitive's `bsdf` (the OBJ's materials are not used);
 //!   `smooth: false` (the default) means flat shading, so the file's normals are dropped.
 //! - The pinhole `fov` is horizontal: the image plane spans x in [-1, 1] and
-//!   y in [-h/w, h/w] at distance 1/tan(fov/2). raylume's vfov = 2 atan(tan(fov/2) h/w).
-//! - `power` on an emitter becomes radiance = power / (area * pi).
+//!   y in [-h/w, h/w] at distance 1/tan(fov/2), whatever the image size: the camera keeps
+//!   [`FovAxis::Horizontal`](crate::FovAxis), so a render at another aspect shows the same
+//!   width of the scene (as Mitsuba's `fov_axis = "x"`).
+//! - `power` on an emitter becomes radiance = power / (area * pi). Emitters emit from their
+//!   front side only (Tungsten's `Quad::evalDirect` and `TriangleMesh::evalDirect` are 0 behind).
 //! - `infinite_sphere` and `skydome` primitives, and the top-level `emissions` list (the
 //!   111116/toyray-scenes variant, `{"type": "envmap", "radiance": "sky.exr"}`), become the
 //!   environment (a map gets [`TUNGSTEN_ENV_ROTATION`] so that it is oriented as in Tungsten).

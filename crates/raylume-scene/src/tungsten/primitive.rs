@@ -10,7 +10,7 @@ use super::{TUNGSTEN_ENV_ROTATION, Tungsten};
 use crate::builder::{MeshOptions, SceneBuilder};
 use crate::error::{Location, SceneError};
 use crate::image_io;
-use crate::model::{Camera, Environment, Material, Sphere, Triangle};
+use crate::model::{Camera, Environment, FovAxis, Material, Sphere, Triangle};
 use crate::transform::Xform;
 
 /// Keys the importer reads on primitives (others are reported in one warning).
@@ -344,13 +344,10 @@ impl<'a> Tungsten<'a> {
                 vfov: fov as f64,
             });
         }
-        let aspect = b.scene.render.height as f32 / b.scene.render.width as f32;
-        let vfov = 2.0
-            * ((fov.to_radians() * 0.5).tan() * aspect)
-                .atan()
-                .to_degrees();
+        // Tungsten's fov spans the image's width whatever its size (PinholeCamera.cpp).
         let mut cam = Camera {
-            vfov,
+            fov,
+            fov_axis: FovAxis::Horizontal,
             ..Camera::default()
         };
         if let Some(t) = c.key("transform") {

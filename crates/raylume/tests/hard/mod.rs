@@ -7,7 +7,7 @@ use std::sync::{Mutex, OnceLock};
 
 use glam::Vec3;
 use raylume::{Backend, Render, Scene, Tracer};
-use raylume_scene::{Camera, Material, RenderSettings, Sphere, Triangle};
+use raylume_scene::{Camera, FovAxis, Material, RenderSettings, Sphere, Triangle};
 
 /// Two triangles: corner, corner + u, corner + u + v, corner + v, facing along `u × v`.
 pub fn quad(corner: Vec3, u: Vec3, v: Vec3, material: u32) -> [Triangle; 2] {
@@ -133,7 +133,8 @@ pub fn camera(position: Vec3, look_at: Vec3, vfov: f32) -> Camera {
         position,
         look_at,
         up: Vec3::Y,
-        vfov,
+        fov: vfov,
+        fov_axis: FovAxis::Vertical,
     }
 }
 
