@@ -152,7 +152,8 @@ impl SceneData {
                 }
             };
             let (kind, color, alpha) = match m.kind {
-                MaterialKind::Diffuse => (MATERIAL_DIFFUSE, m.albedo, 0.0),
+                // TODO(materials): plastic's own kernel; the diffuse base until then.
+                MaterialKind::Diffuse | MaterialKind::Plastic => (MATERIAL_DIFFUSE, m.albedo, 0.0),
                 MaterialKind::Metal => (MATERIAL_METAL, m.albedo, m.roughness * m.roughness),
                 MaterialKind::Glass => (MATERIAL_GLASS, m.tint, 0.0),
             };

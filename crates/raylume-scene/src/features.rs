@@ -37,11 +37,15 @@ pub enum Feature {
     Triangles = 1 << 10,
     /// Interpolated shading normals on some triangles.
     ShadingNormals = 1 << 11,
+    /// Plastic (a diffuse base under a dielectric coat), smooth or rough.
+    Plastic = 1 << 12,
+    /// Rough glass (GGX microfacets, roughness > 0).
+    RoughGlass = 1 << 13,
 }
 
 impl Feature {
     /// Every feature, in bit order.
-    pub const ALL: [Feature; 12] = [
+    pub const ALL: [Feature; 14] = [
         Feature::Diffuse,
         Feature::Metal,
         Feature::RoughMetal,
@@ -54,6 +58,8 @@ impl Feature {
         Feature::Bloom,
         Feature::Triangles,
         Feature::ShadingNormals,
+        Feature::Plastic,
+        Feature::RoughGlass,
     ];
 
     /// snake_case name used in stats JSON and logs.
@@ -71,6 +77,8 @@ impl Feature {
             Feature::Bloom => "bloom",
             Feature::Triangles => "triangles",
             Feature::ShadingNormals => "shading_normals",
+            Feature::Plastic => "plastic",
+            Feature::RoughGlass => "rough_glass",
         }
     }
 }
@@ -161,7 +169,9 @@ impl Scene {
                 MaterialKind::Diffuse => f.insert(Feature::Diffuse),
                 MaterialKind::Metal if m.roughness > 0.0 => f.insert(Feature::RoughMetal),
                 MaterialKind::Metal => f.insert(Feature::Metal),
+                MaterialKind::Glass if m.roughness > 0.0 => f.insert(Feature::RoughGlass),
                 MaterialKind::Glass => f.insert(Feature::Glass),
+                MaterialKind::Plastic => f.insert(Feature::Plastic),
             }
             if m.is_emissive() {
                 f.insert(Feature::Emission);

@@ -123,15 +123,22 @@ impl Default for RenderSettings {
     }
 }
 
-/// How a surface scatters light.
+/// How a surface scatters light. Every kind scatters on both faces.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum MaterialKind {
     /// Lambertian, cosine-weighted sampling.
     Diffuse,
-    /// Conductor: perfect mirror at roughness 0, GGX microfacets above.
+    /// Conductor: a perfect mirror at roughness 0, GGX microfacets above, with the Fresnel
+    /// reflectance of its complex index of refraction ([`Material::conductor_eta`],
+    /// [`Material::conductor_k`]; `eta = 0` reflects everything) times `albedo`.
     Metal,
-    /// Smooth dielectric: Fresnel reflection and refraction, tinted transmission.
+    /// Dielectric: Fresnel reflection and refraction, tinted transmission; smooth at
+    /// roughness 0, GGX microfacets above (Walter et al. 2007).
     Glass,
+    /// A diffuse base (`albedo`) under a dielectric coat of index `ior`: Fresnel-weighted
+    /// specular reflection, smooth at roughness 0 or GGX above; what enters the coat is
+    /// reflected diffusely (Mitsuba's `plastic` / `roughplastic`, linear model).
+    Plastic,
 }
 
 /// One entry of the material table. Every material may emit.
@@ -144,12 +151,20 @@ pub struct Material {
     pub albedo: Vec3,
     /// Emitted radiance, linear RGB, >= 0.
     pub emission: Vec3,
-    /// Metal roughness in [0, 1] (GGX alpha = roughness^2). 0 is a perfect mirror.
+    /// Roughness of metal, glass and plastic, in [0, 1] (GGX alpha = roughness^2); 0 is
+    /// smooth (a perfect mirror, smooth glass, a smooth coat). Unused by diffuse.
     pub roughness: f32,
-    /// Glass index of refraction, > 0.
+    /// Index of refraction of glass and of a plastic's coat, > 0.
     pub ior: f32,
     /// Glass transmission tint, linear RGB in [0, 1].
     pub tint: Vec3,
+    /// Metal: the real part of the complex index of refraction `eta + i k`, per RGB channel
+    /// (named presets: [`crate::conductor_ior`]). The default `eta = 0, k = 1` is a lossless
+    /// conductor whose Fresnel reflectance is 1 at every angle, so `albedo` alone is the
+    /// reflectance.
+    pub conductor_eta: Vec3,
+    /// Metal: the imaginary part `k` of the complex index of refraction.
+    pub conductor_k: Vec3,
     /// Albedo texture (index into [`Scene::textures`]), multiplied with `albedo`.
     pub albedo_texture: Option<u32>,
     /// Whether the emission leaves both faces. By default (`false`) a surface emits from its
@@ -169,11 +184,14 @@ impl Material {
             roughness: 1.0,
             ior: 1.5,
             tint: Vec3::ONE,
+            conductor_eta: Vec3::ZERO,
+            conductor_k: Vec3::ONE,
             albedo_texture: None,
             two_sided: false,
         }
     }
 
+    /// A metal reflecting `albedo` at every angle (Fresnel 1), smooth at roughness 0.
     pub fn metal(name: &str, albedo: Vec3, roughness: f32) -> Self {
         Self {
             kind: MaterialKind::Metal,
@@ -182,12 +200,34 @@ impl Material {
         }
     }
 
+    /// A metal with the complex index of refraction `eta + i k` (per RGB channel), its
+    /// Fresnel reflectance scaled by `albedo`.
+    pub fn conductor(name: &str, eta: Vec3, k: Vec3, albedo: Vec3, roughness: f32) -> Self {
+        Self {
+            conductor_eta: eta,
+            conductor_k: k,
+            ..Self::metal(name, albedo, roughness)
+        }
+    }
+
+    /// Smooth glass of index `ior`, its transmission tinted by `tint`.
     pub fn glass(name: &str, ior: f32, tint: Vec3) -> Self {
         Self {
             kind: MaterialKind::Glass,
             ior,
             tint,
+            roughness: 0.0,
             ..Self::diffuse(name, Vec3::ONE)
+        }
+    }
+
+    /// A diffuse `albedo` under a dielectric coat of index `ior`, smooth at roughness 0.
+    pub fn plastic(name: &str, albedo: Vec3, ior: f32, roughness: f32) -> Self {
+        Self {
+            kind: MaterialKind::Plastic,
+            ior,
+            roughness,
+            ..Self::diffuse(name, albedo)
         }
     }
 

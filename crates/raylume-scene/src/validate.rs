@@ -325,6 +325,10 @@ pub(crate) fn validate_with(s: &Scene, prov: &Provenance) -> Result<(), SceneErr
         color(file, &at, "emission", m.emission)?;
         radiance(file, &at, "emission", m.emission.max_element())?;
         color(file, &at, "tint", m.tint)?;
+        // A conductor's complex index of refraction: finite, not negative (eta = 0 is the
+        // lossless conductor). Large values are fine: the Fresnel term tends to 1.
+        color(file, &at, "conductor eta", m.conductor_eta)?;
+        color(file, &at, "conductor k", m.conductor_k)?;
         for (what, c) in [("albedo", m.albedo), ("tint", m.tint)] {
             if c.max_element() > 1.0 {
                 return Err(SceneError::InvalidValue {

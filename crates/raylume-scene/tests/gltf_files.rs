@@ -158,8 +158,10 @@ fn hierarchy_materials_and_camera() {
     let painted = m(0);
     assert_eq!(
         (painted.name.as_str(), painted.kind, painted.albedo),
-        ("painted", MaterialKind::Diffuse, Vec3::new(0.5, 0.6, 0.7))
+        ("painted", MaterialKind::Plastic, Vec3::new(0.5, 0.6, 0.7))
     );
+    // glTF's dielectric: F0 0.04 = ior 1.5, roughnessFactor's default 1.
+    assert_eq!((painted.ior, painted.roughness), (1.5, 1.0));
     assert_eq!(
         s.textures[painted.albedo_texture.unwrap() as usize].texels[2],
         [0.0, 0.0, 1.0]
@@ -177,7 +179,7 @@ fn hierarchy_materials_and_camera() {
     let neon = m(4);
     assert_eq!(
         (neon.kind, neon.emission, neon.two_sided),
-        (MaterialKind::Diffuse, Vec3::new(4.0, 2.0, 1.0), true)
+        (MaterialKind::Plastic, Vec3::new(4.0, 2.0, 1.0), true)
     );
     // glTF materials are single-sided by default: their emission leaves the front face only.
     assert!(!m(1).two_sided && !m(2).two_sided);

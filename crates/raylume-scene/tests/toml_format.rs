@@ -281,6 +281,73 @@ fn hfov_and_two_sided_emission_are_read() {
 }
 
 #[test]
+fn plastic_rough_glass_and_conductors_are_read() {
+    let d = TempDir::new("toml-materials");
+    let body = |m: &str| {
+        format!(
+            "[materials.m]\n{m}\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"m\"\n"
+        )
+    };
+    let one = |m: &str| toml(&d.0, &body(m)).map(|s| s.materials[0].clone());
+    let p =
+        one("type = \"plastic\"\nalbedo = [0.5, 0.4, 0.3]\nroughness = 0.3\nior = 1.4").unwrap();
+    assert_eq!(
+        (p.kind, p.albedo, p.roughness, p.ior),
+        (MaterialKind::Plastic, Vec3::new(0.5, 0.4, 0.3), 0.3, 1.4)
+    );
+    // Defaults: a smooth coat of ior 1.5; smooth glass.
+    let p = one("type = \"plastic\"").unwrap();
+    assert_eq!((p.roughness, p.ior), (0.0, 1.5));
+    let g = one("type = \"glass\"\nroughness = 0.2").unwrap();
+    assert_eq!((g.kind, g.roughness), (MaterialKind::Glass, 0.2));
+    assert_eq!(one("type = \"glass\"").unwrap().roughness, 0.0);
+    // A named conductor takes Mitsuba's RGB complex IOR; eta and k may be given instead.
+    let au = one("type = \"metal\"\nconductor = \"Au\"\nroughness = 0.1").unwrap();
+    let (eta, k) = raylume_scene::conductor_ior("Au").unwrap();
+    assert_eq!((au.conductor_eta, au.conductor_k), (eta, k));
+    let custom = one("type = \"metal\"\neta = [0.2, 0.9, 1.1]\nk = [3.9, 2.4, 2.1]").unwrap();
+    assert_eq!(custom.conductor_eta, Vec3::new(0.2, 0.9, 1.1));
+    // Without either: Fresnel 1 (eta 0, k 1), the albedo alone reflects.
+    let plain = one("type = \"metal\"").unwrap();
+    assert_eq!(
+        (plain.conductor_eta, plain.conductor_k),
+        (Vec3::ZERO, Vec3::ONE)
+    );
+    for (m, variant, line, col) in [
+        (
+            "type = \"metal\"\nconductor = \"Unobtainium\"",
+            "InvalidValue",
+            3,
+            13,
+        ),
+        (
+            "type = \"metal\"\nconductor = \"Au\"\neta = [1, 1, 1]",
+            "InvalidValue",
+            3,
+            13,
+        ),
+        ("type = \"metal\"\neta = [1, 1, 1]", "MissingKey", 3, 7),
+        ("type = \"metal\"\nk = [1, 1, 1]", "MissingKey", 3, 5),
+        (
+            "type = \"metal\"\neta = [1, -1, 1]\nk = [1, 1, 1]",
+            "Negative",
+            3,
+            7,
+        ),
+        ("type = \"plastic\"\nroughness = 2", "InvalidValue", 3, 13),
+    ] {
+        let e = toml(&d.0, &body(m)).unwrap_err();
+        assert!(format!("{e:?}").starts_with(variant), "{m}: {e}");
+        assert_eq!(e.location(), Some(&line_col(line, col)), "{m}: {e}");
+    }
+    let e = toml(&d.0, &body("type = \"metal\"\nconductor = \"Unobtainium\"")).unwrap_err();
+    assert!(
+        e.to_string().contains("Au, "),
+        "the error lists the names: {e}"
+    );
+}
+
+#[test]
 fn no_camera_table_frames_the_bounds() {
     let d = TempDir::new("toml-frame");
     let s = toml(&d.0, "[materials.m]\ntype = \"diffuse\"\n[[sphere]]\ncenter = [1, 2, 3]\nradius = 1\nmaterial = \"m\"\n").unwrap();
@@ -360,6 +427,10 @@ fn keys_that_do_not_apply_to_a_material_type_are_errors() {
         ("metal", "tint", "[1, 1, 1]"),
         ("glass", "albedo", "[1, 1, 1]"),
         ("glass", "texture", "\"a.png\""),
+        ("plastic", "tint", "[1, 1, 1]"),
+        ("metal", "ior", "1.5"),
+        ("glass", "conductor", "\"Au\""),
+        ("diffuse", "eta", "[1, 1, 1]"),
     ] {
         let text = format!(
             "[materials.m]\ntype = \"{ty}\"\n{key} = {value}\n[[sphere]]\ncenter = [0, 0, 0]\nradius = 1\nmaterial = \"m\"\n"
@@ -370,7 +441,7 @@ fn keys_that_do_not_apply_to_a_material_type_are_errors() {
             "{ty}.{key}: {e}"
         );
     }
-    let e = toml(&d.0, "[materials.m]\ntype = \"plastic\"\n").unwrap_err();
+    let e = toml(&d.0, "[materials.m]\ntype = \"velvet\"\n").unwrap_err();
     assert!(
         matches!(&e, SceneError::InvalidValue { at, .. } if *at == line_col(2, 8)),
         "{e}"

@@ -66,9 +66,16 @@ fn every_bsdf_type_maps_to_the_documented_material() {
         (kind("lam"), m("lam").albedo),
         (Diffuse, Vec3::new(0.2, 0.4, 0.6))
     );
-    for n in ["on", "pl", "rp", "ph", "bm", "cst"] {
+    for n in ["on", "ph", "bm", "cst"] {
         assert_eq!(kind(n), Diffuse, "{n}");
     }
+    // Plastics: smooth (alpha 0) and rough (GGX alpha 0.1 -> roughness sqrt(0.1)), ior 1.5.
+    assert_eq!(
+        (kind("pl"), m("pl").albedo, m("pl").roughness, m("pl").ior),
+        (Plastic, Vec3::splat(0.3), 0.0, 1.5)
+    );
+    assert_eq!(kind("rp"), Plastic);
+    assert!((m("rp").roughness - 0.1f32.sqrt()).abs() < 1e-6);
     assert_eq!(
         m("rp").albedo_texture,
         m("bm").albedo_texture,
@@ -80,21 +87,23 @@ fn every_bsdf_type_maps_to_the_documented_material() {
         (kind("mir"), m("mir").albedo, m("mir").roughness),
         (Metal, Vec3::splat(0.9), 0.0)
     );
-    // Tungsten's default conductor is copper, albedo 1: F0(Cu).
-    assert_eq!(
-        (kind("cu"), m("cu").albedo),
-        (Metal, Vec3::new(0.955, 0.638, 0.538))
-    );
+    // Tungsten's default conductor is copper, albedo 1, with Mitsuba's RGB complex IOR.
+    let ior = |n: &str| (m(n).conductor_eta, m(n).conductor_k);
+    assert_eq!((kind("cu"), m("cu").albedo), (Metal, Vec3::ONE));
+    assert_eq!(ior("cu"), raylume_scene::conductor_ior("Cu").unwrap());
     // Gold, GGX alpha 0.04 -> roughness 0.2.
-    assert_eq!(m("au").albedo, Vec3::new(1.0, 0.782, 0.344));
+    assert_eq!(ior("au"), raylume_scene::conductor_ior("Au").unwrap());
     assert!((m("au").roughness - 0.2).abs() < 1e-6);
-    // eta 1.5, k 0: F0 = ((1.5-1)/(1.5+1))^2 = 0.04.
-    assert!((m("ek").albedo - Vec3::splat(0.04)).abs().max_element() < 1e-6);
+    // eta and k given as numbers.
+    assert_eq!(ior("ek"), (Vec3::splat(1.5), Vec3::ZERO));
     assert_eq!(
         (kind("die"), m("die").ior, m("die").tint),
         (Glass, 1.33, Vec3::new(0.9, 0.95, 1.0))
     );
+    // rough_dielectric: default GGX alpha 0.1.
     assert_eq!((kind("rd"), m("rd").ior), (Glass, 1.6));
+    assert!((m("rd").roughness - 0.1f32.sqrt()).abs() < 1e-6);
+    assert_eq!(m("die").roughness, 0.0);
     assert_eq!((kind("ts"), m("ts").ior), (Glass, 1.5));
     assert_eq!((kind("tr"), m("tr").albedo), (Diffuse, Vec3::splat(0.25)));
     assert_eq!(
@@ -117,12 +126,7 @@ fn every_bsdf_type_maps_to_the_documented_material() {
     };
     for (n, ty) in [
         ("on", "oren_nayar"),
-        ("pl", "plastic"),
-        ("rp", "rough_plastic"),
         ("ph", "phong"),
-        ("cu", "conductor"),
-        ("au", "rough_conductor"),
-        ("rd", "rough_dielectric"),
         ("ts", "thinsheet"),
         ("tr", "transparency"),
         ("mix", "mixed"),
@@ -131,7 +135,9 @@ fn every_bsdf_type_maps_to_the_documented_material() {
     ] {
         assert!(warned(n, ty), "no warning for {n} in {:?}", s.warnings);
     }
-    for n in ["lam", "mir", "die", "bm"] {
+    for n in [
+        "lam", "mir", "die", "bm", "pl", "rp", "cu", "au", "ek", "rd",
+    ] {
         assert!(
             !s.warnings
                 .iter()

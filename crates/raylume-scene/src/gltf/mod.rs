@@ -6,9 +6,13 @@
 //!   uses.
 //! - Materials (metallic-roughness):
 //!   `KHR_materials_transmission` factor > 0.5 -> glass (`ior` from `KHR_materials_ior`,
-//!   default 1.5; tint = base colour); else `metallicFactor >= 0.5` -> metal (albedo = base
-//!   colour, roughness = `roughnessFactor`, which is already perceptual: GGX alpha =
-//!   roughness^2 in both); else diffuse (albedo = base colour). Emission = `emissiveFactor` x
+//!   default 1.5; tint = base colour; roughness = `roughnessFactor`, which is already
+//!   perceptual: GGX alpha = roughness^2 in both); else `metallicFactor >= 0.5` -> metal
+//!   (albedo = base colour at every angle, which is glTF's Schlick F0 held constant); else
+//!   plastic: glTF's dielectric is a diffuse base colour under a GGX specular layer with
+//!   F0 = 0.04, the Fresnel reflectance of ior 1.5 (`KHR_materials_ior` if given), which is
+//!   raylume's plastic of that ior and roughness. A metallic factor strictly between 0 and 1
+//!   picks the nearer of the two. Emission = `emissiveFactor` x
 //!   `KHR_materials_emissive_strength`, from the front face only unless the material is
 //!   `doubleSided`. `baseColorTexture` is the albedo texture. Other
 //!   textures (metallic-roughness, normal, emissive) are ignored with a warning. Primitives
@@ -150,12 +154,17 @@ impl Loader<'_> {
         let [r, g, bl, _] = pbr.base_color_factor();
         let base = Vec3::new(r, g, bl);
         let transmission = m.transmission().map_or(0.0, |t| t.transmission_factor());
+        let roughness = pbr.roughness_factor().clamp(0.0, 1.0);
         let mut out = if transmission > 0.5 {
-            Material::glass(&name, m.ior().unwrap_or(1.5), base)
+            let mut glass = Material::glass(&name, m.ior().unwrap_or(1.5), base);
+            glass.roughness = roughness;
+            glass
         } else if pbr.metallic_factor() >= 0.5 {
-            Material::metal(&name, base, pbr.roughness_factor())
+            Material::metal(&name, base, roughness)
         } else {
-            Material::diffuse(&name, base)
+            // glTF's dielectric: a diffuse base colour under a GGX specular layer of F0 = 0.04,
+            // the reflectance of ior 1.5, which is raylume's plastic.
+            Material::plastic(&name, base, m.ior().unwrap_or(1.5), roughness)
         };
         out.emission = Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
         // glTF 2.0 §3.9.6: a single-sided material shows its front face only.

@@ -116,19 +116,37 @@ impl Ctx<'_> {
             "diffuse" => MaterialKind::Diffuse,
             "metal" => MaterialKind::Metal,
             "glass" => MaterialKind::Glass,
+            "plastic" => MaterialKind::Plastic,
             other => {
                 return Err(SceneError::InvalidValue {
                     file: self.file.into(),
                     at: self.at(&mt.kind),
                     message: format!(
-                        "material type `{other}`, expected `diffuse`, `metal` or `glass`"
+                        "material type `{other}`, expected `diffuse`, `metal`, `glass` or \
+                         `plastic`"
                     ),
                 });
             }
         };
         // Keys that do not apply to this type are errors (typo protection).
-        let not_for = |present: bool, key: &str, at: Location| -> Result<(), SceneError> {
-            if present {
+        let applies: &[&str] = match kind {
+            MaterialKind::Diffuse => &["albedo", "texture"],
+            MaterialKind::Metal => &["albedo", "texture", "roughness", "conductor", "eta", "k"],
+            MaterialKind::Glass => &["roughness", "ior", "tint"],
+            MaterialKind::Plastic => &["albedo", "texture", "roughness", "ior"],
+        };
+        let given = [
+            ("albedo", mt.albedo.as_ref().map(|s| self.at(s))),
+            ("texture", mt.texture.as_ref().map(|s| self.at(s))),
+            ("roughness", mt.roughness.as_ref().map(|s| self.at(s))),
+            ("ior", mt.ior.as_ref().map(|s| self.at(s))),
+            ("tint", mt.tint.as_ref().map(|s| self.at(s))),
+            ("conductor", mt.conductor.as_ref().map(|s| self.at(s))),
+            ("eta", mt.eta.as_ref().map(|s| self.at(s))),
+            ("k", mt.k.as_ref().map(|s| self.at(s))),
+        ];
+        for (key, at) in given {
+            if let (Some(at), false) = (at, applies.contains(&key)) {
                 return Err(SceneError::UnknownKey {
                     file: self.file.into(),
                     at,
@@ -136,64 +154,55 @@ impl Ctx<'_> {
                     message: format!("does not apply to a {} material", mt.kind.get_ref()),
                 });
             }
-            Ok(())
-        };
-        let span_of = |s: Option<Location>| s.unwrap_or(Location::None);
-        match kind {
-            MaterialKind::Diffuse => {
-                not_for(
-                    mt.roughness.is_some(),
-                    "roughness",
-                    span_of(mt.roughness.as_ref().map(|s| self.at(s))),
-                )?;
-                not_for(
-                    mt.ior.is_some(),
-                    "ior",
-                    span_of(mt.ior.as_ref().map(|s| self.at(s))),
-                )?;
-                not_for(
-                    mt.tint.is_some(),
-                    "tint",
-                    span_of(mt.tint.as_ref().map(|s| self.at(s))),
-                )?;
-            }
-            MaterialKind::Metal => {
-                not_for(
-                    mt.ior.is_some(),
-                    "ior",
-                    span_of(mt.ior.as_ref().map(|s| self.at(s))),
-                )?;
-                not_for(
-                    mt.tint.is_some(),
-                    "tint",
-                    span_of(mt.tint.as_ref().map(|s| self.at(s))),
-                )?;
-            }
-            MaterialKind::Glass => {
-                not_for(
-                    mt.albedo.is_some(),
-                    "albedo",
-                    span_of(mt.albedo.as_ref().map(|s| self.at(s))),
-                )?;
-                not_for(
-                    mt.roughness.is_some(),
-                    "roughness",
-                    span_of(mt.roughness.as_ref().map(|s| self.at(s))),
-                )?;
-                not_for(
-                    mt.texture.is_some(),
-                    "texture",
-                    span_of(mt.texture.as_ref().map(|s| self.at(s))),
-                )?;
-            }
         }
         let mut out = Material::diffuse(name, Vec3::splat(0.8));
         out.kind = kind;
-        out.roughness = if kind == MaterialKind::Metal {
-            0.0
-        } else {
+        out.roughness = if kind == MaterialKind::Diffuse {
             1.0
+        } else {
+            0.0
         };
+        match (&mt.conductor, &mt.eta, &mt.k) {
+            (None, None, None) => {}
+            (Some(c), None, None) => {
+                let (eta, k) =
+                    crate::conductor_ior(c.get_ref()).ok_or_else(|| SceneError::InvalidValue {
+                        file: self.file.into(),
+                        at: self.at(c),
+                        message: format!(
+                            "unknown conductor `{}`, expected one of {}",
+                            c.get_ref(),
+                            crate::conductors::conductor_names_list()
+                        ),
+                    })?;
+                (out.conductor_eta, out.conductor_k) = (eta, k);
+            }
+            (None, Some(eta), Some(k)) => {
+                out.conductor_eta = self.non_negative(eta, "eta")?;
+                out.conductor_k = self.non_negative(k, "k")?;
+            }
+            (Some(c), _, _) => {
+                return Err(SceneError::InvalidValue {
+                    file: self.file.into(),
+                    at: self.at(c),
+                    message: "a metal takes `conductor` or `eta` and `k`, not both".into(),
+                });
+            }
+            (None, Some(e), None) => {
+                return Err(SceneError::MissingKey {
+                    file: self.file.into(),
+                    at: self.at(e),
+                    key: "k".into(),
+                });
+            }
+            (None, None, Some(k)) => {
+                return Err(SceneError::MissingKey {
+                    file: self.file.into(),
+                    at: self.at(k),
+                    key: "eta".into(),
+                });
+            }
+        }
         if let Some(a) = &mt.albedo {
             out.albedo = self.non_negative(a, "albedo")?;
         }

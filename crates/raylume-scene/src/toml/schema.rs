@@ -71,6 +71,9 @@ pub(super) struct MaterialToml {
     pub(super) tint: Option<V3>,
     pub(super) texture: Option<Spanned<String>>,
     pub(super) two_sided: Option<Spanned<bool>>,
+    pub(super) conductor: Option<Spanned<String>>,
+    pub(super) eta: Option<V3>,
+    pub(super) k: Option<V3>,
 }
 
 /// `scale = 2.0` or `scale = [1, 2, 3]`.

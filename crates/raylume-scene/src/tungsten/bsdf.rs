@@ -5,13 +5,12 @@
 //! | --- | --- | --- |
 //! | `lambert` | diffuse | yes |
 //! | `oren_nayar`, `phong`, `lambertian_fiber`, `diffuse_transmission` | diffuse (albedo) | no |
-//! | `plastic`, `rough_plastic` | diffuse (albedo; the clear coat is dropped) | no |
+//! | `plastic`, `rough_plastic` | plastic (albedo, `ior`, roughness = sqrt(Tungsten's alpha)) | as Mitsuba's `plastic` / `roughplastic` (a `thickness` with nonzero `sigma_a` is dropped with a warning) |
 //! | `smooth_coat`, `rough_coat` | the substrate, mapped (coat dropped) | no |
-//! | `mirror` | metal, roughness 0 | yes |
-//! | `conductor` | metal, roughness 0, albedo x RGB F0 of `material` (or of `eta`/`k`) | no |
-//! | `rough_conductor` | metal, roughness = sqrt(Tungsten's alpha), albedo x F0 | no |
-//! | `dielectric` | glass (ior, tint = albedo) | yes |
-//! | `rough_dielectric`, `thinsheet` | glass (roughness / thin-sheet optics dropped) | no |
+//! | `mirror` | metal, roughness 0 (Fresnel 1) | yes |
+//! | `conductor`, `rough_conductor` | metal with the complex IOR of `material` (default `Cu`; [`crate::conductor_ior`], Mitsuba's RGB values) or of `eta`/`k`, albedo scaling its Fresnel term, roughness = sqrt(alpha) | yes (RGB) |
+//! | `dielectric`, `rough_dielectric` | glass (ior, tint = albedo, roughness = sqrt(alpha)) | yes |
+//! | `thinsheet` | smooth glass (thin-sheet optics dropped) | no |
 //! | `transparency` | its `base` (alpha dropped; the alpha file must still exist) | no |
 //! | `mixed` | `bsdf0` when `ratio >= 0.5`, else `bsdf1` | no |
 //! | `null`, `forward` | black diffuse (only emission remains visible) | no |
@@ -27,36 +26,9 @@ use crate::builder::SceneBuilder;
 use crate::error::SceneError;
 use crate::model::Material;
 
-/// Normal-incidence reflectance (F0) of metals in linear RGB, from Naty Hoffman, "Physics and
-/// Math of Shading" (SIGGRAPH 2013 course notes), table of metal F0 values.
-const METAL_F0: [(&str, [f32; 3]); 13] = [
-    ("Ag", [0.972, 0.960, 0.915]),
-    ("Al", [0.913, 0.922, 0.924]),
-    ("Au", [1.000, 0.782, 0.344]),
-    ("Cu", [0.955, 0.638, 0.538]),
-    ("Cr", [0.549, 0.556, 0.554]),
-    ("Fe", [0.562, 0.565, 0.578]),
-    ("Ni", [0.660, 0.609, 0.526]),
-    ("Ni_palik", [0.660, 0.609, 0.526]),
-    ("Pt", [0.673, 0.637, 0.585]),
-    ("Ti", [0.542, 0.497, 0.449]),
-    ("Zn", [0.664, 0.824, 0.850]),
-    ("Pd", [0.733, 0.697, 0.652]),
-    ("Hg", [0.781, 0.780, 0.778]),
-];
-
-/// F0 of a metal by Tungsten's name for it.
-pub(crate) fn metal_f0(name: &str) -> Option<Vec3> {
-    METAL_F0
-        .iter()
-        .find(|(n, _)| *n == name)
-        .map(|(_, c)| Vec3::from_array(*c))
-}
-
-/// F0 from a complex index of refraction: ((eta - 1)^2 + k^2) / ((eta + 1)^2 + k^2).
-pub(crate) fn f0_from_eta_k(eta: Vec3, k: Vec3) -> Vec3 {
-    let k2 = k * k;
-    ((eta - 1.0) * (eta - 1.0) + k2) / ((eta + 1.0) * (eta + 1.0) + k2)
+/// Tungsten's roughness is the GGX alpha itself; raylume's is `sqrt(alpha)`.
+fn roughness_of_alpha(alpha: f32) -> f32 {
+    alpha.max(0.0).sqrt().min(1.0)
 }
 
 /// Deepest nesting of BSDFs (transparency of mixed of ...), against reference cycles.
@@ -186,14 +158,35 @@ impl Tungsten<'_> {
         if j.key("bump").is_some() {
             b.warn(format!("material '{name}': bump map ignored"));
         }
+        if j.key("distribution")
+            .is_some_and(|d| d.v.as_str().is_some_and(|d| d != "ggx"))
+        {
+            Self::approx(b, name, "microfacet distribution other than ggx", "GGX");
+        }
         let mut m = match ty {
-            "lambert"
-            | "oren_nayar"
-            | "phong"
-            | "lambertian_fiber"
-            | "diffuse_transmission"
-            | "plastic"
-            | "rough_plastic" => {
+            "plastic" | "rough_plastic" => {
+                if j.key("sigma_a").is_some_and(|s| {
+                    s.j().vec3().is_ok_and(|v| v.max_element() > 0.0)
+                        || s.v.as_f64().is_some_and(|v| v > 0.0)
+                }) {
+                    Self::approx(
+                        b,
+                        name,
+                        "plastic with an absorbing coat (sigma_a)",
+                        "a clear coat",
+                    );
+                }
+                let (albedo, tex) = self.albedo(b, j, name)?;
+                let roughness = if ty == "rough_plastic" {
+                    roughness_of_alpha(f32_or("roughness", 0.1)?)
+                } else {
+                    0.0
+                };
+                let mut m = Material::plastic(name, albedo, f32_or("ior", 1.5)?, roughness);
+                m.albedo_texture = tex;
+                m
+            }
+            "lambert" | "oren_nayar" | "phong" | "lambertian_fiber" | "diffuse_transmission" => {
                 if ty != "lambert" {
                     Self::approx(b, name, ty, "diffuse");
                 }
@@ -208,7 +201,9 @@ impl Tungsten<'_> {
                     Some(s) => self.bsdf_ref(b, s.j(), depth)?,
                     // Tungsten's default substrate is a rough conductor (Cu).
                     None => {
-                        Material::metal(name, metal_f0("Cu").unwrap_or(Vec3::ONE), 0.1f32.sqrt())
+                        let (eta, k) =
+                            crate::conductor_ior("Cu").unwrap_or((Vec3::ZERO, Vec3::ONE));
+                        Material::conductor(name, eta, k, Vec3::ONE, roughness_of_alpha(0.1))
                     }
                 }
             }
@@ -219,20 +214,22 @@ impl Tungsten<'_> {
                 m
             }
             "conductor" | "rough_conductor" => {
-                let f0 = match (j.key("eta"), j.key("k")) {
-                    (Some(eta), Some(k)) => f0_from_eta_k(eta.j().vec3()?, k.j().vec3()?),
+                let (eta, k) = match (j.key("eta"), j.key("k")) {
+                    (Some(eta), Some(k)) => (eta.j().vec3()?, k.j().vec3()?),
                     _ => {
                         let metal = match j.key("material") {
                             Some(n) => n.j().str()?.to_string(),
                             None => "Cu".to_string(),
                         };
-                        match metal_f0(&metal) {
-                            Some(f0) => f0,
+                        match crate::conductor_ior(&metal) {
+                            Some(ior) => ior,
                             None => {
                                 b.warn(format!(
-                                    "material '{name}': conductor '{metal}' not in the RGB table: neutral F0 0.9 used"
+                                    "material '{name}': conductor '{metal}' is not one of the named \
+                                     conductors ({}): Fresnel 1 used",
+                                    crate::conductors::conductor_names_list()
                                 ));
-                                Vec3::splat(0.9)
+                                (Vec3::ZERO, Vec3::ONE)
                             }
                         }
                     }
@@ -242,14 +239,13 @@ impl Tungsten<'_> {
                 } else {
                     0.0
                 };
-                Self::approx(b, name, ty, "metal with an RGB albedo x F0 table value");
                 let (albedo, tex) = self.albedo(b, j, name)?;
-                let mut m = Material::metal(name, albedo * f0, alpha.max(0.0).sqrt().min(1.0));
+                let mut m = Material::conductor(name, eta, k, albedo, roughness_of_alpha(alpha));
                 m.albedo_texture = tex;
                 m
             }
             "dielectric" | "rough_dielectric" | "thinsheet" => {
-                if ty != "dielectric" {
+                if ty == "thinsheet" {
                     Self::approx(b, name, ty, "smooth glass");
                 }
                 if j.key("enable_refraction")
@@ -263,7 +259,11 @@ impl Tungsten<'_> {
                         "material '{name}': albedo texture ignored on glass"
                     ));
                 }
-                Material::glass(name, f32_or("ior", 1.5)?, tint)
+                let mut m = Material::glass(name, f32_or("ior", 1.5)?, tint);
+                if ty == "rough_dielectric" {
+                    m.roughness = roughness_of_alpha(f32_or("roughness", 0.1)?);
+                }
+                m
             }
             "transparency" => {
                 Self::approx(b, name, ty, "its base BSDF (alpha dropped)");
@@ -321,12 +321,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn f0_formula_matches_a_known_dielectric_and_the_table() {
-        // eta = 1.5, k = 0: F0 = (0.5/2.5)^2 = 0.04.
-        let f = f0_from_eta_k(Vec3::splat(1.5), Vec3::ZERO);
-        assert!((f - Vec3::splat(0.04)).abs().max_element() < 1e-6);
-        // Aluminium at ~550 nm: eta ~ 0.96, k ~ 6.69 gives F0 ~ 0.91; the table says 0.922.
-        let al = f0_from_eta_k(Vec3::splat(0.96), Vec3::splat(6.69));
-        assert!((al.y - metal_f0("Al").unwrap().y).abs() < 0.02, "{al}");
+    fn tungsten_roughness_is_alpha() {
+        // raylume's alpha = roughness^2, so Tungsten's alpha 0.15 is raylume roughness 0.387.
+        assert!((roughness_of_alpha(0.15).powi(2) - 0.15).abs() < 1e-7);
+        assert_eq!(roughness_of_alpha(-1.0), 0.0);
+        assert_eq!(roughness_of_alpha(4.0), 1.0);
     }
 }

@@ -156,10 +156,12 @@ pub fn sphere(center: Vec3, radius: f32, material: u32) -> Sphere {
     }
 }
 
-/// A diffuse material of albedo `a` that also emits `e`.
+/// A diffuse material of albedo `a` that also emits `e`, from both faces (so that the walls of
+/// a closed glowing box light its inside whichever way they are wound: a furnace).
 pub fn glowing(name: &str, a: f32, e: Vec3) -> Material {
     Material {
         emission: e,
+        two_sided: true,
         ..Material::diffuse(name, Vec3::splat(a))
     }
 }
