@@ -65,6 +65,29 @@ pub fn block_means(
         .collect())
 }
 
+/// The standard errors of the block means of an image whose pixels are independent, from its
+/// per-pixel variances (`variance`, same layout as [`block_means`]): per channel,
+/// `sqrt(sum of the block's pixel variances) / (pixels in the block)`. With two independent
+/// halves `X1`, `X2` of a render, `((X1 - X2) / 2)^2` estimates the variance of their mean at
+/// each pixel.
+pub fn block_standard_errors(
+    variance: &[[f32; 3]],
+    width: u32,
+    height: u32,
+    block: u32,
+) -> Result<Vec<[f64; 3]>, PostError> {
+    let m = block_means(variance, width, height, block)?;
+    let cols = width.div_ceil(block);
+    Ok(m.iter()
+        .enumerate()
+        .map(|(k, v)| {
+            let (bx, by) = (k as u32 % cols, k as u32 / cols);
+            let n = f64::from((width - bx * block).min(block) * (height - by * block).min(block));
+            v.map(|x| (x / n).sqrt())
+        })
+        .collect())
+}
+
 /// The block errors of a test image against a reference (see the [module docs](self)).
 #[derive(Debug, Clone, PartialEq)]
 pub struct BlockErrors {
@@ -76,6 +99,8 @@ pub struct BlockErrors {
     pub rows: u32,
     /// The signed relative error of each block, row-major (positive: the test is brighter).
     pub errors: Vec<f64>,
+    /// The channel (0, 1, 2) that set each block's error.
+    pub channel: Vec<u8>,
     /// Whether the floor, not the reference's own block mean, was the denominator of the
     /// channel that set the block's error.
     pub floored: Vec<bool>,
@@ -151,9 +176,14 @@ pub fn block_errors(
         };
         *level = floor * median;
     }
-    let (mut errors, mut floored) = (Vec::with_capacity(t.len()), Vec::with_capacity(t.len()));
+    let n = t.len();
+    let (mut errors, mut channel, mut floored) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
     for (tb, rb) in t.iter().zip(&r) {
-        let (mut worst, mut was_floored) = (0.0f64, false);
+        let (mut worst, mut worst_c, mut was_floored) = (0.0f64, 0u8, false);
         for c in 0..3 {
             let denom = rb[c].max(floor_level[c]);
             let diff = tb[c] - rb[c];
@@ -167,10 +197,12 @@ pub fn block_errors(
             // A NaN (from non-finite input) wins and stays, so it is never hidden.
             if c == 0 || e.is_nan() || (!worst.is_nan() && e.abs() > worst.abs()) {
                 worst = e;
+                worst_c = c as u8;
                 was_floored = rb[c] < floor_level[c];
             }
         }
         errors.push(worst);
+        channel.push(worst_c);
         floored.push(was_floored);
     }
     let (w, h, b) = (width as usize, height as usize, block as usize);
@@ -179,6 +211,7 @@ pub fn block_errors(
         columns: w.div_ceil(b) as u32,
         rows: h.div_ceil(b) as u32,
         errors,
+        channel,
         floored,
         floor_level,
         test_means: t,
@@ -327,6 +360,49 @@ mod tests {
     }
 
     #[test]
+    fn standard_errors_from_halves_match_the_spread_of_block_errors() {
+        // 10x9 in blocks of 4 with a constant variance of 0.16: full blocks sqrt(0.16 * 16) / 16
+        // = 0.1, the 2x4 edge block sqrt(0.16 * 8) / 8, the 2x1 corner sqrt(0.16 * 2) / 2.
+        let v = vec![[0.16f32; 3]; 90];
+        let se = block_standard_errors(&v, 10, 9, 4).unwrap();
+        assert!((se[0][0] - 0.1).abs() < 1e-7, "{}", se[0][0]);
+        assert!((se[2][1] - (0.16f64 * 8.0).sqrt() / 8.0).abs() < 1e-7);
+        assert!((se[8][2] - (0.16f64 * 2.0).sqrt() / 2.0).abs() < 1e-7);
+        // Two noisy halves of a known picture: the errors of their mean's blocks, divided by
+        // the standard errors estimated from the halves alone, spread with unit variance.
+        let (w, h) = (128usize, 128usize);
+        let r = pattern(w, h);
+        let half = |seed: u64| -> Vec<[f32; 3]> {
+            r.iter()
+                .enumerate()
+                .map(|(i, p)| [0, 1, 2].map(|c| p[c] * (1.0 + 0.6 * noise(seed + c as u64, i))))
+                .collect()
+        };
+        let (a, b) = (half(10), half(20));
+        let mean: Vec<[f32; 3]> = a
+            .iter()
+            .zip(&b)
+            .map(|(x, y)| [0, 1, 2].map(|c| 0.5 * (x[c] + y[c])))
+            .collect();
+        let var: Vec<[f32; 3]> = a
+            .iter()
+            .zip(&b)
+            .map(|(x, y)| [0, 1, 2].map(|c| (0.5 * (x[c] - y[c])).powi(2)))
+            .collect();
+        let se = block_standard_errors(&var, 128, 128, 8).unwrap();
+        let tm = block_means(&mean, 128, 128, 8).unwrap();
+        let rm = block_means(&r, 128, 128, 8).unwrap();
+        let mut z2 = 0.0;
+        for k in 0..tm.len() {
+            for c in 0..3 {
+                z2 += ((tm[k][c] - rm[k][c]) / se[k][c]).powi(2);
+            }
+        }
+        let z_rms = (z2 / (3 * tm.len()) as f64).sqrt();
+        assert!((z_rms - 1.0).abs() < 0.1, "z rms {z_rms}");
+    }
+
+    #[test]
     fn a_wrong_hue_counts_like_a_wrong_brightness() {
         // Only the blue channel is 10 % low: the block error is -10 %.
         let r = pattern(16, 16);
@@ -335,6 +411,7 @@ mod tests {
         for v in &e.errors {
             assert!((v + 0.1).abs() < 1e-6, "{v}");
         }
+        assert!(e.channel.iter().all(|&c| c == 2));
         let mut bad = t.clone();
         bad[0] = [f32::NAN; 3];
         assert!(

@@ -44,7 +44,7 @@ pub mod gpu_types;
 pub mod metrics;
 pub mod tonemap;
 
-pub use blocks::{BLOCK_FLOOR, BlockErrors, block_errors, block_means};
+pub use blocks::{BLOCK_FLOOR, BlockErrors, block_errors, block_means, block_standard_errors};
 pub use bloom::{BloomParams, bloom_cpu};
 pub use bloom_gpu::{BLOOM_STAGES, BLOOM_WGSL, GpuBloom, PIXEL_BYTES, bloom_gpu};
 pub use error::PostError;
