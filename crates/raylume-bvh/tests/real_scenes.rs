@@ -3,8 +3,8 @@
 //! are also checked against brute force directly (all 100,000 against 140k triangles would
 //! take minutes). All 100,000 are checked against an independent implementation, obvhs's own
 //! BVH2 traversal with its Möller–Trumbore triangle test, and every query on which it
-//! disagrees with ours is settled by brute force. Skipped, visibly, when the scene files are
-//! absent.
+//! disagrees with ours is settled by brute force. The scenes are part of the repository: a
+//! missing file fails the test.
 
 mod support;
 
@@ -18,22 +18,17 @@ use support::{Fixture, SceneHit, TIE_RELATIVE, brute_force, check_against_brute_
 const QUERIES: usize = 100_000;
 const BRUTE_FORCE_QUERIES: usize = 2_000;
 
-/// `scenes/<file>` of the workspace, or `None` after printing why the test is skipped.
-fn load(test: &str, file: &str) -> Option<Scene> {
+/// `scenes/<file>` of the workspace. The scenes are tracked in the repository, so a missing
+/// one is a broken checkout: a failure, not a skip.
+fn load(file: &str) -> Scene {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../../scenes")
         .join(file);
-    if !path.exists() {
-        eprintln!("SKIPPED {test}: {} not found", path.display());
-        return None;
-    }
-    Some(Scene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display())))
+    Scene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 fn check_real_scene(name: &'static str, file: &str, seed: u64) {
-    let Some(scene) = load(name, file) else {
-        return;
-    };
+    let scene = load(file);
     let f = Fixture {
         name,
         triangles: scene.triangles.clone(),

@@ -88,10 +88,43 @@ impl GpuContext {
         .union(wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS)
         .union(wgpu::Features::SUBGROUP);
 
+    /// The environment variable [`GpuContext::new`] reads for a lower storage-binding limit
+    /// (in bytes) than the adapter's: the device is then created with
+    /// `max_storage_buffer_binding_size = min(adapter's, this)`, so every binding past it is
+    /// refused as on an adapter that small (see [`GpuContext::new_with_binding_limit`]). What
+    /// the tests use to provoke "too large for a binding" through the `render` command on any
+    /// adapter; unset, the adapter's own limit holds.
+    pub const MAX_BINDING_ENV: &'static str = "RAYLUME_MAX_BINDING_BYTES";
+
     /// Picks the best adapter allowed by `opts` (discrete GPU first, then integrated, virtual,
     /// other, software; Vulkan/Metal/DX12 before GL) and creates a device with the adapter's
-    /// full limits.
+    /// full limits (the storage-binding limit lowered to [`GpuContext::MAX_BINDING_ENV`] when
+    /// that is set).
     pub fn new(opts: &ContextOptions) -> Result<Self, GpuError> {
+        let cap = match std::env::var(Self::MAX_BINDING_ENV) {
+            Err(_) => None,
+            Ok(v) => Some(
+                v.trim()
+                    .parse::<u64>()
+                    .map_err(|_| GpuError::RequestDevice {
+                        adapter: "(none chosen yet)".into(),
+                        reason: format!("{}={v:?} is not a number of bytes", Self::MAX_BINDING_ENV),
+                    })?,
+            ),
+        };
+        Self::new_with_binding_limit(opts, cap)
+    }
+
+    /// [`GpuContext::new`] with the storage-binding limit lowered to at most
+    /// `max_binding_bytes` (rounded down to a multiple of 4; `None`: the adapter's own). The
+    /// device itself is created with the lower limit, so wgpu enforces it as well as
+    /// [`GpuContext::check_fits`]. For tests of the "too large" paths on adapters whose own
+    /// limit is too large to build such a scene (an H100 or H200: 2 GiB per binding). Ignores
+    /// [`GpuContext::MAX_BINDING_ENV`].
+    pub fn new_with_binding_limit(
+        opts: &ContextOptions,
+        max_binding_bytes: Option<u64>,
+    ) -> Result<Self, GpuError> {
         // Vulkan/Metal/DX12 first; GL only when they offer nothing (initialising EGL prints
         // noise on headless machines and is never the better choice).
         let mut adapters = Vec::new();
@@ -154,13 +187,26 @@ impl GpuContext {
             };
             return Err(GpuError::NoAdapter { tried });
         };
-        Self::from_adapter(adapter)
+        Self::from_adapter_with_binding_limit(adapter, max_binding_bytes)
     }
 
-    /// Creates the device on a given adapter.
+    /// Creates the device on a given adapter, with the adapter's full limits.
     pub fn from_adapter(adapter: wgpu::Adapter) -> Result<Self, GpuError> {
+        Self::from_adapter_with_binding_limit(adapter, None)
+    }
+
+    /// Creates the device on a given adapter, its storage-binding limit lowered to at most
+    /// `max_binding_bytes` (see [`GpuContext::new_with_binding_limit`]).
+    pub fn from_adapter_with_binding_limit(
+        adapter: wgpu::Adapter,
+        max_binding_bytes: Option<u64>,
+    ) -> Result<Self, GpuError> {
         let ai = adapter.get_info();
-        let limits = adapter.limits();
+        let mut limits = adapter.limits();
+        if let Some(cap) = max_binding_bytes {
+            limits.max_storage_buffer_binding_size =
+                limits.max_storage_buffer_binding_size.min(cap & !3);
+        }
         let features = adapter.features() & Self::WANTED_FEATURES;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("raylume"),

@@ -241,13 +241,19 @@ fn bad_input_is_a_typed_error() {
         )
         .unwrap_err();
     assert!(matches!(e, KernelError::InvalidSettings(_)), "{e}");
-    // An environment map larger than one storage binding (only tried where that is small,
-    // like lavapipe's 128 MiB: the map is allocated on the CPU first).
-    let limit = ctx.max_binding_bytes();
-    if limit <= 256 << 20 {
-        let texels = (limit / 12 + 1) as usize;
-        let mut huge = scene.clone();
-        huge.environment = Environment::Map {
+    // An environment map one texel larger than one storage binding: on a device whose
+    // binding limit is lowered to 4 MiB (so that the map is small to build on every adapter,
+    // an H200's 2 GiB binding included), where a map one texel smaller is accepted.
+    let limited = raylume_gpu::testing::context_with_binding_limit_or_skip(
+        "bad_input_is_a_typed_error",
+        4 << 20,
+    )
+    .expect("an adapter: context_or_skip found one above");
+    let limit = limited.max_binding_bytes();
+    assert_eq!(limit, 4 << 20);
+    let env_map = |texels: usize| {
+        let mut s = scene.clone();
+        s.environment = Environment::Map {
             image: Texture {
                 name: "huge".into(),
                 width: texels as u32,
@@ -257,17 +263,28 @@ fn bad_input_is_a_typed_error() {
             strength: 1.0,
             rotation: 0.0,
         };
-        let e = GpuTracer::new(ctx, &huge, &bvh).err().expect("too large");
-        match &e {
-            KernelError::SceneTooLarge { what, limit: l, .. } => {
-                assert_eq!(what, "texture and environment-map data");
-                assert_eq!(*l, limit);
-            }
-            other => panic!("expected SceneTooLarge, got {other}"),
+        s
+    };
+    let texels = (limit / 12) as usize;
+    assert!(GpuTracer::new(&limited, &env_map(texels), &bvh).is_ok());
+    let e = GpuTracer::new(&limited, &env_map(texels + 1), &bvh)
+        .err()
+        .expect("too large");
+    match &e {
+        KernelError::SceneTooLarge {
+            what,
+            bytes,
+            limit: l,
+            ..
+        } => {
+            assert_eq!(what, "texture and environment-map data");
+            assert_eq!(*bytes, (texels as u64 + 1) * 12);
+            assert_eq!(*l, limit);
         }
-        assert!(
-            e.to_string().contains("too large for the GPU adapter"),
-            "{e}"
-        );
+        other => panic!("expected SceneTooLarge, got {other}"),
     }
+    assert!(
+        e.to_string().contains("too large for the GPU adapter"),
+        "{e}"
+    );
 }

@@ -5,11 +5,15 @@
 //! living room's OBJ files here.
 //!
 //! A cross-check ties the TOML loader and the Tungsten importer together: the hand-transcribed
-//! `scenes/cornell-box.toml` and Bitterli's original Tungsten `scene.json` (beside the checkout in
-//! `../shared`, skipped with a message when absent) must give the same triangles and materials.
+//! `scenes/cornell-box.toml` and Bitterli's original Tungsten `scene.json` (beside the checkout
+//! in `../shared`; skipped visibly when absent, a failure under `RAYLUME_REQUIRE_EXTERNAL=1`)
+//! must give the same triangles and materials.
+
+mod common;
 
 use std::path::{Path, PathBuf};
 
+use common::shared_external;
 use glam::{DVec3, Vec3};
 use raylume_scene::{Environment, MaterialKind, Scene, Triangle};
 
@@ -353,17 +357,6 @@ fn cornell_plus() {
         (kinds[1].kind, kinds[1].roughness),
         (MaterialKind::Metal, 0.0)
     );
-}
-
-/// The vendored originals beside the checkout (CI has them; users of the crate do not).
-fn shared_external(relative: &str, test: &str) -> Option<PathBuf> {
-    let path = repo_root().join("../shared/scenes-external").join(relative);
-    if path.exists() {
-        Some(path)
-    } else {
-        eprintln!("{test}: skipped, {} is absent", path.display());
-        None
-    }
 }
 
 /// A triangle as its corners sorted lexicographically, so that winding and the starting corner

@@ -1,7 +1,7 @@
-//! Bitterli's two Tungsten scenes (`../shared/scenes-external`, skipped with a message when
-//! absent), checked against numbers obtained without the importer: the Cornell box from its
-//! JSON by hand and by composing glam rotations here, the living room by reading its OBJ files
-//! line by line here.
+//! Bitterli's two Tungsten scenes (`../shared/scenes-external`; skipped visibly when absent,
+//! a failure under `RAYLUME_REQUIRE_EXTERNAL=1`), checked against numbers obtained without the
+//! importer: the Cornell box from its JSON by hand and by composing glam rotations here, the
+//! living room by reading its OBJ files line by line here.
 
 mod common;
 

@@ -182,19 +182,23 @@ fn sphere_scene() -> Scene {
     }
 }
 
+/// The storage-binding limit the "too large" tests give their device (16 MiB), below every
+/// adapter's own (lavapipe 128 MiB, an H200 2 GiB): scenes and images past it are small enough
+/// to build here, so these tests run the same on every adapter.
+const TEST_BINDING_LIMIT: u64 = 16 << 20;
+
 #[test]
 fn a_scene_larger_than_a_binding_says_what_does_not_fit() {
-    let Some(ctx) = raylume_gpu::testing::context_or_skip("scene too large") else {
+    let Some(ctx) = raylume_gpu::testing::context_with_binding_limit_or_skip(
+        "a_scene_larger_than_a_binding_says_what_does_not_fit",
+        TEST_BINDING_LIMIT,
+    ) else {
         return;
     };
     // An environment map one row larger than a storage binding holds (12 bytes a texel):
-    // 4096 x 2731 on lavapipe's 128 MiB. Tried only where that is small (the map is built on
-    // the CPU first; an H100's 2 GiB binding would need a 2 GiB map).
+    // 4096 x 342 under the 16 MiB limit.
     let limit = ctx.max_binding_bytes();
-    if limit > 512 << 20 {
-        eprintln!("binding limit {limit} B: a texture past it is too big to build here");
-        return;
-    }
+    assert_eq!(limit, TEST_BINDING_LIMIT);
     let width = 4096u64;
     let height = limit / 12 / width + 1;
     assert!(height <= 16384, "within the loaders' texture limit");
@@ -209,7 +213,16 @@ fn a_scene_larger_than_a_binding_says_what_does_not_fit() {
         strength: 1.0,
         rotation: 0.0,
     };
-    let err = Tracer::new(Backend::Gpu).render(&scene).unwrap_err();
+    // One row less fits: the limit is what refuses the map, nothing else.
+    let mut fits = scene.clone();
+    if let Environment::Map { image, .. } = &mut fits.environment {
+        image.height -= 1;
+        image.texels.truncate((width * (height - 1)) as usize);
+    }
+    let mut tracer = Tracer::new(Backend::Gpu).with_gpu_context(ctx);
+    let ok = tracer.render(&fits).unwrap();
+    assert_eq!(ok.stats.backend, "gpu");
+    let err = tracer.render(&scene).unwrap_err();
     match &err {
         Error::Kernels(KernelError::SceneTooLarge {
             what,
@@ -236,7 +249,8 @@ fn a_scene_larger_than_a_binding_says_what_does_not_fit() {
     let cpu = Tracer::new(Backend::Cpu).render(&scene).unwrap();
     assert_eq!(cpu.pixels.len(), 64);
 
-    // Through the command: the same map as an HDR file (run-length encoded: under 1 MB).
+    // Through the command, its device limited the same way (GpuContext::MAX_BINDING_ENV):
+    // the same map as an HDR file (run-length encoded: under 1 MB).
     let d = tmp("too-large");
     let img = image::Rgb32FImage::from_pixel(width as u32, height as u32, image::Rgb([0.5; 3]));
     image::DynamicImage::ImageRgb32F(img)
@@ -251,7 +265,8 @@ fn a_scene_larger_than_a_binding_says_what_does_not_fit() {
     )
     .unwrap();
     let out = d.join("out.png");
-    let o = render(&toml, &out, &["--backend", "gpu"], &[]);
+    let limit_env = [(GpuContext::MAX_BINDING_ENV, &*limit.to_string())];
+    let o = render(&toml, &out, &["--backend", "gpu"], &limit_env);
     assert_failed(
         &o,
         &out,
@@ -268,17 +283,19 @@ fn a_scene_larger_than_a_binding_says_what_does_not_fit() {
 
 #[test]
 fn an_image_larger_than_a_binding_says_what_does_not_fit() {
-    let Some(ctx) = raylume_gpu::testing::context_or_skip("image too large") else {
-        return;
-    };
-    // The accumulated image (12 bytes a pixel) must fit one binding; pick a square
-    // image just past it, if the render command accepts it (at most 2^27 pixels).
-    let limit = ctx.max_binding_bytes();
-    let side = ((limit / 12) as f64).sqrt().ceil() as u64 + 1;
-    if side * side > 1 << 27 {
-        eprintln!("binding limit {limit} B: no image the command accepts exceeds it");
+    if raylume_gpu::testing::context_or_skip(
+        "an_image_larger_than_a_binding_says_what_does_not_fit",
+    )
+    .is_none()
+    {
         return;
     }
+    // The accumulated image (12 bytes a pixel) must fit one binding; a square image just past
+    // the test limit (1184 x 1184 for 16 MiB), rendered by the command with its device's
+    // binding limit lowered to it (GpuContext::MAX_BINDING_ENV).
+    let limit = TEST_BINDING_LIMIT;
+    let side = ((limit / 12) as f64).sqrt().ceil() as u64 + 1;
+    assert!(side * side * 12 > limit && side * side <= 1 << 27);
     let out = tmp("image").join("out.png");
     let size = format!("{side}x{side}");
     let mut cmd = Command::new(common::render_exe());
@@ -300,6 +317,7 @@ fn an_image_larger_than_a_binding_says_what_does_not_fit() {
             "gpu",
         ])
         .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .env(GpuContext::MAX_BINDING_ENV, limit.to_string())
         .output()
         .unwrap();
     assert_failed(

@@ -48,16 +48,47 @@ pub fn repo_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
-/// The vendored external scenes beside the checkout (`../shared/scenes-external`), or `None`
-/// with a visible message when they are absent.
+/// True when `RAYLUME_REQUIRE_EXTERNAL=1` (`.ci/run` sets it): the external scenes in
+/// `../shared/scenes-external` must be there, and a test that needs them fails without them.
+pub fn external_required() -> bool {
+    std::env::var("RAYLUME_REQUIRE_EXTERNAL").is_ok_and(|v| v == "1")
+}
+
+/// Writes `SKIPPED (reason): test` straight to standard error, past the test harness's
+/// capture (which hides `eprintln!` of passing tests), so that the skip shows in the ordinary
+/// `cargo test` output. The test is named after its thread, as the harness names it.
+pub fn report_skip(test: &str, reason: &str) {
+    use std::io::Write;
+    let name = match std::thread::current().name() {
+        Some(n) if n != "main" => n.to_string(),
+        _ => test.to_string(),
+    };
+    let mut err = std::io::stderr().lock();
+    let _ = err.write_all(format!("SKIPPED ({reason}): {name}\n").as_bytes());
+    let _ = err.flush();
+}
+
+/// The vendored external scenes beside the checkout (`../shared/scenes-external`): the path,
+/// or `None` after a visible skip line when they are absent. Panics instead when
+/// `RAYLUME_REQUIRE_EXTERNAL=1`.
 pub fn shared_external(relative: &str, test: &str) -> Option<PathBuf> {
     let path = repo_root().join("../shared/scenes-external").join(relative);
     if path.exists() {
-        Some(path)
-    } else {
-        eprintln!("{test}: skipped, {} is absent", path.display());
-        None
+        return Some(path);
     }
+    if external_required() {
+        panic!(
+            "{test}: RAYLUME_REQUIRE_EXTERNAL=1 but {} is absent",
+            path.display()
+        );
+    }
+    report_skip(
+        test,
+        &format!(
+            "../shared/scenes-external/{relative} absent; RAYLUME_REQUIRE_EXTERNAL=1 fails instead"
+        ),
+    );
+    None
 }
 
 /// Loads a TOML text held in memory, with `dir` as its folder and label `scene.toml`.
