@@ -271,6 +271,10 @@ pub fn assert_backends_agree(test: &str, cpu: &Render, gpu: &Render, max_flipped
             (c - g).abs().max_element() > 1e-4 * (c.max_element().max(g.max_element()) + mean)
         })
         .collect();
+    eprintln!(
+        "{test}: CPU and GPU differ in {} pixels ({max_flipped} allowed)",
+        flipped.len()
+    );
     assert!(
         flipped.len() <= max_flipped,
         "{test}: CPU and GPU differ in {} pixels (at most {max_flipped} allowed), e.g. {:?}",
