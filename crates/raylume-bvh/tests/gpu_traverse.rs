@@ -153,7 +153,10 @@ fn check_scene(ctx: &GpuContext, f: support::Fixture, quality: BvhQuality, seed:
     let (lo, hi) = f.bounds();
     let size = (hi - lo).max_element();
     let (mut identical, mut same, mut ties, mut hits) = (0usize, 0usize, 0usize, 0usize);
-    let mut disagreements = Vec::new();
+    // Beyond ties: the same primitive with t further apart, another primitive at another t, a
+    // hit against a miss, a different any-hit answer.
+    let (mut t_apart, mut other_prim, mut hit_vs_miss, mut any_differs) = (0, 0, 0, 0);
+    let (mut disagreements, mut not_identical) = (Vec::new(), Vec::new());
     for (i, q) in queries.iter().enumerate() {
         let cpu = trace_closest(&bvh.nodes, &bvh.primitives, &q.ray, q.t_min, q.t_max);
         let gpu = gpu_hits[i];
@@ -162,6 +165,11 @@ fn check_scene(ctx: &GpuContext, f: support::Fixture, quality: BvhQuality, seed:
         hits += usize::from(cpu.prim != INVALID_INDEX);
         if bytemuck::bytes_of(&cpu) == bytemuck::bytes_of(&gpu) && any_ok {
             identical += 1;
+        } else if not_identical.len() < 4 {
+            not_identical.push(format!(
+                "query {i}: cpu {cpu:?} any {cpu_any}, gpu {gpu:?} any {}",
+                gpu_any[i]
+            ));
         }
         // Rounding moves t by ulps of the coordinates involved, not of t: for a hit just
         // past a ray's origin on a surface, 1e-5 of t is less than one ulp of the scene. So
@@ -169,13 +177,22 @@ fn check_scene(ctx: &GpuContext, f: support::Fixture, quality: BvhQuality, seed:
         let scale = cpu.t.abs().max(size / q.ray.dir.length());
         let (same_prim, tie) = match (scene_of(&bvh, &cpu), scene_of(&bvh, &gpu)) {
             (None, None) => (true, false),
-            (Some(a), Some(b)) if a == b => ((cpu.t - gpu.t).abs() <= 1e-5 * scale, false),
-            (Some(_), Some(_)) => (
-                false,
-                (cpu.t - gpu.t).abs() <= support::TIE_RELATIVE * scale,
-            ),
-            _ => (false, false),
+            (Some(a), Some(b)) if a == b => {
+                let close = (cpu.t - gpu.t).abs() <= 1e-5 * scale;
+                t_apart += usize::from(!close);
+                (close, false)
+            }
+            (Some(_), Some(_)) => {
+                let tie = (cpu.t - gpu.t).abs() <= support::TIE_RELATIVE * scale;
+                other_prim += usize::from(!tie);
+                (false, tie)
+            }
+            _ => {
+                hit_vs_miss += 1;
+                (false, false)
+            }
         };
+        any_differs += usize::from(!any_ok);
         same += usize::from(same_prim && any_ok);
         ties += usize::from(tie && any_ok);
         if !((same_prim || tie) && any_ok) && disagreements.len() < 8 {
@@ -188,7 +205,10 @@ fn check_scene(ctx: &GpuContext, f: support::Fixture, quality: BvhQuality, seed:
     let n = queries.len();
     eprintln!(
         "{} on {} ({quality:?}): of {n} queries {identical} bit-identical, {same} same \
-         primitive with t within 1e-5 of max(t, size), {ties} ties (another primitive at the same t), {hits} hit",
+         primitive with t within 1e-5 of max(t, size), {ties} ties (another primitive at the \
+         same t), {hits} hit; beyond ties: {t_apart} same primitive with t further apart, \
+         {other_prim} another primitive, {hit_vs_miss} a hit against a miss, {any_differs} \
+         another any-hit answer",
         f.name,
         ctx.describe(),
     );
@@ -199,22 +219,51 @@ fn check_scene(ctx: &GpuContext, f: support::Fixture, quality: BvhQuality, seed:
         hits > queries.len() / 5,
         "the query set hits too little: {hits}"
     );
-    // The WGSL evaluates the same expressions in the same order as the Rust, and on lavapipe
-    // every result is bit-identical. A GPU compiler may contract a multiply and an add into
-    // one fused multiply-add (WGSL allows it and cannot forbid it) and divide less exactly
-    // than IEEE (Vulkan allows 2.5 ulp for 1 / x); the H100 does both, and a quarter of its
-    // results differ from the CPU's in the last bits. That changes the outcome only for a ray
-    // within rounding of an edge or a vertex, where two primitives meet at the same t: the two
-    // sides may then report different ones of them, a tie as in the brute-force tests. A fifth
-    // of these queries run parallel to an axis, half of those exactly through vertices, so
-    // ties are common here (732 of the icosphere's 50,000 on the H100). Beyond ties, the H100
-    // differed on 3 of 100,000 queries: the same triangle hit by a grazing ray from 20 scene
-    // units away, t apart by 1.5e-5 (ill-conditioned barycentrics amplify the ulp
-    // differences). Required: the same primitive (t within 1e-5) or a tie, but for 0.1 %.
-    assert!(
-        (same + ties) * 1000 >= n * 999,
-        "{} of {n} queries differ between GPU and CPU, e.g.:\n{}",
-        n - same - ties,
+    // The WGSL evaluates the same expressions in the same order as the Rust. A software
+    // adapter (lavapipe: LLVM without fast-math contraction) then computes the same f32
+    // operations: every result bit-identical, required.
+    if ctx.info.is_software {
+        assert_eq!(
+            identical,
+            n,
+            "{} of {n} queries not bit-identical on a software adapter, e.g.:\n{}",
+            n - identical,
+            not_identical.join("\n")
+        );
+        return;
+    }
+    // A GPU compiler may contract a multiply and an add into one fused multiply-add (WGSL
+    // allows it and cannot forbid it) and divide less exactly than IEEE (Vulkan allows 2.5 ulp
+    // for 1 / x); the H100 and H200 do both, and a quarter of their results differ from the
+    // CPU's in the last bits. That changes the outcome only for a ray within rounding of an
+    // edge or a vertex, where two primitives meet at the same t: the two sides may then report
+    // different ones of them, a tie as in the brute-force tests. A fifth of these queries run
+    // parallel to an axis, half of those exactly through vertices, so ties are common here
+    // (732 of the icosphere's 50,000 on the H100). Beyond ties, the H100 and the H200 differed
+    // on 3 of these 100,000 queries (2026-12-01), all of them the same triangle hit by a
+    // grazing ray from 20 scene units away, t apart by 1.5e-5 (ill-conditioned barycentrics
+    // amplify the ulp differences), none a hit against a miss, another primitive or another
+    // any-hit answer. Required: those kinds never; t apart for at most
+    // HARDWARE_T_APART_PER_SCENE queries of a scene (a few times the measured rate).
+    assert_eq!(
+        (other_prim, hit_vs_miss, any_differs),
+        (0, 0, 0),
+        "{}: GPU and CPU disagree on the primitive, hit or any-hit, e.g.:\n{}",
+        f.name,
         disagreements.join("\n")
     );
+    assert!(
+        t_apart <= HARDWARE_T_APART_PER_SCENE,
+        "{}: {t_apart} of {n} queries hit the same primitive at t further apart than 1e-5, \
+         e.g.:\n{}",
+        f.name,
+        disagreements.join("\n")
+    );
+    assert_eq!(same + ties + t_apart, n);
 }
+
+/// On a hardware adapter, the queries of one scene (50,000) that may find the same primitive
+/// as the CPU with t further apart than 1e-5 of max(t, size): the H100 and H200 measured 3 in
+/// both scenes together, and allowing 8 a scene keeps the bound near that rate while leaving
+/// room for another driver's contractions.
+const HARDWARE_T_APART_PER_SCENE: usize = 8;
