@@ -69,6 +69,7 @@
 //! This crate never sorts rays (raylume-sort does) and never post-processes (raylume-post).
 
 pub mod batches;
+pub mod bsdf;
 pub mod camera;
 pub mod cpu;
 mod error;

@@ -4,9 +4,10 @@
 //!   `f cos / pdf` is exactly the albedo.
 //! - [`sample_metal`]: a perfect mirror at alpha 0; above it the GGX / Trowbridge-Reitz
 //!   microfacet model with the Smith height-correlated masking-shadowing function, sampled
-//!   with Heitz's visible-normal method (E. Heitz, "Sampling the GGX Distribution of Visible
-//!   Normals", JCGT 7(4), 2018), whose weight is `G2(wo, wi) / G1(wo)`. No Fresnel term: the
-//!   albedo is the reflectance at every angle.
+//!   with Heitz's visible-normal method ([`sample_ggx_vndf`]; E. Heitz, "Sampling the GGX
+//!   Distribution of Visible Normals", JCGT 7(4), 2018), whose weight is `G2(wo, wi) / G1(wo)`.
+//!   No Fresnel term: the albedo is the reflectance at every angle. (`bsdf.rs` has Mitsuba's
+//!   microfacet materials, which sample the same visible normals.)
 //! - [`sample_glass`]: a smooth dielectric: exact unpolarised Fresnel reflectance, reflection
 //!   or refraction chosen with that probability (so the weight is 1, or the tint on
 //!   transmission), total internal reflection when Snell's law has no solution.
@@ -59,6 +60,31 @@ pub fn smith_lambda(w: Vec3, alpha: f32) -> f32 {
     0.5 * ((1.0 + a2_tan2).sqrt() - 1.0)
 }
 
+/// A GGX microfacet normal (local, `z > 0`) sampled from the distribution of normals visible
+/// from the local direction `wo` (`wo.z > 0`) with roughness `alpha > 0`, from the uniform
+/// numbers `u` (Heitz 2018, listing 1: the hemisphere configuration; `u.x` picks the radius
+/// and `u.y` the angle on the projected disk). Its density is
+/// `D(m) G1(wo, m) max(0, wo·m) / wo.z`.
+#[inline]
+pub fn sample_ggx_vndf(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
+    let vh = normalize(Vec3::new(alpha * wo.x, alpha * wo.y, wo.z));
+    let lensq = vh.x * vh.x + vh.y * vh.y;
+    let t1 = if lensq > 0.0 {
+        Vec3::new(-vh.y, vh.x, 0.0) * (1.0 / lensq.sqrt())
+    } else {
+        Vec3::X
+    };
+    let t2 = vh.cross(t1);
+    let r = u.x.sqrt();
+    let phi = 2.0 * PI * u.y;
+    let p1 = r * phi.cos();
+    let p2_disk = r * phi.sin();
+    let s = 0.5 * (1.0 + vh.z);
+    let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * p2_disk;
+    let nh = t1 * p1 + t2 * p2 + vh * (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
+    normalize(Vec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(0.0)))
+}
+
 /// A scattered direction and the factor it multiplies the path throughput by (besides the
 /// material's colour). `weight == 0` means the path is absorbed.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -83,23 +109,7 @@ pub fn sample_metal(dir: Vec3, n: Vec3, alpha: f32, u: Vec2) -> MetalSample {
     if wo.z <= 0.0 {
         return MetalSample { dir, weight: 0.0 };
     }
-    // Heitz 2018, listing 1: the visible normal in the hemisphere configuration.
-    let vh = normalize(Vec3::new(alpha * wo.x, alpha * wo.y, wo.z));
-    let lensq = vh.x * vh.x + vh.y * vh.y;
-    let t1 = if lensq > 0.0 {
-        Vec3::new(-vh.y, vh.x, 0.0) * (1.0 / lensq.sqrt())
-    } else {
-        Vec3::X
-    };
-    let t2 = vh.cross(t1);
-    let r = u.x.sqrt();
-    let phi = 2.0 * PI * u.y;
-    let p1 = r * phi.cos();
-    let p2_disk = r * phi.sin();
-    let s = 0.5 * (1.0 + vh.z);
-    let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * p2_disk;
-    let nh = t1 * p1 + t2 * p2 + vh * (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
-    let m = normalize(Vec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(0.0)));
+    let m = sample_ggx_vndf(wo, alpha, u);
     let wi = reflect(-wo, m);
     if wi.z <= 0.0 {
         return MetalSample { dir, weight: 0.0 };

@@ -38,20 +38,8 @@ fn smith_lambda(w: vec3<f32>, alpha: f32) -> f32 {
     return 0.5 * (sqrt(1.0 + a2_tan2) - 1.0);
 }
 
-struct MetalSample {
-    dir: vec3<f32>,
-    weight: f32,
-}
-
-fn sample_metal(dir: vec3<f32>, n: vec3<f32>, alpha: f32, u: vec2<f32>) -> MetalSample {
-    if (alpha <= 0.0) {
-        return MetalSample(reflect(dir, n), 1.0);
-    }
-    let basis = orthonormal_basis(n);
-    let wo = to_local(-dir, basis.t, basis.b, n);
-    if (wo.z <= 0.0) {
-        return MetalSample(dir, 0.0);
-    }
+// Heitz 2018, listing 1: a GGX normal visible from wo (wo.z > 0); u.x radius, u.y angle.
+fn sample_ggx_vndf(wo: vec3<f32>, alpha: f32, u: vec2<f32>) -> vec3<f32> {
     let vh = normalize(vec3<f32>(alpha * wo.x, alpha * wo.y, wo.z));
     let lensq = vh.x * vh.x + vh.y * vh.y;
     var t1 = vec3<f32>(1.0, 0.0, 0.0);
@@ -66,7 +54,24 @@ fn sample_metal(dir: vec3<f32>, n: vec3<f32>, alpha: f32, u: vec2<f32>) -> Metal
     let s = 0.5 * (1.0 + vh.z);
     let p2 = (1.0 - s) * sqrt(max(1.0 - p1 * p1, 0.0)) + s * p2_disk;
     let nh = t1 * p1 + t2 * p2 + vh * sqrt(max(1.0 - p1 * p1 - p2 * p2, 0.0));
-    let m = normalize(vec3<f32>(alpha * nh.x, alpha * nh.y, max(nh.z, 0.0)));
+    return normalize(vec3<f32>(alpha * nh.x, alpha * nh.y, max(nh.z, 0.0)));
+}
+
+struct MetalSample {
+    dir: vec3<f32>,
+    weight: f32,
+}
+
+fn sample_metal(dir: vec3<f32>, n: vec3<f32>, alpha: f32, u: vec2<f32>) -> MetalSample {
+    if (alpha <= 0.0) {
+        return MetalSample(reflect(dir, n), 1.0);
+    }
+    let basis = orthonormal_basis(n);
+    let wo = to_local(-dir, basis.t, basis.b, n);
+    if (wo.z <= 0.0) {
+        return MetalSample(dir, 0.0);
+    }
+    let m = sample_ggx_vndf(wo, alpha, u);
     let wi = reflect(-wo, m);
     if (wi.z <= 0.0) {
         return MetalSample(dir, 0.0);

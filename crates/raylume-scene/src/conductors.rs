@@ -14,6 +14,9 @@
 //!
 //! Names are case-sensitive, as in Mitsuba.
 
+// The 9 significant digits are what identifies each f32 exactly (printed from Mitsuba).
+#![allow(clippy::excessive_precision)]
+
 use glam::Vec3;
 
 /// One named conductor: complex index of refraction `eta + i k` per linear-RGB channel,

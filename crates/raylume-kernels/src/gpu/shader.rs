@@ -8,13 +8,14 @@ use crate::gpu_types::{GPU_TYPES_WGSL, wgsl_constants};
 
 /// WGSL sources in the order they are concatenated (WGSL declarations are order-independent;
 /// the order only helps reading the assembled shader).
-const PARTS: [(&str, &str); 11] = [
+const PARTS: [(&str, &str); 12] = [
     ("gpu_types.wgsl", GPU_TYPES_WGSL),
     ("math.wgsl", crate::math::MATH_WGSL),
     ("rng.wgsl", crate::rng::RNG_WGSL),
     ("gpu/bindings.wgsl", include_str!("bindings.wgsl")),
     ("camera.wgsl", crate::camera::CAMERA_WGSL),
     ("sampling.wgsl", crate::sampling::SAMPLING_WGSL),
+    ("bsdf.wgsl", crate::bsdf::BSDF_WGSL),
     ("surface.wgsl", crate::surface::SURFACE_WGSL),
     ("shade.wgsl", crate::shade::SHADE_WGSL),
     ("gpu/common.wgsl", include_str!("common.wgsl")),
