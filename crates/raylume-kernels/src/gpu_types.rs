@@ -13,10 +13,16 @@ use std::mem::{offset_of, size_of};
 
 /// `GpuMaterial::kind`: Lambertian reflector.
 pub const MATERIAL_DIFFUSE: u32 = 0;
-/// `GpuMaterial::kind`: conductor (mirror at alpha 0, GGX above).
+/// `GpuMaterial::kind`: conductor (mirror at alpha 0, GGX above; Fresnel of `eta + i k`).
 pub const MATERIAL_METAL: u32 = 1;
-/// `GpuMaterial::kind`: smooth dielectric.
+/// `GpuMaterial::kind`: dielectric (smooth at alpha 0, GGX above).
 pub const MATERIAL_GLASS: u32 = 2;
+/// `GpuMaterial::kind`: plastic, a diffuse base under a dielectric coat (smooth at alpha 0,
+/// GGX above with the rough-coat table `GpuMaterial::table`).
+pub const MATERIAL_PLASTIC: u32 = 3;
+
+/// `GpuMaterial::table` of a material without a rough-plastic table.
+pub const NO_TABLE: u32 = u32::MAX;
 
 /// `GpuMaterial::flags`: the material emits from both faces (else from the front face only,
 /// the side its geometric normal points to).
@@ -127,26 +133,34 @@ pub struct SceneUniforms {
     pub light_power: f32,
 }
 
-/// One material, 48 bytes so that a warp's materials share few cache lines.
+/// One material.
 ///
-/// `repr(C)`, `Pod`, 48 bytes. WGSL: `GpuMaterial`.
+/// `repr(C)`, `Pod`, 80 bytes. WGSL: `GpuMaterial`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
-    /// Reflectance (diffuse, metal) or transmission tint (glass), linear RGB.
+    /// Reflectance (diffuse, plastic base, metal's Fresnel scale) or transmission tint
+    /// (glass), linear RGB.
     pub color: [f32; 3],
-    /// [`MATERIAL_DIFFUSE`], [`MATERIAL_METAL`] or [`MATERIAL_GLASS`].
+    /// [`MATERIAL_DIFFUSE`], [`MATERIAL_METAL`], [`MATERIAL_GLASS`] or [`MATERIAL_PLASTIC`].
     pub kind: u32,
     /// Emitted radiance, linear RGB, from the front face (both with [`MATERIAL_TWO_SIDED`]).
     pub emission: [f32; 3],
-    /// GGX alpha = roughness² (metal); 0 is a perfect mirror.
+    /// GGX alpha = roughness² (metal, glass, plastic); 0 is smooth.
     pub alpha: f32,
-    /// Index of refraction (glass).
+    /// Index of refraction (glass, plastic's coat).
     pub ior: f32,
     /// Albedo texture index, or [`NO_TEXTURE`].
     pub texture: u32,
     /// [`MATERIAL_TWO_SIDED`] or 0.
     pub flags: u32,
+    /// A rough plastic's coat table: index into the plastic-table buffer, or [`NO_TABLE`].
+    pub table: u32,
+    /// Metal: real part of the complex index of refraction (0: Fresnel 1).
+    pub eta: [f32; 3],
+    pub _pad0: u32,
+    /// Metal: imaginary part of the complex index of refraction.
+    pub k: [f32; 3],
     pub _pad1: u32,
 }
 
@@ -253,10 +267,13 @@ const _: () = assert!(offset_of!(SceneUniforms, environment_rotation) == 112);
 const _: () = assert!(offset_of!(SceneUniforms, sample_begin) == 128);
 const _: () = assert!(offset_of!(SceneUniforms, batch_index) == 144);
 const _: () = assert!(offset_of!(SceneUniforms, light_power) == 172);
-const _: () = assert!(size_of::<GpuMaterial>() == 48);
+const _: () = assert!(size_of::<GpuMaterial>() == 80);
 const _: () = assert!(offset_of!(GpuMaterial, emission) == 16);
 const _: () = assert!(offset_of!(GpuMaterial, ior) == 32);
 const _: () = assert!(offset_of!(GpuMaterial, flags) == 40);
+const _: () = assert!(offset_of!(GpuMaterial, table) == 44);
+const _: () = assert!(offset_of!(GpuMaterial, eta) == 48);
+const _: () = assert!(offset_of!(GpuMaterial, k) == 64);
 const _: () = assert!(size_of::<TriangleShading>() == 64);
 const _: () = assert!(offset_of!(TriangleShading, n1) == 16);
 const _: () = assert!(offset_of!(TriangleShading, v1) == 48);
@@ -280,6 +297,8 @@ pub fn wgsl_constants() -> String {
     s += &u("MATERIAL_DIFFUSE", MATERIAL_DIFFUSE);
     s += &u("MATERIAL_METAL", MATERIAL_METAL);
     s += &u("MATERIAL_GLASS", MATERIAL_GLASS);
+    s += &u("MATERIAL_PLASTIC", MATERIAL_PLASTIC);
+    s += &u("NO_TABLE", NO_TABLE);
     s += &u("MATERIAL_TWO_SIDED", MATERIAL_TWO_SIDED);
     s += &u("NO_TEXTURE", NO_TEXTURE);
     s += &u("ENVIRONMENT_BLACK", ENVIRONMENT_BLACK);

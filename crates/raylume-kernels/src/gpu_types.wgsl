@@ -42,6 +42,10 @@ struct GpuMaterial {
     ior: f32,
     texture: u32,
     flags: u32,
+    table: u32,
+    eta: vec3<f32>,
+    _pad0: u32,
+    k: vec3<f32>,
     _pad1: u32,
 }
 

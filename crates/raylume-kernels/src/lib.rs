@@ -11,11 +11,13 @@
 //!   **wavefront** (`raygen`, then `propagate` once per bounce over a compacted queue of live
 //!   rays, each writing the ray's sort key for a later reordering pass) and a **megakernel**
 //!   (`trace_paths`: one thread per pixel sample, the path in registers).
-//! - Materials: Lambertian diffuse (cosine sampling), metal (perfect mirror, or GGX with
-//!   Heitz's visible-normal sampling, "Sampling the GGX Distribution of Visible Normals",
-//!   JCGT 2018), glass (exact dielectric Fresnel, refraction, total internal reflection); see
-//!   [`sampling`]. Emission on every material, constant or equirectangular-map environments,
-//!   albedo textures, shading normals, analytic spheres ([`surface`]).
+//! - Materials: Lambertian diffuse (cosine sampling); and after Mitsuba 3's plugins ([`bsdf`]):
+//!   conductors with complex IORs (perfect mirror, or GGX with Heitz's visible-normal
+//!   sampling, "Sampling the GGX Distribution of Visible Normals", JCGT 2018), dielectrics
+//!   (exact Fresnel, refraction, total internal reflection; smooth or GGX, Walter et al.
+//!   2007) and plastics (a diffuse base under a smooth or rough dielectric coat). Emission on
+//!   every material (front faces unless two-sided), constant or equirectangular-map
+//!   environments, albedo textures, shading normals, analytic spheres ([`surface`]).
 //! - Random numbers: pcg4d (Jarzynski & Olano, "Hash Functions for GPU Rendering", JCGT 2020)
 //!   keyed by (seed, pixel, sample, bounce, dimension) ([`rng`]): the CPU and the GPU, and both
 //!   schedules, trace the same paths.

@@ -3,6 +3,8 @@
 //! environment. Built once per scene; the GPU tracer uploads exactly these arrays, the CPU
 //! tracer reads them in place, so both see the same numbers.
 
+use std::collections::HashMap;
+
 use glam::Vec3;
 use raylume_bvh::{GpuBvh, PRIM_SPHERE, PRIM_TRIANGLE};
 use raylume_scene::{Camera, Environment, MaterialKind, Scene, Texture};
@@ -10,13 +12,22 @@ use raylume_scene::{Camera, Environment, MaterialKind, Scene, Texture};
 use crate::Estimator;
 use crate::KernelError;
 use crate::TraceSettings;
+use crate::bsdf::RoughPlasticTable;
 use crate::camera::camera_basis;
 use crate::gpu_types::LUMINANCE;
 use crate::gpu_types::{
     ENVIRONMENT_BLACK, ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuMaterial, LightTriangle,
-    MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL, MATERIAL_TWO_SIDED, NO_TEXTURE,
-    SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms, TextureHeader, TriangleShading,
+    MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL, MATERIAL_PLASTIC, MATERIAL_TWO_SIDED,
+    NO_TABLE, NO_TEXTURE, SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms, TextureHeader,
+    TriangleShading,
 };
+
+/// The placeholder of an empty table buffer (bindings are never empty).
+impl Default for RoughPlasticTable {
+    fn default() -> Self {
+        bytemuck::Zeroable::zeroed()
+    }
+}
 
 /// The scene's data in the tracer's layout.
 #[derive(Clone, Debug, Default)]
@@ -46,6 +57,9 @@ pub struct SceneData {
     pub lights: Vec<LightTriangle>,
     /// Their total area times emitted luminance.
     pub light_power: f32,
+    /// One coat table per distinct (roughness, ior) of the rough plastics
+    /// (`GpuMaterial::table`); empty when there is none.
+    pub plastic_tables: Vec<RoughPlasticTable>,
     /// Which estimator the uniforms ask for ([`SceneData::uniforms`]).
     pub estimator: Estimator,
 }
@@ -139,6 +153,8 @@ impl SceneData {
         }
 
         let mut materials = Vec::with_capacity(scene.materials.len().max(1));
+        let mut plastic_tables = Vec::new();
+        let mut table_of = HashMap::new();
         for (i, m) in scene.materials.iter().enumerate() {
             let texture = match (m.kind, m.albedo_texture) {
                 (MaterialKind::Glass, _) | (_, None) => NO_TEXTURE,
@@ -151,20 +167,39 @@ impl SceneData {
                     )));
                 }
             };
-            let (kind, color, alpha) = match m.kind {
-                // TODO(materials): plastic's own kernel; the diffuse base until then.
-                MaterialKind::Diffuse | MaterialKind::Plastic => (MATERIAL_DIFFUSE, m.albedo, 0.0),
-                MaterialKind::Metal => (MATERIAL_METAL, m.albedo, m.roughness * m.roughness),
-                MaterialKind::Glass => (MATERIAL_GLASS, m.tint, 0.0),
+            let alpha = m.roughness * m.roughness;
+            let (kind, color) = match m.kind {
+                MaterialKind::Diffuse => (MATERIAL_DIFFUSE, m.albedo),
+                MaterialKind::Metal => (MATERIAL_METAL, m.albedo),
+                MaterialKind::Glass => (MATERIAL_GLASS, m.tint),
+                MaterialKind::Plastic => (MATERIAL_PLASTIC, m.albedo),
+            };
+            let table = if m.kind == MaterialKind::Plastic && alpha > 0.0 {
+                *table_of
+                    .entry((alpha.to_bits(), m.ior.to_bits()))
+                    .or_insert_with(|| {
+                        plastic_tables.push(RoughPlasticTable::new(alpha, m.ior));
+                        plastic_tables.len() as u32 - 1
+                    })
+            } else {
+                NO_TABLE
             };
             materials.push(GpuMaterial {
                 color: color.into(),
                 kind,
                 emission: m.emission.into(),
-                alpha,
+                alpha: if m.kind == MaterialKind::Diffuse {
+                    0.0
+                } else {
+                    alpha
+                },
                 ior: m.ior,
                 texture,
                 flags: if m.two_sided { MATERIAL_TWO_SIDED } else { 0 },
+                table,
+                eta: m.conductor_eta.into(),
+                _pad0: 0,
+                k: m.conductor_k.into(),
                 _pad1: 0,
             });
         }
@@ -248,6 +283,7 @@ impl SceneData {
             scene_extent: Vec3::ZERO,
             lights: Vec::new(),
             light_power: 0.0,
+            plastic_tables,
             estimator: Estimator::Plain,
         };
         match &scene.environment {

@@ -21,13 +21,18 @@
 use glam::{Vec2, Vec3, Vec4};
 use raylume_bvh::{GpuBvh, PRIM_TRIANGLE, Ray};
 
+use crate::bsdf::{
+    BsdfSample, bsdf_absorbed, sample_conductor, sample_plastic, sample_rough_dielectric,
+    sample_rough_plastic,
+};
 use crate::gpu_types::{
     DIM_LIGHT, DIM_SCATTER, GpuMaterial, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_GLASS,
-    MATERIAL_METAL, MATERIAL_TWO_SIDED, RAY_ALIVE, RayState, SHADOW_T_SCALE, T_MAX,
+    MATERIAL_METAL, MATERIAL_PLASTIC, MATERIAL_TWO_SIDED, RAY_ALIVE, RayState, SHADOW_T_SCALE,
+    T_MAX,
 };
 use crate::math::INV_PI;
 use crate::rng::rand4;
-use crate::sampling::{sample_diffuse, sample_glass, sample_metal};
+use crate::sampling::sample_diffuse;
 use crate::surface::{
     Globals, SurfaceHit, environment_radiance, material_at, offset_ray_origin, surface_at,
 };
@@ -92,9 +97,11 @@ impl PathState {
 /// Adds the surface's emission (times the throughput and `emission_weight`) to the path;
 /// then, unless this is the path's `last` segment, samples the material with the random
 /// numbers `rnd` and sets up the next ray, or ends the path when it is absorbed. Returns the
-/// pdf of a diffuse scattering direction (0 for other materials).
+/// solid-angle pdf of the scattered direction (0 for a delta lobe: a smooth mirror, glass or
+/// coat).
 #[inline]
 pub fn shade_hit(
+    g: &Globals,
     path: &mut PathState,
     hit: &SurfaceHit,
     mat: &GpuMaterial,
@@ -118,30 +125,55 @@ pub fn shade_hit(
         -hit.shading_normal
     };
     let color = Vec3::from(mat.color);
-    let mut wi = path.dir;
-    let mut weight = Vec3::ZERO;
-    let mut reflected = true;
-    let mut pdf = 0.0;
+    let mut s = bsdf_absorbed(path.dir);
     if mat.kind == MATERIAL_DIFFUSE {
-        wi = sample_diffuse(ns_facing, Vec2::new(rnd.x, rnd.y));
-        weight = color;
-        pdf = wi.dot(ns_facing).max(0.0) * INV_PI;
+        let wi = sample_diffuse(ns_facing, Vec2::new(rnd.x, rnd.y));
+        s = BsdfSample {
+            dir: wi,
+            weight: color,
+            pdf: wi.dot(ns_facing).max(0.0) * INV_PI,
+            transmitted: false,
+        };
     } else if mat.kind == MATERIAL_METAL {
-        let s = sample_metal(path.dir, ns_facing, mat.alpha, Vec2::new(rnd.x, rnd.y));
-        wi = s.dir;
-        weight = color * s.weight;
+        let (eta, k) = (Vec3::from(mat.eta), Vec3::from(mat.k));
+        s = sample_conductor(
+            path.dir,
+            ns_facing,
+            mat.alpha,
+            color,
+            eta,
+            k,
+            Vec2::new(rnd.x, rnd.y),
+        );
     } else if mat.kind == MATERIAL_GLASS {
         let eta = if front { 1.0 / mat.ior } else { mat.ior };
-        let s = sample_glass(path.dir, ns_facing, eta, rnd.x);
-        wi = s.dir;
-        reflected = !s.transmitted;
-        weight = if s.transmitted { color } else { Vec3::ONE };
+        s = sample_rough_dielectric(path.dir, ns_facing, mat.alpha, eta, color, rnd.truncate());
+    } else if mat.kind == MATERIAL_PLASTIC {
+        s = if mat.alpha > 0.0 {
+            let table = &g.plastic_tables[mat.table as usize];
+            sample_rough_plastic(
+                path.dir,
+                ns_facing,
+                mat.alpha,
+                mat.ior,
+                color,
+                table,
+                rnd.truncate(),
+            )
+        } else {
+            sample_plastic(path.dir, ns_facing, mat.ior, color, rnd.truncate())
+        };
     }
+    let wi = s.dir;
     // The geometric surface decides the side: reflections stay in front, transmissions go
     // behind; anything else (shading normals bending a sample through) is absorbed.
     let cos_g = wi.dot(ng_facing);
-    let right_side = if reflected { cos_g > 0.0 } else { cos_g < 0.0 };
-    path.throughput *= weight;
+    let right_side = if s.transmitted {
+        cos_g < 0.0
+    } else {
+        cos_g > 0.0
+    };
+    path.throughput *= s.weight;
     path.alive = right_side && path.throughput.max_element() > 0.0;
     path.origin = offset_ray_origin(
         hit,
@@ -149,7 +181,7 @@ pub fn shade_hit(
         if cos_g > 0.0 { ng_facing } else { -ng_facing },
     );
     path.dir = wi;
-    pdf
+    s.pdf
 }
 
 /// Traces the path's current ray (its segment number `depth`, 0 for the camera ray): adds
@@ -195,7 +227,7 @@ pub fn trace_ray(
         path.radiance += path.throughput * sample_lights(g, bvh, &surface, &mat, path.dir, rnd);
     }
     let rnd = rand4(g.scene.seed, pixel, sample, depth, DIM_SCATTER);
-    let pdf = shade_hit(path, &surface, &mat, rnd, last, emission_weight);
+    let pdf = shade_hit(g, path, &surface, &mat, rnd, last, emission_weight);
     path.mis_pdf = if sample_here { pdf } else { 0.0 };
 }
 

@@ -23,37 +23,40 @@ fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, 
     }
     let ng_facing = select(-ng, ng, front);
     let ns_facing = select(-hit.shading_normal, hit.shading_normal, front);
-    var wi = (*path).dir;
-    var weight = vec3<f32>(0.0);
-    var reflected = true;
-    var pdf = 0.0;
+    var s = bsdf_absorbed((*path).dir);
     if (HAS_DIFFUSE && mat.kind == MATERIAL_DIFFUSE) {
-        wi = sample_diffuse(ns_facing, rnd.xy);
-        weight = mat.color;
-        pdf = max(dot(wi, ns_facing), 0.0) * INV_PI;
+        let wi = sample_diffuse(ns_facing, rnd.xy);
+        s = BsdfSample(wi, mat.color, max(dot(wi, ns_facing), 0.0) * INV_PI, false);
     } else if ((HAS_METAL || HAS_ROUGH_METAL) && mat.kind == MATERIAL_METAL) {
         var alpha = mat.alpha;
         if (!HAS_ROUGH_METAL) {
             alpha = 0.0;
         }
-        let s = sample_metal((*path).dir, ns_facing, alpha, rnd.xy);
-        wi = s.dir;
-        weight = mat.color * s.weight;
-    } else if (HAS_GLASS && mat.kind == MATERIAL_GLASS) {
+        s = sample_conductor((*path).dir, ns_facing, alpha, mat.color, mat.eta, mat.k, rnd.xy);
+    } else if ((HAS_GLASS || HAS_ROUGH_GLASS) && mat.kind == MATERIAL_GLASS) {
         let eta = select(mat.ior, 1.0 / mat.ior, front);
-        let s = sample_glass((*path).dir, ns_facing, eta, rnd.x);
-        wi = s.dir;
-        reflected = !s.transmitted;
-        weight = select(vec3<f32>(1.0), mat.color, s.transmitted);
+        var alpha = mat.alpha;
+        if (!HAS_ROUGH_GLASS) {
+            alpha = 0.0;
+        }
+        s = sample_rough_dielectric((*path).dir, ns_facing, alpha, eta, mat.color, rnd.xyz);
+    } else if (HAS_PLASTIC && mat.kind == MATERIAL_PLASTIC) {
+        if (mat.alpha > 0.0) {
+            var table = plastic_tables[mat.table];
+            s = sample_rough_plastic((*path).dir, ns_facing, mat.alpha, mat.ior, mat.color, &table, rnd.xyz);
+        } else {
+            s = sample_plastic((*path).dir, ns_facing, mat.ior, mat.color, rnd.xyz);
+        }
     }
+    let wi = s.dir;
     let cos_g = dot(wi, ng_facing);
-    let right_side = select((cos_g < 0.0), (cos_g > 0.0), reflected);
-    (*path).throughput *= weight;
+    let right_side = select((cos_g > 0.0), (cos_g < 0.0), s.transmitted);
+    (*path).throughput *= s.weight;
     let t = (*path).throughput;
     (*path).alive = right_side && max(t.x, max(t.y, t.z)) > 0.0;
     (*path).origin = offset_ray_origin(hit, (*path).dir, select(-ng_facing, ng_facing, cos_g > 0.0));
     (*path).dir = wi;
-    return pdf;
+    return s.pdf;
 }
 
 fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32) {

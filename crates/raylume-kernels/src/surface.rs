@@ -27,6 +27,7 @@ use crate::gpu_types::{
     ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuMaterial, LightTriangle, MATERIAL_GLASS, NO_TEXTURE,
     SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms, TextureHeader, TriangleShading,
 };
+use crate::bsdf::RoughPlasticTable;
 use crate::math::{INV_2PI, INV_PI, acos_poly, atan2_poly, normalize};
 
 /// The Rust mirror of the shader's global bindings: what the plain functions read.
@@ -42,6 +43,8 @@ pub struct Globals<'a> {
     pub texels: &'a [f32],
     /// The light list (next-event estimation reads the first `scene.light_count`).
     pub lights: &'a [LightTriangle],
+    /// Rough plastics' coat tables, indexed by `GpuMaterial::table`.
+    pub plastic_tables: &'a [RoughPlasticTable],
 }
 
 /// The surface a ray hit.
@@ -418,6 +421,7 @@ mod tests {
                 texture_headers: &[],
                 texels: &[],
                 lights: &[],
+                plastic_tables: &[],
             };
             // A ray from outside at a random point of the primitive.
             let (a, b, c) = (
@@ -509,6 +513,7 @@ mod tests {
                 texture_headers: &[],
                 texels: &[],
                 lights: &[],
+                plastic_tables: &[],
             };
             let closest = |ray: &Ray| {
                 let sr = shear_ray(ray);

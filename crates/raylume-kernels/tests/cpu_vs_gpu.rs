@@ -108,6 +108,26 @@ fn spheres_match_cpu() {
     compare("spheres_match_cpu", &spheres(), 32, 32, 4, 6);
 }
 
+/// Plastic (smooth, rough with coat tables), conductors with complex IORs, rough glass, in
+/// both schedules.
+#[test]
+fn microfacet_materials_match_cpu() {
+    use raylume_scene::Feature::*;
+    let f = materials().features();
+    for feature in [Plastic, RoughGlass, RoughMetal, Metal, Textures, Emission] {
+        assert!(f.contains(feature), "{feature:?} not in the fixture");
+    }
+    for schedule in [Schedule::Megakernel, Schedule::Wavefront] {
+        compare_with(
+            "microfacet_materials_match_cpu",
+            &materials(),
+            [32, 32, 4, 6],
+            schedule,
+            Estimator::Nee,
+        );
+    }
+}
+
 #[test]
 fn textured_matches_cpu() {
     compare("textured_matches_cpu", &textured(), 32, 32, 4, 4);

@@ -409,7 +409,7 @@ pub(crate) fn fingerprint(scene: &Scene, settings: &TraceSettings, policy: &str)
     c.fov_axis.hash(&mut h);
     for m in &scene.materials {
         format!("{:?}{:?}{}", m.kind, m.albedo_texture, m.two_sided).hash(&mut h);
-        for v in [m.albedo, m.emission, m.tint] {
+        for v in [m.albedo, m.emission, m.tint, m.conductor_eta, m.conductor_k] {
             v3(&mut h, v);
         }
         f(&mut h, m.roughness);

@@ -243,6 +243,14 @@ fn malformed_toml_scenes() {
         ("zero_spp.toml", &[], &["zero_spp.toml:11:", "spp must be positive, got 0"]),
         ("mesh_bad_obj.toml", &[], &["face_out_of_range.obj:4", "vertex index 99 is out of range"]),
         ("mesh_cyclic_gltf.toml", &[], &["cyclic.gltf", "nodes[0]", "cycle"]),
+        // The camera's fov and the materials' newer keys.
+        ("both_fovs.toml", &[], &["both_fovs.toml:5:8", "`vfov` or `hfov`, not both"]),
+        ("no_fov.toml", &[], &["no_fov.toml:1:1", "missing key `vfov` or `hfov`"]),
+        ("two_sided_no_emission.toml", &[], &["two_sided_no_emission.toml:3:13", "needs a nonzero `emission`"]),
+        ("unknown_conductor.toml", &[], &["unknown_conductor.toml:3:13", "unknown conductor `Chrome`", "Cr, "]),
+        ("eta_without_k.toml", &[], &["eta_without_k.toml:3:7", "missing key `k`"]),
+        ("plastic_tint.toml", &[], &["plastic_tint.toml:3:8", "unknown key `tint`", "plastic"]),
+        ("rough_glass_nan.toml", &[], &["rough_glass_nan.toml:3:13", "roughness", "not finite"]),
     ]);
 }
 

@@ -54,6 +54,7 @@ impl CpuTracer {
             texture_headers: &self.data.texture_headers,
             texels: &self.data.texels,
             lights: &self.data.lights,
+            plastic_tables: &self.data.plastic_tables,
         }
     }
 

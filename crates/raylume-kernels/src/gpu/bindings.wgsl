@@ -15,6 +15,8 @@
 // Emissive triangles for next-event estimation: the first `scene.light_count` (at least one
 // entry, a placeholder when there is none).
 @group(0) @binding(8) var<storage, read> lights: array<LightTriangle>;
+// Rough plastics' coat tables (GpuMaterial::table; one placeholder entry when there is none).
+@group(0) @binding(9) var<storage, read> plastic_tables: array<RoughPlasticTable>;
 
 @group(1) @binding(0) var<storage, read_write> ray_states: array<RayState>;
 // Each sample's radiance, RGB triples, slot = sample_in_batch * pixel_count + pixel_in_batch.
@@ -48,6 +50,8 @@ override HAS_DIFFUSE: bool = true;
 override HAS_METAL: bool = true;
 override HAS_ROUGH_METAL: bool = true;
 override HAS_GLASS: bool = true;
+override HAS_ROUGH_GLASS: bool = true;
+override HAS_PLASTIC: bool = true;
 override HAS_EMISSION: bool = true;
 override HAS_SPHERES: bool = true;
 override HAS_TEXTURES: bool = true;

@@ -45,7 +45,7 @@ pub(crate) fn upload<T: bytemuck::Pod + Default>(
 }
 
 /// The layouts of group 0 (the scene: uniforms, then BVH nodes, primitives, materials,
-/// primitive materials, triangle shading, texture headers, texels, lights), group 1 (the work
+/// primitive materials, triangle shading, texture headers, texels, lights, plastic tables), group 1 (the work
 /// buffers, see `bindings.wgsl`; binding 8 at a dynamic offset), group 2 of
 /// `prepare_propagate` (the dispatch size it writes) and group 2 of `permute_rays` (the state
 /// buffer it fills).
@@ -62,6 +62,7 @@ pub(crate) fn bind_group_layouts(device: &wgpu::Device) -> [wgpu::BindGroupLayou
             storage_entry(6, true),
             storage_entry(7, true),
             storage_entry(8, true),
+            storage_entry(9, true),
         ],
     });
     let work = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {

@@ -24,6 +24,7 @@ use raylume_scene::{Feature, Features, Scene};
 use raylume_sort::RadixSorter;
 
 use crate::batches::Batch;
+use crate::bsdf::RoughPlasticTable;
 use crate::gpu_types::{GpuMaterial, LightTriangle, SceneUniforms, TextureHeader, TriangleShading};
 use crate::scene_data::SceneData;
 use crate::{KernelError, TraceOutput, TraceSettings};
@@ -177,6 +178,8 @@ impl<'a> GpuTracer<'a> {
         let headers = upload::<TextureHeader>(ctx, "texture headers", &data.texture_headers)?;
         let texels = upload::<f32>(ctx, "texture and environment-map data", &data.texels)?;
         let lights = upload::<LightTriangle>(ctx, "light list", &data.lights)?;
+        let plastic_tables =
+            upload::<RoughPlasticTable>(ctx, "rough plastic tables", &data.plastic_tables)?;
 
         let [scene_layout, work_layout, args_layout, permute_group_layout] =
             bind_group_layouts(device);
@@ -221,6 +224,10 @@ impl<'a> GpuTracer<'a> {
                         wgpu::BindGroupEntry {
                             binding: 8,
                             resource: lights.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: 9,
+                            resource: plastic_tables.as_entire_binding(),
                         },
                     ],
                 });

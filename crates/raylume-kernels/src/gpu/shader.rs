@@ -48,6 +48,8 @@ pub fn pipeline_constants(features: Features) -> Vec<(&'static str, f64)> {
         ("HAS_METAL", b(Feature::Metal)),
         ("HAS_ROUGH_METAL", b(Feature::RoughMetal)),
         ("HAS_GLASS", b(Feature::Glass)),
+        ("HAS_ROUGH_GLASS", b(Feature::RoughGlass)),
+        ("HAS_PLASTIC", b(Feature::Plastic)),
         ("HAS_EMISSION", b(Feature::Emission)),
         ("HAS_SPHERES", b(Feature::Spheres)),
         ("HAS_TEXTURES", b(Feature::Textures)),

@@ -177,6 +177,71 @@ pub fn spheres() -> Scene {
     }
 }
 
+/// Every material the Bitterli scenes use, on spheres over a textured rough-plastic floor,
+/// under a constant sky and a one-sided lamp: smooth and rough plastic (two roughnesses, so two
+/// coat tables), smooth and rough conductors with complex IORs (gold, aluminium) and a
+/// Fresnel-1 mirror, rough glass.
+pub fn materials() -> Scene {
+    let au = raylume_scene::conductor_ior("Au").unwrap();
+    let al = raylume_scene::conductor_ior("Al").unwrap();
+    let mut floor = Material::plastic("floor", Vec3::new(0.7, 0.6, 0.5), 1.5, 0.4);
+    floor.albedo_texture = Some(0);
+    let materials = vec![
+        floor,
+        Material::plastic("smooth plastic", Vec3::new(0.2, 0.3, 0.8), 1.5, 0.0),
+        Material::plastic("rough plastic", Vec3::new(0.8, 0.2, 0.1), 1.4, 0.2),
+        Material::conductor("gold", au.0, au.1, Vec3::ONE, 0.3),
+        Material::conductor("aluminium", al.0, al.1, Vec3::splat(0.6), 0.0),
+        Material::metal("mirror", Vec3::splat(0.9), 0.0),
+        Material {
+            roughness: 0.3,
+            ..Material::glass("frosted", 1.5, Vec3::new(0.9, 1.0, 0.9))
+        },
+        Material::emissive("lamp", Vec3::new(8.0, 6.0, 3.0)),
+    ];
+    let s = |x: f32, y: f32, z: f32, r: f32, m: u32| Sphere {
+        center: Vec3::new(x, y, z),
+        radius: r,
+        material: m,
+    };
+    let mut triangles = quad(
+        Vec3::new(-4., 0., -4.),
+        Vec3::new(0., 0., 8.),
+        Vec3::new(8., 0., 0.),
+        0,
+    )
+    .to_vec();
+    // A lamp above, facing down (u x v = -y).
+    triangles.extend(flat_quad(
+        Vec3::new(-0.5, 2.5, -0.5),
+        Vec3::new(1., 0., 0.),
+        Vec3::new(0., 0., 1.),
+        7,
+    ));
+    Scene {
+        camera: Camera {
+            position: Vec3::new(0.0, 1.2, 4.0),
+            look_at: Vec3::new(0.0, 0.5, 0.0),
+            up: Vec3::Y,
+            fov: 50.0,
+            fov_axis: FovAxis::Vertical,
+        },
+        materials,
+        textures: vec![test_texture(8, 8)],
+        triangles,
+        spheres: vec![
+            s(-1.8, 0.4, 0.0, 0.4, 1),
+            s(-0.9, 0.4, -0.3, 0.4, 2),
+            s(0.0, 0.4, 0.2, 0.4, 3),
+            s(0.9, 0.4, -0.2, 0.4, 4),
+            s(1.8, 0.4, 0.0, 0.4, 5),
+            s(0.0, 0.3, 1.2, 0.3, 6),
+        ],
+        environment: Environment::Constant(Vec3::new(0.5, 0.6, 0.8)),
+        ..Default::default()
+    }
+}
+
 /// An RGB checkerboard-ish texture whose texels all differ (so a wrong texel shows).
 pub fn test_texture(w: u32, h: u32) -> Texture {
     let texels = (0..h)
