@@ -12,8 +12,9 @@
 //! only `print!`/`eprint!`), so the line shows in the ordinary `cargo test` output beside the
 //! test's `ok`. With `RAYLUME_REQUIRE_GPU=1` (CI) the test fails instead.
 
+use std::collections::HashSet;
 use std::io::Write;
-use std::sync::OnceLock;
+use std::sync::{Mutex, OnceLock};
 
 use crate::{ContextOptions, GpuContext};
 
@@ -32,10 +33,17 @@ pub fn current_test(fallback: &str) -> String {
 }
 
 /// Writes `SKIPPED (reason): test` to standard error past the harness's capture, so that it
-/// shows in `cargo test`'s output although the test passes. `test` names the test when the
-/// thread does not (see [`current_test`]).
+/// shows in `cargo test`'s output although the test passes; once per test and reason (a test
+/// that asks for the GPU once per case gets one line). `test` names the test when the thread
+/// does not (see [`current_test`]). What is skipped is the test's GPU part: some tests run
+/// checks on the CPU before or besides it.
 pub fn report_skip(test: &str, reason: &str) {
+    static SEEN: Mutex<Option<HashSet<String>>> = Mutex::new(None);
     let line = format!("SKIPPED ({reason}): {}\n", current_test(test));
+    let mut seen = SEEN.lock().unwrap_or_else(|p| p.into_inner());
+    if !seen.get_or_insert_with(HashSet::new).insert(line.clone()) {
+        return;
+    }
     // Not `eprintln!`: the harness captures that and shows it only for failing tests.
     let mut err = std::io::stderr().lock();
     let _ = err.write_all(line.as_bytes());
