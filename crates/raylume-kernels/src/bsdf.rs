@@ -48,13 +48,15 @@
 //!   coat's, Mitsuba's `eta`): they are one-sided, the caller faces `n` towards the ray. The
 //!   dielectric takes `eta = n_incident / n_transmitted` as [`sample_glass`] does (`1 / ior`
 //!   entering, `ior` leaving).
-//! - Radiance across a dielectric interface is **not** scaled by `eta²`, as in
-//!   [`sample_glass`]: a transmitted sample's weight is `tint · G1(wi, m)`, and
-//!   `eval_rough_dielectric`'s transmitted value is Mitsuba's (radiance mode) divided by
-//!   `eta²`. The factors cancel on every path that enters and leaves an object; images differ
-//!   from Mitsuba's only where a path starts or ends inside a dielectric (a light or the
-//!   camera inside glass). Reflection at a dielectric is untinted; `tint` multiplies
-//!   transmission (Mitsuba's `specular_transmittance`).
+//! - Radiance across a dielectric interface is scaled by `eta²` (`eta = n_incident /
+//!   n_transmitted`, the camera path's direction), as Mitsuba and pbrt do when they trace
+//!   radiance: `L / n²` is what is conserved along a ray, so light leaving glass into air is
+//!   brighter per solid angle by `n²` than inside. A transmitted sample's weight is `tint ·
+//!   G1(wi, m) · eta²`, and `eval_rough_dielectric`'s transmitted value is Mitsuba's
+//!   (radiance mode). The factors cancel on a path that enters and leaves a closed object;
+//!   they do not on an open mesh, or where a path starts or ends inside. Reflection at a
+//!   dielectric is untinted; `tint` multiplies transmission (Mitsuba's
+//!   `specular_transmittance`).
 //! - Plastic lobe choice: the specular probability is Mitsuba's
 //!   `F w / (F w + (1 - F)(1 - w))` with `w = 1 / (1 + mean(albedo))` (Mitsuba's
 //!   `specular_sampling_weight` with a white specular reflectance; Mitsuba uses the texture's
@@ -518,9 +520,9 @@ pub fn eval_rough_plastic(
 /// Rough Surfaces", with visible-normal sampling; Mitsuba `roughdielectric`): `eta =
 /// n_incident / n_transmitted`, `tint` on transmission. A visible normal `m` from `(u.y,
 /// u.z)`; reflection when `u.x < F(wo·m)` (weight `G1(wi, m)`), else refraction through `m`
-/// (weight `tint · G1(wi, m)`, radiance not scaled by `eta²`: see the module notes); total
+/// (weight `tint · G1(wi, m) · eta²`, the radiance scaling of the module notes); total
 /// internal reflection at `m` always reflects. `alpha <= 0`: the smooth dielectric of
-/// [`sample_glass`] (delta, pdf 0, `u.x` only).
+/// [`sample_glass`] (delta, pdf 0, `u.x` only; weight `tint · eta²` on transmission).
 #[inline]
 pub fn sample_rough_dielectric(
     dir: Vec3,
@@ -534,7 +536,11 @@ pub fn sample_rough_dielectric(
         let g = sample_glass(dir, n, eta, u.x);
         return BsdfSample {
             dir: g.dir,
-            weight: if g.transmitted { tint } else { Vec3::ONE },
+            weight: if g.transmitted {
+                tint * (eta * eta)
+            } else {
+                Vec3::ONE
+            },
             pdf: 0.0,
             transmitted: g.transmitted,
         };
@@ -576,7 +582,7 @@ pub fn sample_rough_dielectric(
     }
     BsdfSample {
         dir: to_world(wl, t, b, n),
-        weight: tint * smith_g1(wl, m, a),
+        weight: tint * (smith_g1(wl, m, a) * eta * eta),
         pdf,
         transmitted: true,
     }
@@ -584,8 +590,8 @@ pub fn sample_rough_dielectric(
 
 /// [`sample_rough_dielectric`]'s value and pdf for `wi`: reflection (`wi` on the side of `n`)
 /// `F D G / (4 cos θ_o)`, pdf `F D G1(wo, h) / (4 cos θ_o)` with `h` the half vector;
-/// transmission `tint (1 - F) D G |wo·h| |wi·h| / (cos θ_o (eta wo·h + wi·h)²)`, pdf the same
-/// without `G1(wi, h)` and `tint`, with `h ∝ wo + wi / eta`. Zero for the smooth (delta)
+/// transmission `tint eta² (1 - F) D G |wo·h| |wi·h| / (cos θ_o (eta wo·h + wi·h)²)`, pdf the
+/// same without `G1(wi, h)`, `tint` and `eta²`, with `h ∝ wo + wi / eta`. Zero for the smooth (delta)
 /// boundary and where the microfacet and the macro-surface disagree on a side.
 #[inline]
 pub fn eval_rough_dielectric(
@@ -634,7 +640,7 @@ pub fn eval_rough_dielectric(
     let denom = eta * cos_oh + cos_lh;
     let pdf = (1.0 - f) * d * g1o * cos_oh * cos_lh.abs() / (wo.z * denom * denom);
     BsdfEval {
-        value: tint * (pdf * g1l),
+        value: tint * (pdf * g1l * eta * eta),
         pdf,
     }
 }
@@ -1098,11 +1104,8 @@ mod tests {
             let (n, eta) = if inside { (-z, 1.5) } else { (z, 1.0 / 1.5) };
             for (i, &(wi, wo, v, pdf)) in table.iter().enumerate() {
                 let (wi, wo) = (Vec3::from(wi), Vec3::from(wo));
-                let mut e = eval_rough_dielectric(-wi, n, wo, alpha, eta, Vec3::ONE);
-                // Mitsuba scales transmitted radiance by eta²; raylume does not.
-                if wi.z * wo.z < 0.0 {
-                    e.value *= eta * eta;
-                }
+                // Both scale transmitted radiance by eta² (radiance mode).
+                let e = eval_rough_dielectric(-wi, n, wo, alpha, eta, Vec3::ONE);
                 close(label, i, e, (v, pdf), 2e-3);
                 rows += 1;
             }
@@ -1159,7 +1162,13 @@ mod tests {
                         (g.dir, g.transmitted, 0.0),
                         "{i}"
                     );
-                    assert_eq!(s.weight, if g.transmitted { tint } else { Vec3::ONE });
+                    // Transmission carries the tint and the eta² radiance scaling.
+                    let want = if g.transmitted {
+                        tint * (eta * eta)
+                    } else {
+                        Vec3::ONE
+                    };
+                    assert_eq!(s.weight, want);
                     assert_eq!(
                         eval_rough_dielectric(dir, n, s.dir, 0.0, eta, tint),
                         bsdf_eval_zero()

@@ -333,7 +333,7 @@ fn sample_rough_dielectric(
 ) -> BsdfSample {
     if (alpha <= 0.0) {
         let g = sample_glass(dir, n, eta, u.x);
-        return BsdfSample(g.dir, select(vec3<f32>(1.0), tint, g.transmitted), 0.0, g.transmitted);
+        return BsdfSample(g.dir, select(vec3<f32>(1.0), tint * (eta * eta), g.transmitted), 0.0, g.transmitted);
     }
     let a = max(alpha, GGX_MIN_ALPHA);
     let basis = orthonormal_basis(n);
@@ -365,7 +365,7 @@ fn sample_rough_dielectric(
     if (!(pdf > 0.0)) {
         return bsdf_absorbed(dir);
     }
-    return BsdfSample(to_world(wl, basis.t, basis.b, n), tint * smith_g1(wl, m, a), pdf, true);
+    return BsdfSample(to_world(wl, basis.t, basis.b, n), tint * (smith_g1(wl, m, a) * eta * eta), pdf, true);
 }
 
 fn eval_rough_dielectric(
@@ -411,5 +411,5 @@ fn eval_rough_dielectric(
     }
     let denom = eta * cos_oh + cos_lh;
     let pdf = (1.0 - f) * d * g1o * cos_oh * abs(cos_lh) / (wo.z * denom * denom);
-    return BsdfEval(tint * (pdf * g1l), pdf);
+    return BsdfEval(tint * (pdf * g1l * eta * eta), pdf);
 }
