@@ -23,11 +23,11 @@
 use glam::{Vec2, Vec3};
 use raylume_bvh::{Hit, PRIM_SPHERE, Primitive};
 
+use crate::bsdf::RoughPlasticTable;
 use crate::gpu_types::{
     ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuMaterial, LightTriangle, MATERIAL_GLASS, NO_TEXTURE,
     SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms, TextureHeader, TriangleShading,
 };
-use crate::bsdf::RoughPlasticTable;
 use crate::math::{INV_2PI, INV_PI, acos_poly, atan2_poly, normalize};
 
 /// The Rust mirror of the shader's global bindings: what the plain functions read.

@@ -345,7 +345,10 @@ fn living_room() {
     assert!((floor.roughness - 0.15f32.sqrt()).abs() < 1e-6);
     assert!(floor.albedo_texture.is_some());
     let panel = m("Paneling");
-    assert_eq!((panel.kind, panel.albedo), (MaterialKind::Plastic, Vec3::splat(0.8)));
+    assert_eq!(
+        (panel.kind, panel.albedo),
+        (MaterialKind::Plastic, Vec3::splat(0.8))
+    );
     assert!((panel.roughness - 0.2f32.sqrt()).abs() < 1e-6);
     assert_eq!(
         (m("Mirror").kind, m("Mirror").roughness),
@@ -398,7 +401,10 @@ fn living_room() {
     // fov 90 is horizontal: at the file's 1280x720 the vertical one is 2 atan(tan(45 deg) *
     // 720 / 1280), and at any other size the width still spans 90 degrees.
     assert_eq!((s.render.width, s.render.height), (1280, 720));
-    assert_eq!((s.camera.fov, s.camera.fov_axis), (90.0, FovAxis::Horizontal));
+    assert_eq!(
+        (s.camera.fov, s.camera.fov_axis),
+        (90.0, FovAxis::Horizontal)
+    );
     let vfov = s.camera.vfov(1280, 720);
     assert!((vfov - 2.0 * (720.0f32 / 1280.0).atan().to_degrees()).abs() < 1e-4);
     assert!((s.camera.vfov(500, 500) - 90.0).abs() < 1e-4);

@@ -18,7 +18,7 @@ use glam::Vec3;
 use raylume::{Backend, Error, Scene, Tracer};
 use raylume_gpu::{ContextOptions, GpuContext};
 use raylume_kernels::KernelError;
-use raylume_scene::{Camera, FovAxis, Environment, Material, RenderSettings, Sphere, Texture};
+use raylume_scene::{Camera, Environment, FovAxis, Material, RenderSettings, Sphere, Texture};
 
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("raylume-faults-{}-{name}", std::process::id()));
