@@ -102,6 +102,48 @@ fn light_list(scene: &Scene) -> (Vec<LightTriangle>, f32) {
     (lights, total as f32)
 }
 
+/// The coat table key of a rough plastic: its GGX alpha and ior, as bits; `None` for any
+/// other material.
+fn table_key(m: &raylume_scene::Material) -> Option<(u32, u32)> {
+    let alpha = m.roughness * m.roughness;
+    (m.kind == MaterialKind::Plastic && alpha > 0.0).then(|| (alpha.to_bits(), m.ior.to_bits()))
+}
+
+/// One coat table per distinct (alpha, ior) of the scene's rough plastics, and the index of
+/// each. A table is a numerical integration (~0.1 s on one core): the distinct ones are
+/// computed in parallel, and kept for the life of the process, so that repeated renders of a
+/// scene (benches, `--reorder auto`'s trials, an interactive tool) pay for them once.
+fn plastic_tables(scene: &Scene) -> (Vec<RoughPlasticTable>, HashMap<Option<(u32, u32)>, u32>) {
+    use rayon::prelude::*;
+    use std::sync::{Mutex, OnceLock};
+    static CACHE: OnceLock<Mutex<HashMap<(u32, u32), RoughPlasticTable>>> = OnceLock::new();
+    let mut keys: Vec<(u32, u32)> = scene.materials.iter().filter_map(table_key).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    let cache = CACHE.get_or_init(Default::default);
+    let cached = |k: &(u32, u32)| {
+        let c = cache.lock().unwrap_or_else(|e| e.into_inner());
+        c.get(k).copied()
+    };
+    let tables: Vec<RoughPlasticTable> = keys
+        .par_iter()
+        .map(|k| {
+            cached(k).unwrap_or_else(|| {
+                let t = RoughPlasticTable::new(f32::from_bits(k.0), f32::from_bits(k.1));
+                let mut c = cache.lock().unwrap_or_else(|e| e.into_inner());
+                c.insert(*k, t);
+                t
+            })
+        })
+        .collect();
+    let index = keys
+        .iter()
+        .enumerate()
+        .map(|(i, k)| (Some(*k), i as u32))
+        .collect();
+    (tables, index)
+}
+
 fn append_texture(texels: &mut Vec<f32>, t: &Texture, what: &str) -> Result<u32, KernelError> {
     let n = u64::from(t.width) * u64::from(t.height);
     if n == 0 || t.texels.len() as u64 != n {
@@ -153,8 +195,7 @@ impl SceneData {
         }
 
         let mut materials = Vec::with_capacity(scene.materials.len().max(1));
-        let mut plastic_tables = Vec::new();
-        let mut table_of = HashMap::new();
+        let (plastic_tables, table_of) = plastic_tables(scene);
         for (i, m) in scene.materials.iter().enumerate() {
             let texture = match (m.kind, m.albedo_texture) {
                 (MaterialKind::Glass, _) | (_, None) => NO_TEXTURE,
@@ -174,16 +215,7 @@ impl SceneData {
                 MaterialKind::Glass => (MATERIAL_GLASS, m.tint),
                 MaterialKind::Plastic => (MATERIAL_PLASTIC, m.albedo),
             };
-            let table = if m.kind == MaterialKind::Plastic && alpha > 0.0 {
-                *table_of
-                    .entry((alpha.to_bits(), m.ior.to_bits()))
-                    .or_insert_with(|| {
-                        plastic_tables.push(RoughPlasticTable::new(alpha, m.ior));
-                        plastic_tables.len() as u32 - 1
-                    })
-            } else {
-                NO_TABLE
-            };
+            let table = table_of.get(&table_key(m)).copied().unwrap_or(NO_TABLE);
             materials.push(GpuMaterial {
                 color: color.into(),
                 kind,

@@ -113,3 +113,54 @@ fn shared_constants_reach_the_shader() {
         ref other => panic!("T_MAX is {other:?}"),
     }
 }
+
+/// Each rough plastic points at the coat table of its own (alpha, ior); plastics that share
+/// both share one table; smooth plastics and other materials have none.
+#[test]
+fn rough_plastics_get_the_table_of_their_roughness_and_ior() {
+    use raylume_kernels::bsdf::RoughPlasticTable;
+    use raylume_kernels::gpu_types::NO_TABLE;
+    use raylume_kernels::scene_data::SceneData;
+    use raylume_scene::{Material, Scene, Sphere};
+    let g = glam::Vec3::splat(0.5);
+    let materials = vec![
+        Material::plastic("a", g, 1.5, 0.3),
+        Material::plastic("b", g, 1.5, 0.0),
+        Material::plastic("c", g, 1.4, 0.3),
+        Material::plastic("d", g, 1.5, 0.3),
+        Material::plastic("e", g, 1.5, 0.5),
+        Material::diffuse("f", g),
+    ];
+    let spheres = (0..materials.len() as u32)
+        .map(|i| Sphere {
+            center: glam::Vec3::new(3.0 * i as f32, 0.0, 0.0),
+            radius: 1.0,
+            material: i,
+        })
+        .collect();
+    let scene = Scene {
+        materials,
+        spheres,
+        ..Default::default()
+    };
+    let bvh = raylume_bvh::GpuBvh::from_scene(&scene, raylume_bvh::BvhQuality::Fast).unwrap();
+    let data = SceneData::new(&scene, &bvh).unwrap();
+    assert_eq!(
+        data.plastic_tables.len(),
+        3,
+        "(0.09, 1.5), (0.09, 1.4), (0.25, 1.5)"
+    );
+    let t = |i: usize| data.materials[i].table;
+    assert_eq!((t(1), t(5)), (NO_TABLE, NO_TABLE));
+    assert_eq!(t(0), t(3));
+    for i in [0, 2, 4] {
+        let m = &scene.materials[i];
+        let want = RoughPlasticTable::new(m.roughness * m.roughness, m.ior);
+        assert_eq!(data.plastic_tables[t(i) as usize], want, "material {i}");
+    }
+    // A second flattening (the process-wide cache) gives the same tables.
+    assert_eq!(
+        SceneData::new(&scene, &bvh).unwrap().plastic_tables,
+        data.plastic_tables
+    );
+}
