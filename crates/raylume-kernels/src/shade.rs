@@ -22,7 +22,8 @@ use glam::{Vec2, Vec3, Vec4};
 use raylume_bvh::{GpuBvh, PRIM_TRIANGLE, Ray};
 
 use crate::bsdf::{
-    BsdfSample, bsdf_absorbed, sample_conductor, sample_plastic, sample_rough_dielectric,
+    BsdfEval, BsdfSample, bsdf_absorbed, bsdf_eval_zero, eval_conductor, eval_plastic,
+    eval_rough_plastic, sample_conductor, sample_plastic, sample_rough_dielectric,
     sample_rough_plastic,
 };
 use crate::gpu_types::{
@@ -221,7 +222,7 @@ pub fn trace_ray(
     } else {
         1.0
     };
-    let sample_here = g.scene.light_count > 0 && mat.kind == MATERIAL_DIFFUSE && !last;
+    let sample_here = g.scene.light_count > 0 && samples_lights(&mat) && !last;
     if sample_here {
         let rnd = rand4(g.scene.seed, pixel, sample, depth, DIM_LIGHT);
         path.radiance += path.throughput * sample_lights(g, bvh, &surface, &mat, path.dir, rnd);
@@ -229,6 +230,45 @@ pub fn trace_ray(
     let rnd = rand4(g.scene.seed, pixel, sample, depth, DIM_SCATTER);
     let pdf = shade_hit(g, path, &surface, &mat, rnd, last, emission_weight);
     path.mis_pdf = if sample_here { pdf } else { 0.0 };
+}
+
+/// Whether next-event estimation samples the lights at a hit on `mat`: every material whose
+/// reflection can be evaluated for a given direction (diffuse, rough metal, plastic, whose
+/// smooth coat's delta lobe is left to the scattered ray). Not smooth metal (a delta) and not
+/// glass (its transmission would need a shadow ray through the surface).
+#[inline]
+pub fn samples_lights(mat: &GpuMaterial) -> bool {
+    mat.kind == MATERIAL_DIFFUSE
+        || mat.kind == MATERIAL_PLASTIC
+        || (mat.kind == MATERIAL_METAL && mat.alpha > 0.0)
+}
+
+/// The reflection of `mat` from the incoming `dir_in` into `wi` about the unit shading normal
+/// `n` facing `dir_in`: `f · cos θ` and the pdf with which [`shade_hit`] samples `wi` (the
+/// same pdf, so that multiple importance sampling weighs the two strategies consistently).
+/// Zero for materials [`samples_lights`] excludes.
+#[inline]
+pub fn eval_material(g: &Globals, mat: &GpuMaterial, dir_in: Vec3, n: Vec3, wi: Vec3) -> BsdfEval {
+    let color = Vec3::from(mat.color);
+    if mat.kind == MATERIAL_DIFFUSE {
+        let pdf = n.dot(wi).max(0.0) * INV_PI;
+        return BsdfEval {
+            value: color * pdf,
+            pdf,
+        };
+    }
+    if mat.kind == MATERIAL_METAL {
+        let (eta, k) = (Vec3::from(mat.eta), Vec3::from(mat.k));
+        return eval_conductor(dir_in, n, wi, mat.alpha, color, eta, k);
+    }
+    if mat.kind == MATERIAL_PLASTIC {
+        if mat.alpha > 0.0 {
+            let table = &g.plastic_tables[mat.table as usize];
+            return eval_rough_plastic(dir_in, n, wi, mat.alpha, mat.ior, color, table);
+        }
+        return eval_plastic(dir_in, n, wi, mat.ior, color);
+    }
+    bsdf_eval_zero()
 }
 
 /// The solid-angle pdf with which [`sample_lights`] picks a direction toward a point of a light
@@ -248,13 +288,14 @@ pub fn mis_weight(a: f32, b: f32) -> f32 {
     if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
 }
 
-/// Next-event estimation at a diffuse hit reached along `dir_in`: the light of the list
+/// Next-event estimation at a hit reached along `dir_in` on a material that
+/// [`samples_lights`]: the light of the list
 /// chosen by `rnd.x` (with probability `cdf - previous cdf`), a uniform point on it from
 /// `rnd.y, rnd.z`, and a shadow ray to it; returns the reflected radiance it carries
-/// (`albedo / π · cos θ_surface · L_e · cos θ_light · area / (distance² · p_select)`), zero
+/// (`f cos θ_surface · L_e · cos θ_light · area / (distance² · p_select)`, [`eval_material`]), zero
 /// when the point is behind the surface (geometric or shading normal), the surface is behind a
 /// one-sided light, or the shadow ray is occluded; times
-/// its multiple-importance weight against diffuse scattering.
+/// its multiple-importance weight against the material's own sampling.
 #[inline]
 pub fn sample_lights(
     g: &Globals,
@@ -318,11 +359,10 @@ pub fn sample_lights(
     if bvh.trace_any(&shadow, 0.0, dist * SHADOW_T_SCALE) {
         return Vec3::ZERO;
     }
+    let f = eval_material(g, mat, dir_in, ns_facing, wi);
     let emission = Vec3::from(light.emission);
-    let w = mis_weight(light_pdf(g, emission, dist2, cos_l), cos_s * INV_PI);
-    Vec3::from(mat.color)
-        * emission
-        * (INV_PI * cos_s * cos_l * light.area / (dist2 * p_select) * w)
+    let w = mis_weight(light_pdf(g, emission, dist2, cos_l), f.pdf);
+    f.value * emission * (cos_l * light.area / (dist2 * p_select) * w)
 }
 
 /// The WGSL source of the functions above.

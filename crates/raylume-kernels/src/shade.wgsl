@@ -73,14 +73,14 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     // weigh the scattered ray's estimate against the shadow ray's (shade.rs).
     var emission_weight = 1.0;
     var sample_here = false;
-    if (HAS_EMISSION && HAS_DIFFUSE) {
+    if (HAS_EMISSION && (HAS_DIFFUSE || HAS_PLASTIC || HAS_ROUGH_METAL)) {
         let prim = bvh_primitives[hit.prim];
         if ((*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_TRIANGLE) {
             let n = cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz);
             let cos_l = abs(dot(n, (*path).dir)) / length(n);
             emission_weight = mis_weight((*path).mis_pdf, light_pdf(mat.emission, hit.t * hit.t, cos_l));
         }
-        sample_here = scene.light_count > 0u && mat.kind == MATERIAL_DIFFUSE && !last;
+        sample_here = scene.light_count > 0u && samples_lights(mat) && !last;
         if (sample_here) {
             let rnd_light = rand4(scene.seed, pixel, sample, depth, DIM_LIGHT);
             (*path).radiance += (*path).throughput * sample_lights(surface, mat, (*path).dir, rnd_light);
@@ -89,6 +89,32 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     let rnd = rand4(scene.seed, pixel, sample, depth, DIM_SCATTER);
     let pdf = shade_hit(path, surface, mat, rnd, last, emission_weight);
     (*path).mis_pdf = select(0.0, pdf, sample_here);
+}
+
+// shade.rs `samples_lights`: the materials whose reflection next-event estimation evaluates.
+fn samples_lights(mat: GpuMaterial) -> bool {
+    return (HAS_DIFFUSE && mat.kind == MATERIAL_DIFFUSE)
+        || (HAS_PLASTIC && mat.kind == MATERIAL_PLASTIC)
+        || (HAS_ROUGH_METAL && mat.kind == MATERIAL_METAL && mat.alpha > 0.0);
+}
+
+// shade.rs `eval_material`: f cos and the sampling pdf of `mat` from dir_in into wi.
+fn eval_material(mat: GpuMaterial, dir_in: vec3<f32>, n: vec3<f32>, wi: vec3<f32>) -> BsdfEval {
+    if (HAS_DIFFUSE && mat.kind == MATERIAL_DIFFUSE) {
+        let pdf = max(dot(n, wi), 0.0) * INV_PI;
+        return BsdfEval(mat.color * pdf, pdf);
+    }
+    if (HAS_ROUGH_METAL && mat.kind == MATERIAL_METAL) {
+        return eval_conductor(dir_in, n, wi, mat.alpha, mat.color, mat.eta, mat.k);
+    }
+    if (HAS_PLASTIC && mat.kind == MATERIAL_PLASTIC) {
+        if (mat.alpha > 0.0) {
+            var table = plastic_tables[mat.table];
+            return eval_rough_plastic(dir_in, n, wi, mat.alpha, mat.ior, mat.color, &table);
+        }
+        return eval_plastic(dir_in, n, wi, mat.ior, mat.color);
+    }
+    return bsdf_eval_zero();
 }
 
 fn light_pdf(emission: vec3<f32>, dist2: f32, cos_l: f32) -> f32 {
@@ -148,6 +174,7 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
     if (trace_any(Ray(origin, wi), 0.0, dist * SHADOW_T_SCALE)) {
         return vec3<f32>(0.0);
     }
-    let w = mis_weight(light_pdf(light.emission, dist2, cos_l), cos_s * INV_PI);
-    return mat.color * light.emission * (INV_PI * cos_s * cos_l * light.area / (dist2 * p_select) * w);
+    let f = eval_material(mat, dir_in, ns_facing, wi);
+    let w = mis_weight(light_pdf(light.emission, dist2, cos_l), f.pdf);
+    return f.value * light.emission * (cos_l * light.area / (dist2 * p_select) * w);
 }
