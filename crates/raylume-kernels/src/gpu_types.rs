@@ -54,6 +54,16 @@ pub const DIM_SCATTER: u32 = 1;
 /// Random-number dimension of next-event estimation at a hit: the light, then the point on it.
 pub const DIM_LIGHT: u32 = 2;
 
+/// Random-number dimension of the Russian-roulette decision after a hit.
+pub const DIM_ROULETTE: u32 = 3;
+
+/// `SceneUniforms::rr_depth` when Russian roulette is off.
+pub const NO_ROULETTE: u32 = u32::MAX;
+
+/// Russian roulette keeps a path with probability `min(max throughput, RR_MAX_SURVIVAL)`
+/// (Mitsuba's `path`: 0.95), dividing the throughput of the survivors by it.
+pub const RR_MAX_SURVIVAL: f32 = 0.95;
+
 /// `RayState::alive` of a live ray whose last vertex did not sample the lights; any other
 /// nonzero value is the `f32` bits of the BSDF pdf of a live ray's last direction, sampled at a
 /// vertex that also sampled the lights (the multiple-importance weight of the emission it hits
@@ -73,7 +83,7 @@ pub const T_MAX: f32 = f32::MAX;
 
 /// Scene-constant data and the current batch, in a uniform buffer.
 ///
-/// `repr(C)`, `Pod`, 176 bytes. WGSL: `SceneUniforms`.
+/// `repr(C)`, `Pod`, 192 bytes. WGSL: `SceneUniforms`.
 ///
 /// The camera is a pinhole: a pixel's ray is
 /// `normalize(camera_forward + sx * camera_right + sy * camera_up)` with `sx, sy` in
@@ -131,6 +141,12 @@ pub struct SceneUniforms {
     /// The sum of area times emitted luminance over the light list (next-event estimation's
     /// light-selection pdf of a light is its share).
     pub light_power: f32,
+    /// Russian roulette decides after every hit of a segment `>= rr_depth` whether the path
+    /// goes on ([`NO_ROULETTE`]: never).
+    pub rr_depth: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 /// One material.
@@ -258,7 +274,8 @@ pub struct BounceUniforms {
 }
 
 const _: () = assert!(size_of::<BounceUniforms>() == 16);
-const _: () = assert!(size_of::<SceneUniforms>() == 176);
+const _: () = assert!(size_of::<SceneUniforms>() == 192);
+const _: () = assert!(offset_of!(SceneUniforms, rr_depth) == 176);
 const _: () = assert!(offset_of!(SceneUniforms, width) == 12);
 const _: () = assert!(offset_of!(SceneUniforms, camera_forward) == 16);
 const _: () = assert!(offset_of!(SceneUniforms, environment_color) == 64);
@@ -309,11 +326,14 @@ pub fn wgsl_constants() -> String {
     s += &u("DIM_CAMERA", DIM_CAMERA);
     s += &u("DIM_SCATTER", DIM_SCATTER);
     s += &u("DIM_LIGHT", DIM_LIGHT);
+    s += &u("DIM_ROULETTE", DIM_ROULETTE);
+    s += &u("NO_ROULETTE", NO_ROULETTE);
     s += &u("RAY_ALIVE", RAY_ALIVE);
     s += &u("WORKGROUP_SIZE", crate::WORKGROUP_SIZE);
     // `{:e}` prints the shortest representation that round-trips, so the WGSL literal is the
     // same f32.
     s += &format!("const SHADOW_T_SCALE: f32 = {:e};\n", SHADOW_T_SCALE);
+    s += &format!("const RR_MAX_SURVIVAL: f32 = {:e};\n", RR_MAX_SURVIVAL);
     s += &format!(
         "const LUMINANCE: vec3<f32> = vec3<f32>({:e}, {:e}, {:e});\n",
         LUMINANCE[0], LUMINANCE[1], LUMINANCE[2]

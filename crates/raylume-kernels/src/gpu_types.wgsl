@@ -32,6 +32,10 @@ struct SceneUniforms {
     material_count: u32,
     texture_count: u32,
     light_power: f32,
+    rr_depth: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct GpuMaterial {

@@ -18,8 +18,8 @@ use crate::gpu_types::LUMINANCE;
 use crate::gpu_types::{
     ENVIRONMENT_BLACK, ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuMaterial, LightTriangle,
     MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL, MATERIAL_PLASTIC, MATERIAL_TWO_SIDED,
-    NO_TABLE, NO_TEXTURE, SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms, TextureHeader,
-    TriangleShading,
+    NO_ROULETTE, NO_TABLE, NO_TEXTURE, SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms,
+    TextureHeader, TriangleShading,
 };
 
 /// The placeholder of an empty table buffer (bindings are never empty).
@@ -62,6 +62,8 @@ pub struct SceneData {
     pub plastic_tables: Vec<RoughPlasticTable>,
     /// Which estimator the uniforms ask for ([`SceneData::uniforms`]).
     pub estimator: Estimator,
+    /// The first segment after whose hit Russian roulette may end a path; `None`: never.
+    pub russian_roulette: Option<u32>,
 }
 
 /// Every emissive triangle with its selection probability proportional to its area times its
@@ -317,6 +319,7 @@ impl SceneData {
             light_power: 0.0,
             plastic_tables,
             estimator: Estimator::Plain,
+            russian_roulette: None,
         };
         match &scene.environment {
             Environment::Black => {}
@@ -379,6 +382,7 @@ impl SceneData {
                 Estimator::Nee => self.lights.len() as u32,
             },
             light_power: self.light_power,
+            rr_depth: self.russian_roulette.unwrap_or(NO_ROULETTE),
             ..Default::default()
         }
     }

@@ -27,9 +27,9 @@ use crate::bsdf::{
     sample_rough_plastic,
 };
 use crate::gpu_types::{
-    DIM_LIGHT, DIM_SCATTER, GpuMaterial, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_GLASS,
-    MATERIAL_METAL, MATERIAL_PLASTIC, MATERIAL_TWO_SIDED, RAY_ALIVE, RayState, SHADOW_T_SCALE,
-    T_MAX,
+    DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, GpuMaterial, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_GLASS,
+    MATERIAL_METAL, MATERIAL_PLASTIC, MATERIAL_TWO_SIDED, RAY_ALIVE, RR_MAX_SURVIVAL, RayState,
+    SHADOW_T_SCALE, T_MAX,
 };
 use crate::math::INV_PI;
 use crate::rng::rand4;
@@ -230,6 +230,25 @@ pub fn trace_ray(
     let rnd = rand4(g.scene.seed, pixel, sample, depth, DIM_SCATTER);
     let pdf = shade_hit(g, path, &surface, &mat, rnd, last, emission_weight);
     path.mis_pdf = if sample_here { pdf } else { 0.0 };
+    if path.alive && depth >= g.scene.rr_depth {
+        russian_roulette(
+            path,
+            rand4(g.scene.seed, pixel, sample, depth, DIM_ROULETTE).x,
+        );
+    }
+}
+
+/// Russian roulette: the path goes on with probability `q = min(max throughput,
+/// RR_MAX_SURVIVAL)` (when `u < q`), its throughput divided by `q` so that the estimate stays
+/// unbiased; otherwise it ends.
+#[inline]
+pub fn russian_roulette(path: &mut PathState, u: f32) {
+    let q = path.throughput.max_element().min(RR_MAX_SURVIVAL);
+    if u < q {
+        path.throughput /= q;
+    } else {
+        path.alive = false;
+    }
 }
 
 /// Whether next-event estimation samples the lights at a hit on `mat`: every material whose

@@ -89,6 +89,20 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     let rnd = rand4(scene.seed, pixel, sample, depth, DIM_SCATTER);
     let pdf = shade_hit(path, surface, mat, rnd, last, emission_weight);
     (*path).mis_pdf = select(0.0, pdf, sample_here);
+    if ((*path).alive && depth >= scene.rr_depth) {
+        russian_roulette(path, rand4(scene.seed, pixel, sample, depth, DIM_ROULETTE).x);
+    }
+}
+
+// shade.rs `russian_roulette`.
+fn russian_roulette(path: ptr<function, PathState>, u: f32) {
+    let t = (*path).throughput;
+    let q = min(max(t.x, max(t.y, t.z)), RR_MAX_SURVIVAL);
+    if (u < q) {
+        (*path).throughput = t / q;
+    } else {
+        (*path).alive = false;
+    }
 }
 
 // shade.rs `samples_lights`: the materials whose reflection next-event estimation evaluates.

@@ -23,6 +23,18 @@ fn compare_with(
     schedule: Schedule,
     estimator: Estimator,
 ) {
+    compare_with_roulette(name, scene, [w, h, spp, bounces], schedule, estimator, None);
+}
+
+/// [`compare_with`] with Russian roulette from segment `roulette` on both backends.
+fn compare_with_roulette(
+    name: &str,
+    scene: &raylume_scene::Scene,
+    [w, h, spp, bounces]: [u32; 4],
+    schedule: Schedule,
+    estimator: Estimator,
+    roulette: Option<u32>,
+) {
     let Some(ctx) = raylume_gpu::testing::context_or_skip(name) else {
         return;
     };
@@ -31,12 +43,14 @@ fn compare_with(
     let cpu_with = || {
         let mut t = CpuTracer::new(scene, &bvh).unwrap();
         t.set_estimator(estimator);
+        t.set_russian_roulette(roulette);
         t
     };
     let cpu_tracer = cpu_with();
     let cpu = cpu_with().render(&s, &mut |_, _| {}).unwrap();
     let mut gpu_tracer = GpuTracer::new(ctx, scene, &bvh).unwrap();
     gpu_tracer.set_estimator(estimator);
+    gpu_tracer.set_russian_roulette(roulette);
     let gpu = gpu_tracer.render(&s, &mut |_, _| {}).unwrap();
     let (batch, samples) = gpu_tracer.last_batch_samples().unwrap().unwrap();
     assert_eq!(batch.rays(), w * h * spp, "one batch holds every sample");
@@ -106,6 +120,22 @@ fn cornell_box_matches_cpu() {
 #[test]
 fn spheres_match_cpu() {
     compare("spheres_match_cpu", &spheres(), 32, 32, 4, 6);
+}
+
+/// Russian roulette draws the same decisions on both backends and in both schedules (the
+/// wavefront carries the divided throughput between launches).
+#[test]
+fn russian_roulette_matches_cpu() {
+    for schedule in [Schedule::Megakernel, Schedule::Wavefront] {
+        compare_with_roulette(
+            "russian_roulette_matches_cpu",
+            &materials(),
+            [32, 32, 4, 8],
+            schedule,
+            Estimator::Nee,
+            Some(1),
+        );
+    }
 }
 
 /// Plastic (smooth, rough with coat tables), conductors with complex IORs, rough glass, in

@@ -33,6 +33,14 @@ impl CpuTracer {
         self.data.estimator = estimator;
     }
 
+    /// Russian roulette from segment `start` on (`None`, the default: off): after each hit of a
+    /// segment `>= start` the path goes on with probability `min(max throughput, 0.95)` and
+    /// its throughput is divided by it (Mitsuba's `path` starts at 5). Unbiased; fewer rays
+    /// spent on paths that carry little.
+    pub fn set_russian_roulette(&mut self, start: Option<u32>) {
+        self.data.russian_roulette = start;
+    }
+
     /// Flattens `scene` for the primitives of `bvh` (built from this scene).
     pub fn new(scene: &Scene, bvh: &GpuBvh) -> Result<Self, KernelError> {
         let t = Instant::now();

@@ -311,6 +311,14 @@ impl<'a> GpuTracer<'a> {
         self.data.estimator = estimator;
     }
 
+    /// Russian roulette from segment `start` on (`None`, the default: off): after each hit of a
+    /// segment `>= start` the path goes on with probability `min(max throughput, 0.95)` and
+    /// its throughput is divided by it (Mitsuba's `path` starts at 5). Unbiased; fewer rays
+    /// spent on paths that carry little.
+    pub fn set_russian_roulette(&mut self, start: Option<u32>) {
+        self.data.russian_roulette = start;
+    }
+
     /// The features the pipelines are specialised on.
     pub fn features(&self) -> Features {
         self.features
