@@ -107,10 +107,10 @@ pub enum Estimator {
     /// sampled from its material.
     #[default]
     Plain,
-    /// Next-event estimation: at every diffuse hit, a shadow ray to a point on an emissive
-    /// triangle (chosen by area times emitted luminance) adds that light's direct
-    /// contribution, and the emission of emissive triangles the next scattered ray hits is
-    /// not counted again. Spheres' emission and the environment still count where a path
+    /// Next-event estimation: at every diffuse, rough-metal or plastic hit, a shadow ray to a
+    /// point on an emissive triangle (chosen by area times emitted luminance) adds that light's
+    /// direct contribution, weighted by multiple importance sampling against the emission the
+    /// next scattered ray may hit. Spheres' emission and the environment still count where a path
     /// hits them. Unbiased; far less noise where small emitters light diffuse surfaces.
     Nee,
 }

@@ -6,14 +6,16 @@
 //! The estimator is the paper's plain one unless the uniforms hold a light list
 //! (`light_count > 0`, [`crate::Estimator::Nee`]): emission is collected where a path hits it
 //! (on every material, from the front face unless the material is two-sided), escaping paths collect the environment, and each hit
-//! scatters one new direction sampled from the material; no Russian roulette. With the light
-//! list, a diffuse hit also sends a shadow ray to a point on an emissive triangle
+//! scatters one new direction sampled from the material; Russian roulette only when the
+//! uniforms ask for it (`rr_depth`, [`russian_roulette`]). With the light
+//! list, a hit on a material [`samples_lights`] (diffuse, rough metal, plastic) also sends a
+//! shadow ray to a point on an emissive triangle
 //! ([`sample_lights`]), and the two estimates of the light an emissive triangle sends there,
 //! the shadow ray's and the scattered ray's if it hits one, are weighted by multiple
 //! importance sampling (Veach's power heuristic, [`mis_weight`]): each wins where its pdf is
 //! the larger (the shadow ray for small, far lights; the scattered ray close to a light,
 //! where the shadow ray's 1/distance² would make fireflies). Spheres and the environment
-//! have no light samples and always count in full. Diffuse and metal surfaces are two-sided (their normals are flipped towards the
+//! have no light samples and always count in full. Every material scatters on both faces (its normals are flipped towards the
 //! incoming ray, decided by the geometric normal); a scattered direction on the wrong side of
 //! the geometric surface (possible with shading normals) ends the path rather than leaking
 //! light through it.
