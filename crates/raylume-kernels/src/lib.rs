@@ -82,6 +82,7 @@ pub mod rng;
 pub mod sampling;
 pub mod scene_data;
 pub mod shade;
+pub mod sobol;
 pub mod surface;
 
 pub use cpu::CpuTracer;

@@ -8,10 +8,11 @@ use crate::gpu_types::{GPU_TYPES_WGSL, wgsl_constants};
 
 /// WGSL sources in the order they are concatenated (WGSL declarations are order-independent;
 /// the order only helps reading the assembled shader).
-const PARTS: [(&str, &str); 12] = [
+const PARTS: [(&str, &str); 13] = [
     ("gpu_types.wgsl", GPU_TYPES_WGSL),
     ("math.wgsl", crate::math::MATH_WGSL),
     ("rng.wgsl", crate::rng::RNG_WGSL),
+    ("sobol.wgsl", crate::sobol::SOBOL_WGSL),
     ("gpu/bindings.wgsl", include_str!("bindings.wgsl")),
     ("camera.wgsl", crate::camera::CAMERA_WGSL),
     ("sampling.wgsl", crate::sampling::SAMPLING_WGSL),

@@ -1,0 +1,565 @@
+//! A low-discrepancy sampler: ZSobol (Ahmed & Wonka 2020, "Screen-space blue-noise diffusion
+//! of Monte Carlo sampling error via hierarchical ordering of pixels", SIGGRAPH Asia), after
+//! pbrt-v4's `ZSobolSampler` with `RandomizeStrategy::FastOwen` (`samplers.h`,
+//! `util/lowdiscrepancy.h`). Identical in WGSL (`sobol.wgsl`) and Rust; not yet used by the
+//! tracer (which draws [`crate::rng::rand4`]).
+//!
+//! Like [`crate::rng::rand4`] it is a pure function of its key, so no state travels with a
+//! ray: [`sobol4`]`(seed, pixel, sample, spp, dim)` gives four numbers in `[0, 1)`, two
+//! *pairs*: `(x, y)` is 2D sample dimension pair `2 * dim`, `(z, w)` pair `2 * dim + 1`.
+//!
+//! How one pair is made (pbrt-v4's `ZSobolSampler::Get2D`):
+//! 1. The pixel's Morton code, shifted left by `log2(spp)` (spp rounded up to a power of 2),
+//!    with the sample index in the low bits: consecutive Sobol' indices fill a pixel, and
+//!    pixels follow the Z curve ([`zsobol_morton_index`]).
+//! 2. Every base-4 digit of that index is permuted by one of the 24 permutations of
+//!    `{0, 1, 2, 3}`, chosen by a hash of the digits above it and of the pair's key
+//!    ([`zsobol_sample_index`]; with an odd `log2(spp)` the lowest digit is one bit, flipped
+//!    by a hash bit). This is a bijection that keeps each pixel's indices one aligned block of
+//!    `2^log2(spp)`, and each prefix of `2^(log2(spp) mod 2) * 4^j` of them an aligned block,
+//!    while shuffling which block a pixel gets: the error of neighbouring pixels decorrelates as
+//!    blue noise (Ahmed & Wonka) and different pairs get different, unrelated indices (the
+//!    "padding" that lets every pair use Sobol' dimensions 0 and 1 only).
+//! 3. Sobol' dimensions 0 and 1 of that index (dimension 0's generator matrix is the bit
+//!    reversal, dimension 1's the Pascal matrix mod 2, whose columns follow
+//!    `c_{i+1} = c_i ^ (c_i >> 1)`: [`sobol_dim1`]), each Owen-scrambled by pbrt-v4's
+//!    `FastOwenScrambler` ([`fast_owen`]) with a seed hashed from (seed, dim).
+//! 4. The top 24 bits as a float ([`crate::rng::rand_f32`]): exact on every device, at most
+//!    `0x1.fffffep-1` (pbrt-v4's `FloatOneMinusEpsilon`; pbrt multiplies by `0x1p-32` and
+//!    clamps, which WGSL could not reproduce bit for bit since its u32-to-f32 rounding is
+//!    implementation-defined).
+//!
+//! Aligned blocks of `2^k` consecutive indices of Sobol' dimensions 0 and 1 are (0, k, 2)-nets
+//! in base 2, and both the digit permutation (which maps blocks to blocks) and Owen scrambling
+//! keep that: for spp = `2^k`, each pair of a pixel's samples has exactly one point in each
+//! of the `2^k` elementary intervals of area `2^-k` (tested below).
+//!
+//! Differences from pbrt-v4, all for a u32-only GPU mirror: the index is 32 bits (pbrt: 64),
+//! so the Morton code of the pixel plus `log2(spp)` bits must fit in 32 (e.g. 4096x4096 at
+//! 256 spp; beyond that, pixels whose codes differ only above the top bit share samples);
+//! all 16 base-4 digits are permuted (pbrt permutes only as many as the resolution needs;
+//! the extra digits are zero and their permutation is a fixed bijection); the hashes are
+//! `pcg4d` and Wellons' 32-bit `lowbias32` instead of MurmurHash64A and `MixBits`, and the seed
+//! is mixed into the digit permutations too (pbrt's depend on the dimension only).
+//!
+//! spp that is not a power of 2: the pixel's block is that of the next power of 2 and samples
+//! `0..spp` use the first `spp` of its (permuted) indices. A prefix of `2^o * 4^j` samples,
+//! `o = log2(spp) mod 2`, is still an aligned block and so a (0, 2j + o, 2)-net; other sample
+//! counts are stratified only partly (pbrt-v4 warns in this case too).
+
+use glam::{UVec2, Vec4};
+
+use crate::rng::{pcg4d, rand_f32};
+
+/// The 24 permutations of `{0, 1, 2, 3}` in pbrt-v4's order (`ZSobolSampler::GetSampleIndex`),
+/// packed: permutation `p` is byte `p & 3` of word `p >> 2`, and maps digit `d` to bits
+/// `2d..2d+2` of that byte.
+pub const ZSOBOL_PERMUTATIONS: [u32; 6] = pack_permutations();
+
+const PERMUTATIONS: [[u32; 4]; 24] = [
+    [0, 1, 2, 3],
+    [0, 1, 3, 2],
+    [0, 2, 1, 3],
+    [0, 2, 3, 1],
+    [0, 3, 2, 1],
+    [0, 3, 1, 2],
+    [1, 0, 2, 3],
+    [1, 0, 3, 2],
+    [1, 2, 0, 3],
+    [1, 2, 3, 0],
+    [1, 3, 2, 0],
+    [1, 3, 0, 2],
+    [2, 1, 0, 3],
+    [2, 1, 3, 0],
+    [2, 0, 1, 3],
+    [2, 0, 3, 1],
+    [2, 3, 0, 1],
+    [2, 3, 1, 0],
+    [3, 1, 2, 0],
+    [3, 1, 0, 2],
+    [3, 2, 1, 0],
+    [3, 2, 0, 1],
+    [3, 0, 2, 1],
+    [3, 0, 1, 2],
+];
+
+const fn pack_permutations() -> [u32; 6] {
+    let mut words = [0u32; 6];
+    let mut p = 0;
+    while p < 24 {
+        let mut byte = 0u32;
+        let mut d = 0;
+        while d < 4 {
+            byte |= PERMUTATIONS[p][d] << (2 * d);
+            d += 1;
+        }
+        words[p >> 2] |= byte << (8 * (p & 3));
+        p += 1;
+    }
+    words
+}
+
+/// Third word of the `pcg4d` key of the sampler's hashes (so they differ from `rand4`'s).
+pub const SOBOL_SALT: u32 = 0x5AB0_1D5E;
+
+/// The largest value [`sobol4`] returns: `0x1.fffffep-1`, pbrt-v4's `FloatOneMinusEpsilon`.
+pub const SOBOL_ONE_MINUS_EPSILON: f32 = 1.0 - 1.0 / 16_777_216.0;
+
+/// Chris Wellons' `lowbias32` integer hash (hash-prospector), a 32-bit `MixBits`.
+#[inline]
+pub fn mix32(x: u32) -> u32 {
+    let mut x = x;
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^= x >> 16;
+    x
+}
+
+/// The low 16 bits of `x` spread to the even bits.
+#[inline]
+pub fn part_1by1(x: u32) -> u32 {
+    let mut x = x & 0xffff;
+    x = (x | (x << 8)) & 0x00ff_00ff;
+    x = (x | (x << 4)) & 0x0f0f_0f0f;
+    x = (x | (x << 2)) & 0x3333_3333;
+    x = (x | (x << 1)) & 0x5555_5555;
+    x
+}
+
+/// pbrt-v4's `EncodeMorton2(x, y)`: x in the even bits, y in the odd ones (16 bits each).
+#[inline]
+pub fn encode_morton2(x: u32, y: u32) -> u32 {
+    (part_1by1(y) << 1) | part_1by1(x)
+}
+
+/// `ceil(log2(spp))`: the pixel's block of Sobol' indices holds `2^this` samples.
+#[inline]
+pub fn sobol_log2_spp(spp: u32) -> u32 {
+    let s = spp.max(1) - 1;
+    if s == 0 { 0 } else { 32 - s.leading_zeros() }
+}
+
+/// pbrt-v4's `mortonIndex`: the pixel's Morton code above `log2_spp` bits of sample index.
+#[inline]
+pub fn zsobol_morton_index(pixel: UVec2, sample: u32, log2_spp: u32) -> u32 {
+    let morton = encode_morton2(pixel.x, pixel.y);
+    let low = if log2_spp == 0 {
+        0
+    } else {
+        sample & (u32::MAX >> (32 - log2_spp))
+    };
+    if log2_spp >= 32 {
+        low
+    } else {
+        (morton << log2_spp) | low
+    }
+}
+
+/// Digit `d` through permutation `p` (0..24) of [`ZSOBOL_PERMUTATIONS`].
+#[inline]
+pub fn zsobol_permute_digit(p: u32, d: u32) -> u32 {
+    let byte = ZSOBOL_PERMUTATIONS[(p >> 2) as usize] >> (8 * (p & 3));
+    (byte >> (2 * d)) & 3
+}
+
+/// pbrt-v4's `ZSobolSampler::GetSampleIndex`: each base-4 digit of `m` (aligned to the low
+/// end when `log2_spp` is even, to bit 1 when odd) permuted by a hash of the digits above it
+/// and `key`; with an odd `log2_spp` bit 0 is flipped by a hash bit and bit 31 is kept.
+#[inline]
+pub fn zsobol_sample_index(m: u32, log2_spp: u32, key: u32) -> u32 {
+    let odd = log2_spp & 1;
+    let mut out = 0u32;
+    let mut i = odd;
+    while i < 16 {
+        let shift = 2 * i - odd;
+        let digit = (m >> shift) & 3;
+        let higher = if shift >= 30 { 0 } else { m >> (shift + 2) };
+        let p = (mix32(higher ^ key) >> 24) % 24;
+        out |= zsobol_permute_digit(p, digit) << shift;
+        i += 1;
+    }
+    if odd == 1 {
+        out |= (m & 1) ^ (mix32((m >> 1) ^ key) & 1);
+        out |= m & 0x8000_0000;
+    }
+    out
+}
+
+/// Sobol' dimension 1 of index `a` (the Pascal matrix mod 2; dimension 0 is
+/// `a.reverse_bits()`), as 32 bits, the first bit the most significant.
+#[inline]
+pub fn sobol_dim1(a: u32) -> u32 {
+    let mut v = 0u32;
+    let mut c = 0x8000_0000u32;
+    let mut a = a;
+    while a != 0 {
+        if a & 1 == 1 {
+            v ^= c;
+        }
+        c ^= c >> 1;
+        a >>= 1;
+    }
+    v
+}
+
+/// pbrt-v4's `FastOwenScrambler` (after Laine & Karras 2011 and Burley 2020): a nested
+/// uniform-like scramble of the bits of `v`, the first bit the most significant.
+#[inline]
+pub fn fast_owen(v: u32, seed: u32) -> u32 {
+    let mut v = v.reverse_bits();
+    v ^= v.wrapping_mul(0x3d20_adea);
+    v = v.wrapping_add(seed);
+    v = v.wrapping_mul((seed >> 16) | 1);
+    v ^= v.wrapping_mul(0x0552_6c56);
+    v ^= v.wrapping_mul(0x53a2_2864);
+    v.reverse_bits()
+}
+
+/// The 32-bit Sobol' points of one pair: dimensions 0 and 1 of the permuted index of
+/// (pixel, sample) under `key`, Owen-scrambled with `scramble_x` and `scramble_y`.
+#[inline]
+pub fn zsobol_pair_bits(
+    pixel: UVec2,
+    sample: u32,
+    log2_spp: u32,
+    key: u32,
+    scramble_x: u32,
+    scramble_y: u32,
+) -> [u32; 2] {
+    let index = zsobol_sample_index(zsobol_morton_index(pixel, sample, log2_spp), log2_spp, key);
+    [
+        fast_owen(index.reverse_bits(), scramble_x),
+        fast_owen(sobol_dim1(index), scramble_y),
+    ]
+}
+
+/// The Owen seeds of x, y, z, w of pair group `dim`.
+#[inline]
+pub fn sobol_scrambles(seed: u32, dim: u32) -> [u32; 4] {
+    pcg4d([seed, dim, SOBOL_SALT, 0])
+}
+
+/// The digit-permutation keys of the pairs (x, y) and (z, w) of pair group `dim`.
+#[inline]
+pub fn sobol_keys(seed: u32, dim: u32) -> [u32; 2] {
+    let k = pcg4d([seed, dim, SOBOL_SALT, 1]);
+    [k[0], k[1]]
+}
+
+/// Four numbers in `[0, 1)` for (seed, pixel (x, y), sample in `0..spp`, dim): `(x, y)` is
+/// ZSobol pair `2 * dim`, `(z, w)` pair `2 * dim + 1`.
+#[inline]
+pub fn sobol4(seed: u32, pixel: UVec2, sample: u32, spp: u32, dim: u32) -> Vec4 {
+    debug_assert!(sample < spp.max(1), "sample {sample} of {spp}");
+    let log2_spp = sobol_log2_spp(spp);
+    let s = sobol_scrambles(seed, dim);
+    let k = sobol_keys(seed, dim);
+    let a = zsobol_pair_bits(pixel, sample, log2_spp, k[0], s[0], s[1]);
+    let b = zsobol_pair_bits(pixel, sample, log2_spp, k[1], s[2], s[3]);
+    let f = |x: u32| rand_f32(x).min(SOBOL_ONE_MINUS_EPSILON);
+    Vec4::new(f(a[0]), f(a[1]), f(b[0]), f(b[1]))
+}
+
+/// The WGSL source of the functions above (it uses `pcg4d` and `rand_f32` from `rng.wgsl`).
+pub const SOBOL_WGSL: &str = include_str!("sobol.wgsl");
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::rand4;
+
+    /// The first 32 columns of pbrt-v4's `SobolMatrices32` for dimension 1
+    /// (`util/sobolmatrices.cpp`), as the Sobol' construction gives them for the primitive
+    /// polynomial x + 1 with m_1 = 1.
+    fn dim1_columns_by_construction() -> [u32; 32] {
+        // Bratley & Fox: v_k = v_{k-1} ^ (v_{k-1} >> 1) for degree 1, v_0 = 1 << 31.
+        let mut v = [0u32; 32];
+        v[0] = 1 << 31;
+        for k in 1..32 {
+            v[k] = v[k - 1] ^ (v[k - 1] >> 1);
+        }
+        v
+    }
+
+    #[test]
+    fn sobol_dim1_is_the_generator_matrix_product() {
+        let cols = dim1_columns_by_construction();
+        // pbrt-v4's table starts 0x80000000, 0xc0000000, 0xa0000000, 0xf0000000, 0x88000000.
+        assert_eq!(&cols[..5], &[0x8000_0000, 0xc000_0000, 0xa000_0000, 0xf000_0000, 0x8800_0000]);
+        let mut x = 0x1234_5678u32;
+        for _ in 0..10_000 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            let mut v = 0;
+            for (bit, c) in cols.iter().enumerate() {
+                if (x >> bit) & 1 == 1 {
+                    v ^= c;
+                }
+            }
+            assert_eq!(sobol_dim1(x), v, "index {x:#x}");
+        }
+    }
+
+    #[test]
+    fn permutation_table_is_all_24_permutations() {
+        let mut seen = std::collections::HashSet::new();
+        for p in 0..24 {
+            let perm: Vec<u32> = (0..4).map(|d| zsobol_permute_digit(p, d)).collect();
+            assert_eq!(perm, PERMUTATIONS[p as usize].to_vec());
+            let mut sorted = perm.clone();
+            sorted.sort();
+            assert_eq!(sorted, vec![0, 1, 2, 3]);
+            seen.insert(perm);
+        }
+        assert_eq!(seen.len(), 24);
+    }
+
+    #[test]
+    fn wgsl_has_the_rust_constants() {
+        for w in ZSOBOL_PERMUTATIONS {
+            assert!(SOBOL_WGSL.contains(&format!("{w:#010x}u")), "{w:#010x}");
+        }
+        assert!(SOBOL_WGSL.contains(&format!("{SOBOL_SALT:#010x}u")));
+    }
+
+    #[test]
+    fn log2_spp_rounds_up() {
+        let cases = [(0, 0), (1, 0), (2, 1), (3, 2), (4, 2), (5, 3), (64, 6), (65, 7)];
+        for (spp, l) in cases {
+            assert_eq!(sobol_log2_spp(spp), l, "spp {spp}");
+        }
+        assert_eq!(sobol_log2_spp(u32::MAX), 32);
+    }
+
+    #[test]
+    fn sample_index_is_a_bijection_keeping_pixel_blocks() {
+        // Every pixel's 2^k samples map to one aligned block of 2^k indices, and distinct
+        // pixels to distinct blocks (odd and even k).
+        for log2_spp in [0, 1, 2, 3, 4, 5] {
+            let mut blocks = std::collections::HashSet::new();
+            for y in 0..16 {
+                for x in 0..16 {
+                    let px = UVec2::new(x, y);
+                    let idx: Vec<u32> = (0..1 << log2_spp)
+                        .map(|s| {
+                            zsobol_sample_index(
+                                zsobol_morton_index(px, s, log2_spp),
+                                log2_spp,
+                                0xdead_beef,
+                            )
+                        })
+                        .collect();
+                    let block = idx[0] >> log2_spp;
+                    let mut low: Vec<u32> = idx
+                        .iter()
+                        .map(|i| {
+                            assert_eq!(i >> log2_spp, block, "pixel {px} k {log2_spp}");
+                            i & ((1 << log2_spp) - 1)
+                        })
+                        .collect();
+                    low.sort();
+                    assert_eq!(low, (0..1 << log2_spp).collect::<Vec<u32>>());
+                    assert!(blocks.insert(block), "block reused, k {log2_spp}");
+                }
+            }
+        }
+    }
+
+    /// For each elementary interval shape (2^a x 2^b cells, a + b = k), true when `pts`
+    /// (2^k of them) has exactly one point per cell.
+    fn is_02_net(pts: &[[f32; 2]], k: u32) -> Result<(), String> {
+        assert_eq!(pts.len(), 1 << k);
+        for a in 0..=k {
+            let b = k - a;
+            let mut count = vec![0u32; 1 << k];
+            for p in pts {
+                let cx = (p[0] * (1u32 << a) as f32) as u32;
+                let cy = (p[1] * (1u32 << b) as f32) as u32;
+                count[((cy << a) | cx) as usize] += 1;
+            }
+            if let Some(c) = count.iter().position(|&c| c != 1) {
+                return Err(format!("{}x{} cells: cell {c} has {}", 1 << a, 1 << b, count[c]));
+            }
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn each_pixel_pair_is_a_02_net() {
+        for k in [1, 2, 3, 4, 5, 6, 8] {
+            let spp = 1u32 << k;
+            for (px, seed, dim) in [
+                (UVec2::new(0, 0), 0, 0),
+                (UVec2::new(3, 5), 7, 1),
+                (UVec2::new(1000, 77), 0xffff_ffff, 6),
+                (UVec2::new(17, 4000), 12345, 15),
+            ] {
+                let s: Vec<Vec4> = (0..spp).map(|i| sobol4(seed, px, i, spp, dim)).collect();
+                for (name, pts) in [
+                    ("xy", s.iter().map(|v| [v.x, v.y]).collect::<Vec<_>>()),
+                    ("zw", s.iter().map(|v| [v.z, v.w]).collect::<Vec<_>>()),
+                ] {
+                    if let Err(e) = is_02_net(&pts, k) {
+                        panic!("{spp} spp, pixel {px}, seed {seed}, dim {dim}, {name}: {e}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn prefixes_are_nets_when_spp_is_not_a_power_of_2() {
+        // spp 50 (block of 64, even log2): the first 4 and 16 samples are nets; spp 100
+        // (block of 128, odd log2: the lowest digit is one bit): the first 2, 8 and 32.
+        for (spp, prefixes) in [(50u32, &[4usize, 16][..]), (100, &[2, 8, 32][..])] {
+            for px in [UVec2::new(0, 0), UVec2::new(9, 2)] {
+                let s: Vec<Vec4> = (0..spp).map(|i| sobol4(3, px, i, spp, 2)).collect();
+                for &n in prefixes {
+                    let pts: Vec<[f32; 2]> = s[..n].iter().map(|v| [v.x, v.y]).collect();
+                    is_02_net(&pts, n.trailing_zeros())
+                        .unwrap_or_else(|e| panic!("spp {spp}, prefix {n}: {e}"));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn values_stay_below_one() {
+        assert_eq!(SOBOL_ONE_MINUS_EPSILON.to_bits(), 0x3f7f_ffff);
+        assert!(rand_f32(u32::MAX).min(SOBOL_ONE_MINUS_EPSILON) < 1.0);
+        for px in 0..64 {
+            for i in 0..16 {
+                let v = sobol4(px * 31, UVec2::new(px, 63 - px), i, 16, px % 16);
+                assert!(v.cmplt(Vec4::ONE).all() && v.cmpge(Vec4::ZERO).all(), "{v}");
+            }
+        }
+    }
+
+    /// Chi-square of `values` in `bins` equal bins against uniform.
+    fn chi2(values: impl Iterator<Item = f32>, bins: usize) -> (f64, usize) {
+        let mut h = vec![0u64; bins];
+        let mut n = 0;
+        for v in values {
+            h[((v * bins as f32) as usize).min(bins - 1)] += 1;
+            n += 1;
+        }
+        let e = n as f64 / bins as f64;
+        (h.iter().map(|&c| (c as f64 - e).powi(2) / e).sum(), n)
+    }
+
+    #[test]
+    fn dimensions_are_uniform_and_pairs_uncorrelated_across_pixels() {
+        // One sample of 16 per pixel over a 128x128 tile: each of the 8 coordinates (dim 0
+        // and 1, x y z w) in 64 bins has chi-square with 63 degrees of freedom: mean 63,
+        // sd 11.2; 130 is > 6 sd (measured: all below 90). Correlation between coordinates of
+        // different pairs (which share no hash or index): |r| < 5 / sqrt(n) ~ 0.039.
+        let n = 128 * 128;
+        let spp = 16;
+        let mut cols: Vec<Vec<f32>> = vec![Vec::with_capacity(n); 8];
+        for y in 0..128 {
+            for x in 0..128 {
+                let sample = (x * 7 + y * 3) % spp;
+                for dim in 0..2 {
+                    let v = sobol4(99, UVec2::new(x, y), sample, spp, dim);
+                    for c in 0..4 {
+                        cols[(4 * dim + c) as usize].push(v[c as usize]);
+                    }
+                }
+            }
+        }
+        for (i, c) in cols.iter().enumerate() {
+            let (x2, _) = chi2(c.iter().copied(), 64);
+            assert!(x2 < 130.0, "coordinate {i}: chi-square {x2}");
+        }
+        let corr = |a: &[f32], b: &[f32]| {
+            let m = a.len() as f64;
+            let (ma, mb) = (
+                a.iter().map(|&x| x as f64).sum::<f64>() / m,
+                b.iter().map(|&x| x as f64).sum::<f64>() / m,
+            );
+            let cov: f64 =
+                a.iter().zip(b).map(|(&x, &y)| (x as f64 - ma) * (y as f64 - mb)).sum::<f64>() / m;
+            cov * 12.0
+        };
+        let bound = 5.0 / (n as f64).sqrt();
+        for i in 0..8 {
+            for j in (i + 1)..8 {
+                // x and y of one pair are one net point, fine to be dependent; all the others
+                // come from different permuted indices or scrambles.
+                let same_pair = i / 2 == j / 2;
+                if !same_pair {
+                    let r = corr(&cols[i], &cols[j]);
+                    assert!(r.abs() < bound, "coordinates {i} and {j}: r = {r}");
+                }
+            }
+        }
+        // Pixel neighbours: x of pixel p against x of pixel p + 1 in the same row.
+        let r = corr(&cols[0][..n - 1], &cols[0][1..]);
+        assert!(r.abs() < bound, "neighbours: r = {r}");
+    }
+
+    /// RMS over `pixels` pixels of the error of `spp`-sample estimates of
+    /// ∫∫ exp(-x² - y²) over [0, 1]² = (√π/2 · erf 1)² = 0.557746285351034.
+    fn rms_error(pixels: u32, spp: u32, draw: impl Fn(u32, u32) -> [f32; 2]) -> f64 {
+        const EXACT: f64 = 0.557_746_285_351_034;
+        let mut se = 0.0;
+        for p in 0..pixels {
+            let mut sum = 0.0;
+            for s in 0..spp {
+                let [x, y] = draw(p, s);
+                sum += (-(x as f64).powi(2) - (y as f64).powi(2)).exp();
+            }
+            se += (sum / spp as f64 - EXACT).powi(2);
+        }
+        (se / pixels as f64).sqrt()
+    }
+
+    #[test]
+    fn converges_faster_than_independent_random_numbers() {
+        // 4096 pixels (a 64x64 tile), both pairs of dim 0, seed 5. Measured (2026-12-01):
+        //   spp 16: rand4 5.30e-2, sobol4 (x, y) 3.80e-3, (z, w) 5.04e-3  (14x, 11x better)
+        //   spp 64: rand4 2.70e-2, sobol4 (x, y) 6.93e-4, (z, w) 4.31e-4  (39x, 63x better)
+        // rand4 halves from 16 to 64 (N^-0.5); sobol4 falls 5.5x and 11.7x (N^-1.2..-1.8,
+        // against N^-1.5 expected for Owen-scrambled nets on a smooth integrand).
+        let pixels = 4096;
+        let width = 64;
+        let px = |p: u32| UVec2::new(p % width, p / width);
+        let mut report = String::new();
+        let mut results = Vec::new();
+        for spp in [16u32, 64] {
+            let random = rms_error(pixels, spp, |p, s| {
+                let r = rand4(5, p, s, 0, 0);
+                [r.x, r.y]
+            });
+            let xy = rms_error(pixels, spp, |p, s| {
+                let r = sobol4(5, px(p), s, spp, 0);
+                [r.x, r.y]
+            });
+            let zw = rms_error(pixels, spp, |p, s| {
+                let r = sobol4(5, px(p), s, spp, 0);
+                [r.z, r.w]
+            });
+            report += &format!("spp {spp}: rand4 {random:.3e}, sobol xy {xy:.3e}, zw {zw:.3e}\n");
+            results.push((spp, random, xy, zw));
+        }
+        eprint!("{report}");
+        for &(spp, random, xy, zw) in &results {
+            // Independent sampling: sd of exp(-x²-y²) on the square ~0.2, / sqrt(spp).
+            assert!(random > 0.1 / (spp as f64).sqrt(), "{report}");
+            assert!(xy < random / 8.0 && zw < random / 8.0, "{report}");
+        }
+        let (_, _, xy16, _) = results[0];
+        let (_, _, xy64, zw64) = results[1];
+        // From 16 to 64 samples: independent sampling halves the error, Owen-scrambled
+        // Sobol' on a smooth integrand divides it by ~8 (N^-1.5; measured 5.5 for (x, y));
+        // ask for more than 3.
+        assert!(xy64 < xy16 / 3.0, "{report}");
+        assert!(xy64 < SOBOL_RMS_64 && zw64 < SOBOL_RMS_64, "{report}");
+    }
+
+    /// The bound on the RMS error at 64 spp: twice the 6.9e-4 measured, still 18x below rand4's.
+    const SOBOL_RMS_64: f64 = 1.5e-3;
+}

@@ -1,0 +1,118 @@
+// ZSobol low-discrepancy samples (sobol.rs): Ahmed & Wonka 2020 after pbrt-v4's ZSobolSampler
+// with FastOwen scrambling. Identical u32 arithmetic to the Rust mirror; uses pcg4d and
+// rand_f32 from rng.wgsl. The constants are sobol.rs's (checked there).
+
+// The 24 permutations of {0, 1, 2, 3} (pbrt-v4's order), four 8-bit permutations a word.
+const ZSOBOL_PERMUTATIONS = array<u32, 6>(0x78d8b4e4u, 0xb1e19c6cu, 0x8d2d39c9u, 0x72d236c6u, 0x87271e4eu, 0x93634b1bu);
+const SOBOL_SALT: u32 = 0x5ab01d5eu;
+const SOBOL_ONE_MINUS_EPSILON: f32 = 0.99999994;
+
+fn mix32(x_in: u32) -> u32 {
+    var x = x_in;
+    x ^= x >> 16u;
+    x *= 0x7feb352du;
+    x ^= x >> 15u;
+    x *= 0x846ca68bu;
+    x ^= x >> 16u;
+    return x;
+}
+
+fn part_1by1(x_in: u32) -> u32 {
+    var x = x_in & 0xffffu;
+    x = (x | (x << 8u)) & 0x00ff00ffu;
+    x = (x | (x << 4u)) & 0x0f0f0f0fu;
+    x = (x | (x << 2u)) & 0x33333333u;
+    x = (x | (x << 1u)) & 0x55555555u;
+    return x;
+}
+
+fn encode_morton2(x: u32, y: u32) -> u32 {
+    return (part_1by1(y) << 1u) | part_1by1(x);
+}
+
+fn sobol_log2_spp(spp: u32) -> u32 {
+    let s = max(spp, 1u) - 1u;
+    return select(32u - countLeadingZeros(s), 0u, s == 0u);
+}
+
+fn zsobol_morton_index(pixel: vec2<u32>, sample: u32, log2_spp: u32) -> u32 {
+    let morton = encode_morton2(pixel.x, pixel.y);
+    // Shifts by 32 are masked in WGSL: select the cases explicitly.
+    let low = select(sample & (0xffffffffu >> (32u - log2_spp)), 0u, log2_spp == 0u);
+    return select((morton << log2_spp) | low, low, log2_spp >= 32u);
+}
+
+fn zsobol_permute_digit(p: u32, d: u32) -> u32 {
+    var perms = ZSOBOL_PERMUTATIONS;
+    let byte = perms[p >> 2u] >> (8u * (p & 3u));
+    return (byte >> (2u * d)) & 3u;
+}
+
+fn zsobol_sample_index(m: u32, log2_spp: u32, key: u32) -> u32 {
+    let odd = log2_spp & 1u;
+    var out = 0u;
+    for (var i = odd; i < 16u; i++) {
+        let shift = 2u * i - odd;
+        let digit = (m >> shift) & 3u;
+        let higher = select(m >> (shift + 2u), 0u, shift >= 30u);
+        let p = (mix32(higher ^ key) >> 24u) % 24u;
+        out |= zsobol_permute_digit(p, digit) << shift;
+    }
+    if (odd == 1u) {
+        out |= (m & 1u) ^ (mix32((m >> 1u) ^ key) & 1u);
+        out |= m & 0x80000000u;
+    }
+    return out;
+}
+
+fn sobol_dim1(a_in: u32) -> u32 {
+    var v = 0u;
+    var c = 0x80000000u;
+    var a = a_in;
+    while (a != 0u) {
+        if ((a & 1u) == 1u) {
+            v ^= c;
+        }
+        c ^= c >> 1u;
+        a >>= 1u;
+    }
+    return v;
+}
+
+fn fast_owen(v_in: u32, seed: u32) -> u32 {
+    var v = reverseBits(v_in);
+    v ^= v * 0x3d20adeau;
+    v += seed;
+    v *= (seed >> 16u) | 1u;
+    v ^= v * 0x05526c56u;
+    v ^= v * 0x53a22864u;
+    return reverseBits(v);
+}
+
+fn zsobol_pair_bits(pixel: vec2<u32>, sample: u32, log2_spp: u32, key: u32, scramble_x: u32, scramble_y: u32) -> vec2<u32> {
+    let index = zsobol_sample_index(zsobol_morton_index(pixel, sample, log2_spp), log2_spp, key);
+    return vec2<u32>(fast_owen(reverseBits(index), scramble_x), fast_owen(sobol_dim1(index), scramble_y));
+}
+
+// Owen seeds of x, y, z, w; the digit-permutation keys of (x, y) and (z, w) are sobol_keys.
+fn sobol_scrambles(seed: u32, dim: u32) -> vec4<u32> {
+    return pcg4d(vec4<u32>(seed, dim, SOBOL_SALT, 0u));
+}
+
+fn sobol_keys(seed: u32, dim: u32) -> vec2<u32> {
+    return pcg4d(vec4<u32>(seed, dim, SOBOL_SALT, 1u)).xy;
+}
+
+fn sobol4(seed: u32, pixel: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec4<f32> {
+    let log2_spp = sobol_log2_spp(spp);
+    let s = sobol_scrambles(seed, dim);
+    let k = sobol_keys(seed, dim);
+    let a = zsobol_pair_bits(pixel, sample, log2_spp, k.x, s.x, s.y);
+    let b = zsobol_pair_bits(pixel, sample, log2_spp, k.y, s.z, s.w);
+    return vec4<f32>(
+        min(rand_f32(a.x), SOBOL_ONE_MINUS_EPSILON),
+        min(rand_f32(a.y), SOBOL_ONE_MINUS_EPSILON),
+        min(rand_f32(b.x), SOBOL_ONE_MINUS_EPSILON),
+        min(rand_f32(b.y), SOBOL_ONE_MINUS_EPSILON),
+    );
+}
