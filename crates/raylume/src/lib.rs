@@ -16,6 +16,44 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
+//! A scene built in code, rendered on the CPU, saved, and read back as 8-bit sRGB (the same
+//! bytes as the PNG):
+//!
+//! ```
+//! use raylume::glam::Vec3;
+//! use raylume::scene::{Camera, Material, Scene, Sphere, Triangle};
+//! use raylume::{Backend, Tracer};
+//!
+//! let mut scene = Scene::default(); // black environment, RenderSettings::default()
+//! scene.camera = Camera::looking_at(Vec3::new(0.0, 1.0, 4.0), Vec3::new(0.0, 0.5, 0.0), 40.0);
+//! scene.render.width = 32;
+//! scene.render.height = 24;
+//! scene.render.spp = 4;
+//! scene.materials = vec![
+//!     Material::diffuse("white", Vec3::splat(0.7)),
+//!     Material::emissive("lamp", Vec3::splat(10.0)),
+//! ];
+//! scene.spheres.push(Sphere { center: Vec3::new(0.0, 0.5, 0.0), radius: 0.5, material: 0 });
+//! // A lamp quad facing down (emission leaves the side its winding's normal points to).
+//! let (a, b, c, d) = (
+//!     Vec3::new(-0.5, 2.0, -0.5), Vec3::new(0.5, 2.0, -0.5),
+//!     Vec3::new(0.5, 2.0, 0.5), Vec3::new(-0.5, 2.0, 0.5),
+//! );
+//! scene.triangles.push(Triangle::flat([a, b, c], 1));
+//! scene.triangles.push(Triangle::flat([a, c, d], 1));
+//!
+//! let render = Tracer::new(Backend::Cpu).render(&scene)?; // validates the scene first
+//! let path = std::env::temp_dir().join("raylume-doc-quickstart.png");
+//! render.save(&path)?;
+//! let rgb8: Vec<[u8; 3]> = render.to_srgb8()?; // row-major, top row first
+//! assert_eq!(rgb8.len(), 32 * 24);
+//! assert!(rgb8.iter().any(|p| p[0] > 0), "the lamp lights the sphere");
+//! let image = render.to_image()?; // an image::RgbImage
+//! assert_eq!(image.dimensions(), (32, 24));
+//! # std::fs::remove_file(&path)?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! It implements, and goes past, *Parallelising Ray Tracing on GPUs* (Chandler, Cutfield,
 //! Dangwal): the paper's ray generation / propagation / accumulation kernels, its batches of
 //! 20 rays per pixel, its Morton-key ray reordering and its bloom.
@@ -38,3 +76,18 @@ pub use tracer::{Backend, Progress, Render, ReorderPolicy, Tracer};
 pub use raylume_bvh::BvhQuality;
 pub use raylume_kernels::{BatchPlan, Estimator, Reorder, ReorderMode, Schedule};
 pub use raylume_scene::{Feature, Features, RenderSettings, Scene};
+
+/// The scene model and its loaders (`raylume-scene`, re-exported): [`scene::Camera`],
+/// [`scene::Material`], [`scene::Triangle`], [`scene::Sphere`], [`scene::Environment`], ...
+/// so that building a scene in code needs no second crate.
+pub mod scene {
+    pub use raylume_scene::*;
+}
+
+/// The `glam` version raylume's scene model uses (`Vec3`, `Vec2`): use it through this path
+/// to avoid "multiple different versions of crate `glam`".
+pub use glam;
+/// The `image` version [`Render::to_image`] returns.
+pub use image;
+/// Tone mapping for 8-bit output ([`Render::tone`]): exposure, curve, sRGB encoding.
+pub use raylume_post::ToneMap;

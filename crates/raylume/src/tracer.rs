@@ -115,6 +115,24 @@ impl Render {
             ImageFormat::Exr => crate::save_exr(path, &self.pixels, self.width, self.height),
         }
     }
+
+    /// 8-bit sRGB pixels after [`Render::tone`], row-major, top row first: the bytes
+    /// [`Render::save`] writes to a `.png`.
+    pub fn to_srgb8(&self) -> Result<Vec<[u8; 3]>, Error> {
+        self.tone.to_srgb8(&self.pixels).map_err(|e| Error::Output {
+            path: std::path::PathBuf::new(),
+            reason: e.to_string(),
+        })
+    }
+
+    /// [`Render::to_srgb8`] as an [`image::RgbImage`].
+    pub fn to_image(&self) -> Result<image::RgbImage, Error> {
+        let bytes: Vec<u8> = self.to_srgb8()?.into_iter().flatten().collect();
+        image::RgbImage::from_raw(self.width, self.height, bytes).ok_or_else(|| Error::Output {
+            path: std::path::PathBuf::new(),
+            reason: "pixel buffer size mismatch".into(),
+        })
+    }
 }
 
 type ProgressFn = Box<dyn FnMut(Progress) + Send>;
