@@ -287,7 +287,16 @@ mod tests {
     fn sobol_dim1_is_the_generator_matrix_product() {
         let cols = dim1_columns_by_construction();
         // pbrt-v4's table starts 0x80000000, 0xc0000000, 0xa0000000, 0xf0000000, 0x88000000.
-        assert_eq!(&cols[..5], &[0x8000_0000, 0xc000_0000, 0xa000_0000, 0xf000_0000, 0x8800_0000]);
+        assert_eq!(
+            &cols[..5],
+            &[
+                0x8000_0000,
+                0xc000_0000,
+                0xa000_0000,
+                0xf000_0000,
+                0x8800_0000
+            ]
+        );
         let mut x = 0x1234_5678u32;
         for _ in 0..10_000 {
             x ^= x << 13;
@@ -327,7 +336,16 @@ mod tests {
 
     #[test]
     fn log2_spp_rounds_up() {
-        let cases = [(0, 0), (1, 0), (2, 1), (3, 2), (4, 2), (5, 3), (64, 6), (65, 7)];
+        let cases = [
+            (0, 0),
+            (1, 0),
+            (2, 1),
+            (3, 2),
+            (4, 2),
+            (5, 3),
+            (64, 6),
+            (65, 7),
+        ];
         for (spp, l) in cases {
             assert_eq!(sobol_log2_spp(spp), l, "spp {spp}");
         }
@@ -381,7 +399,12 @@ mod tests {
                 count[((cy << a) | cx) as usize] += 1;
             }
             if let Some(c) = count.iter().position(|&c| c != 1) {
-                return Err(format!("{}x{} cells: cell {c} has {}", 1 << a, 1 << b, count[c]));
+                return Err(format!(
+                    "{}x{} cells: cell {c} has {}",
+                    1 << a,
+                    1 << b,
+                    count[c]
+                ));
             }
         }
         Ok(())
@@ -480,8 +503,12 @@ mod tests {
                 a.iter().map(|&x| x as f64).sum::<f64>() / m,
                 b.iter().map(|&x| x as f64).sum::<f64>() / m,
             );
-            let cov: f64 =
-                a.iter().zip(b).map(|(&x, &y)| (x as f64 - ma) * (y as f64 - mb)).sum::<f64>() / m;
+            let cov: f64 = a
+                .iter()
+                .zip(b)
+                .map(|(&x, &y)| (x as f64 - ma) * (y as f64 - mb))
+                .sum::<f64>()
+                / m;
             cov * 12.0
         };
         let bound = 5.0 / (n as f64).sqrt();
