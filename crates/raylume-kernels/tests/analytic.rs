@@ -52,6 +52,25 @@ fn camera_at(position: Vec3, look_at: Vec3, vfov: f32) -> Camera {
     }
 }
 
+/// The camera inside a closed unit sphere of albedo `a` emitting `e`: a furnace whose answer
+/// is a geometric series. Seen from inside, the sphere shows its back face, so it emits both
+/// ways.
+fn inside_emitting_sphere(a: f32, e: Vec3) -> Scene {
+    let mut m = Material::diffuse("inside", Vec3::splat(a));
+    m.emission = e;
+    m.two_sided = true;
+    Scene {
+        camera: camera_at(Vec3::new(0.1, 0.2, 0.0), Vec3::new(0.0, 0.0, -1.0), 70.0),
+        materials: vec![m],
+        spheres: vec![Sphere {
+            center: Vec3::ZERO,
+            radius: 1.0,
+            material: 0,
+        }],
+        ..Default::default()
+    }
+}
+
 #[test]
 fn camera_inside_an_emitting_diffuse_sphere_sees_the_truncated_geometric_series() {
     // Every path starts inside a closed sphere of albedo a and emission E and can never leave.
@@ -62,20 +81,7 @@ fn camera_inside_an_emitting_diffuse_sphere_sees_the_truncated_geometric_series(
     // Exact per sample: any sampling-weight error (e.g. a cosine pdf off by π), an escape
     // through the sphere (a self-intersection or side bug) or a lost bounce changes it.
     let (a, e, n) = (0.6f32, Vec3::new(0.5, 1.0, 2.0), 5u32);
-    let mut m = Material::diffuse("inside", Vec3::splat(a));
-    m.emission = e;
-    // Seen from inside, the sphere shows its back face: it must emit both ways.
-    m.two_sided = true;
-    let scene = Scene {
-        camera: camera_at(Vec3::new(0.1, 0.2, 0.0), Vec3::new(0.0, 0.0, -1.0), 70.0),
-        materials: vec![m],
-        spheres: vec![Sphere {
-            center: Vec3::ZERO,
-            radius: 1.0,
-            material: 0,
-        }],
-        ..Default::default()
-    };
+    let scene = inside_emitting_sphere(a, e);
     let expected = e * (1.0 - a.powi(n as i32 + 1)) / (1.0 - a);
     let s = settings(16, 16, 8, n, Schedule::Megakernel);
     let outs = render_all(
@@ -434,19 +440,7 @@ fn russian_roulette_keeps_the_furnace_answer_and_ends_paths_early() {
     // same (seen failing, 3.49 against 4.99, when the division is dropped). 64x64 pixels x 16 samples; the standard error comes from the samples' own spread
     // (pixel means are independent); 5 of it is the bound. Fewer rays must be traced.
     let (a, e, n) = (0.6f32, Vec3::new(0.5, 1.0, 2.0), 12u32);
-    let mut m = Material::diffuse("inside", Vec3::splat(a));
-    m.emission = e;
-    m.two_sided = true;
-    let scene = Scene {
-        camera: camera_at(Vec3::new(0.1, 0.2, 0.0), Vec3::new(0.0, 0.0, -1.0), 70.0),
-        materials: vec![m],
-        spheres: vec![Sphere {
-            center: Vec3::ZERO,
-            radius: 1.0,
-            material: 0,
-        }],
-        ..Default::default()
-    };
+    let scene = inside_emitting_sphere(a, e);
     let expected = f64::from(e.z * (1.0 - a.powi(n as i32 + 1)) / (1.0 - a));
     let s = settings(64, 64, 16, n, Schedule::Megakernel);
     let bvh = support::bvh(&scene);
