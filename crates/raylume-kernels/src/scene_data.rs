@@ -104,6 +104,9 @@ fn light_list(scene: &Scene) -> (Vec<LightTriangle>, f32) {
     (lights, total as f32)
 }
 
+/// Each rough plastic's table key ([`table_key`]) to its index in the table buffer.
+type TableIndex = HashMap<Option<(u32, u32)>, u32>;
+
 /// The coat table key of a rough plastic: its GGX alpha and ior, as bits; `None` for any
 /// other material.
 fn table_key(m: &raylume_scene::Material) -> Option<(u32, u32)> {
@@ -115,7 +118,7 @@ fn table_key(m: &raylume_scene::Material) -> Option<(u32, u32)> {
 /// each. A table is a numerical integration (~0.1 s on one core): the distinct ones are
 /// computed in parallel, and kept for the life of the process, so that repeated renders of a
 /// scene (benches, `--reorder auto`'s trials, an interactive tool) pay for them once.
-fn plastic_tables(scene: &Scene) -> (Vec<RoughPlasticTable>, HashMap<Option<(u32, u32)>, u32>) {
+fn plastic_tables(scene: &Scene) -> (Vec<RoughPlasticTable>, TableIndex) {
     use rayon::prelude::*;
     use std::sync::{Mutex, OnceLock};
     static CACHE: OnceLock<Mutex<HashMap<(u32, u32), RoughPlasticTable>>> = OnceLock::new();

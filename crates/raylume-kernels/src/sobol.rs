@@ -481,7 +481,7 @@ mod tests {
         // different pairs (which share no hash or index): |r| < 5 / sqrt(n) ~ 0.039.
         let n = 128 * 128;
         let spp = 16;
-        let mut cols: Vec<Vec<f32>> = vec![Vec::with_capacity(n); 8];
+        let mut cols: Vec<Vec<f32>> = (0..8).map(|_| Vec::with_capacity(n)).collect();
         for y in 0..128 {
             for x in 0..128 {
                 let sample = (x * 7 + y * 3) % spp;
