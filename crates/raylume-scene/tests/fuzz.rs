@@ -364,3 +364,25 @@ fn gltf_position_accessor_past_the_end_is_an_error_not_a_panic() {
         );
     }
 }
+
+#[test]
+fn glb_header_shorter_than_itself_is_an_error_not_a_panic() {
+    // gltf 1.4 subtracts the 12-byte header from the declared length unchecked (binary.rs):
+    // a declared length under 12 overflowed inside the parser (seen by `mutated_glb` in CI).
+    let (doc, bin) = gltf_parts();
+    let d = TempDir::new("regress-glb-len");
+    for (declared, says) in [
+        (7u32, "less than the header's own 12"),
+        (1 << 30, "but the file has"),
+    ] {
+        let mut glb = common::glb(&doc, &bin);
+        glb[8..12].copy_from_slice(&declared.to_le_bytes());
+        let p = d.write("a.glb", &glb);
+        let e = Scene::load(&p).unwrap_err();
+        assert!(e.to_string().contains(says), "{e}");
+        assert!(!e.to_string().contains("panicked"), "{e}");
+    }
+    let p = d.write("b.glb", &common::glb(&doc, &bin)[..10]);
+    let e = Scene::load(&p).unwrap_err();
+    assert!(e.to_string().contains("cut short"), "{e}");
+}

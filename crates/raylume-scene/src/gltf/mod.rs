@@ -209,6 +209,47 @@ impl Loader<'_> {
     }
 }
 
+/// gltf 1.4's `Glb::from_slice` computes `header.length - 12` without a check (binary.rs), so
+/// a GLB whose header declares fewer than 12 bytes overflows inside the parser (a panic with
+/// overflow checks on, a huge length without). This rejects such headers first, and a header
+/// whose declared length exceeds the file, with the numbers.
+fn check_glb_header(bytes: &[u8], file: &str) -> Result<(), SceneError> {
+    if !bytes.starts_with(b"glTF") {
+        return Ok(());
+    }
+    let Some(len) = bytes.get(8..12) else {
+        return Err(syntax(
+            file,
+            Location::None,
+            format!(
+                "the GLB header is cut short: {} bytes of its 12",
+                bytes.len()
+            ),
+        ));
+    };
+    let declared = u32::from_le_bytes([len[0], len[1], len[2], len[3]]) as usize;
+    if declared < 12 {
+        return Err(syntax(
+            file,
+            Location::None,
+            format!(
+                "the GLB header declares a total length of {declared} bytes, less than the header's own 12"
+            ),
+        ));
+    }
+    if declared > bytes.len() {
+        return Err(syntax(
+            file,
+            Location::None,
+            format!(
+                "the GLB header declares {declared} bytes, but the file has {}",
+                bytes.len()
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// gltf-json 1.4's validation looks up a primitive's `POSITION` accessor without a bounds
 /// check (`primitive_validate_hook` in its mesh.rs), so a file whose `POSITION` index is past
 /// the end of `accessors` panics inside `Gltf::from_slice`; `catch_unwind` turned that into an
@@ -267,6 +308,7 @@ pub(crate) fn load_into(
 ) -> Result<Option<GltfCamera>, SceneError> {
     let file = path.display().to_string();
     let bytes = read_file(path, opts.referenced_by.as_deref())?;
+    check_glb_header(&bytes, &file)?;
     check_position_accessors(&bytes, &file)?;
     let gltf = std::panic::catch_unwind(|| ::gltf::Gltf::from_slice(&bytes))
         .map_err(|_| {
