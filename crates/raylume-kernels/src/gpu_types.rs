@@ -57,6 +57,18 @@ pub const DIM_LIGHT: u32 = 2;
 /// Random-number dimension of the Russian-roulette decision after a hit.
 pub const DIM_ROULETTE: u32 = 3;
 
+/// `GpuLight::kind`: an emissive triangle.
+pub const LIGHT_TRIANGLE: u32 = 0;
+/// `GpuLight::kind`: an emissive sphere (its outside; also its inside when two-sided).
+pub const LIGHT_SPHERE: u32 = 1;
+/// `SceneUniforms::sampler`: independent numbers, `rand4`.
+pub const SAMPLER_INDEPENDENT: u32 = 0;
+/// `SceneUniforms::sampler`: ZSobol, `sobol4`.
+pub const SAMPLER_ZSOBOL: u32 = 1;
+/// Random-number dimensions (groups of four) a path segment may draw: `DIM_CAMERA` ..
+/// `DIM_ROULETTE`. ZSobol numbers segment `b`'s dimension `d` as pair group
+/// `b * DIMS_PER_BOUNCE + d`.
+pub const DIMS_PER_BOUNCE: u32 = 4;
 /// `SceneUniforms::rr_depth` when Russian roulette is off.
 pub const NO_ROULETTE: u32 = u32::MAX;
 
@@ -144,7 +156,8 @@ pub struct SceneUniforms {
     /// Russian roulette decides after every hit of a segment `>= rr_depth` whether the path
     /// goes on ([`NO_ROULETTE`]: never).
     pub rr_depth: u32,
-    pub _pad0: u32,
+    /// [`SAMPLER_INDEPENDENT`] or [`SAMPLER_ZSOBOL`]: where the path's random numbers come from.
+    pub sampler: u32,
     pub _pad1: u32,
     pub _pad2: u32,
 }
@@ -213,14 +226,15 @@ pub struct TextureHeader {
     pub _pad0: u32,
 }
 
-/// An emissive triangle of the light list that next-event estimation samples: a point
-/// `p0 + u e1 + v e2`, chosen with probability `cdf - previous cdf` (proportional to area
-/// times emitted luminance).
+/// An emitter of the light list that next-event estimation samples, chosen with probability
+/// `cdf - previous cdf` (proportional to area times emitted luminance): an emissive triangle
+/// ([`LIGHT_TRIANGLE`]: a point `p0 + u e1 + v e2`) or an emissive sphere ([`LIGHT_SPHERE`]:
+/// centre `p0`, radius `e1.x`; a point of the cap seen from the shading point).
 ///
-/// `repr(C)`, `Pod`, 64 bytes. WGSL: `LightTriangle`.
+/// `repr(C)`, `Pod`, 64 bytes. WGSL: `GpuLight`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct LightTriangle {
+pub struct GpuLight {
     pub p0: [f32; 3],
     /// The running sum of selection probabilities up to and including this light.
     pub cdf: f32,
@@ -230,7 +244,8 @@ pub struct LightTriangle {
     /// 1 when the triangle emits from both faces; 0: only toward `e1 x e2`.
     pub two_sided: u32,
     pub emission: [f32; 3],
-    pub _pad1: u32,
+    /// [`LIGHT_TRIANGLE`] or [`LIGHT_SPHERE`].
+    pub kind: u32,
 }
 
 /// One ray of the wavefront, between two `propagate` launches.
@@ -276,6 +291,7 @@ pub struct BounceUniforms {
 const _: () = assert!(size_of::<BounceUniforms>() == 16);
 const _: () = assert!(size_of::<SceneUniforms>() == 192);
 const _: () = assert!(offset_of!(SceneUniforms, rr_depth) == 176);
+const _: () = assert!(offset_of!(SceneUniforms, sampler) == 180);
 const _: () = assert!(offset_of!(SceneUniforms, width) == 12);
 const _: () = assert!(offset_of!(SceneUniforms, camera_forward) == 16);
 const _: () = assert!(offset_of!(SceneUniforms, environment_color) == 64);
@@ -296,11 +312,11 @@ const _: () = assert!(offset_of!(TriangleShading, n1) == 16);
 const _: () = assert!(offset_of!(TriangleShading, v1) == 48);
 const _: () = assert!(offset_of!(TriangleShading, flags) == 60);
 const _: () = assert!(size_of::<TextureHeader>() == 16);
-const _: () = assert!(size_of::<LightTriangle>() == 64);
-const _: () = assert!(offset_of!(LightTriangle, e1) == 16);
-const _: () = assert!(offset_of!(LightTriangle, e2) == 32);
-const _: () = assert!(offset_of!(LightTriangle, two_sided) == 44);
-const _: () = assert!(offset_of!(LightTriangle, emission) == 48);
+const _: () = assert!(size_of::<GpuLight>() == 64);
+const _: () = assert!(offset_of!(GpuLight, e1) == 16);
+const _: () = assert!(offset_of!(GpuLight, e2) == 32);
+const _: () = assert!(offset_of!(GpuLight, two_sided) == 44);
+const _: () = assert!(offset_of!(GpuLight, emission) == 48);
 const _: () = assert!(size_of::<RayState>() == 64);
 const _: () = assert!(offset_of!(RayState, dir) == 16);
 const _: () = assert!(offset_of!(RayState, throughput) == 32);
@@ -327,6 +343,11 @@ pub fn wgsl_constants() -> String {
     s += &u("DIM_SCATTER", DIM_SCATTER);
     s += &u("DIM_LIGHT", DIM_LIGHT);
     s += &u("DIM_ROULETTE", DIM_ROULETTE);
+    s += &u("DIMS_PER_BOUNCE", DIMS_PER_BOUNCE);
+    s += &u("LIGHT_TRIANGLE", LIGHT_TRIANGLE);
+    s += &u("LIGHT_SPHERE", LIGHT_SPHERE);
+    s += &u("SAMPLER_INDEPENDENT", SAMPLER_INDEPENDENT);
+    s += &u("SAMPLER_ZSOBOL", SAMPLER_ZSOBOL);
     s += &u("NO_ROULETTE", NO_ROULETTE);
     s += &u("RAY_ALIVE", RAY_ALIVE);
     s += &u("WORKGROUP_SIZE", crate::WORKGROUP_SIZE);

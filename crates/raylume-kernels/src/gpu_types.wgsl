@@ -33,7 +33,7 @@ struct SceneUniforms {
     texture_count: u32,
     light_power: f32,
     rr_depth: u32,
-    _pad0: u32,
+    sampler: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -73,7 +73,7 @@ struct TextureHeader {
     _pad0: u32,
 }
 
-struct LightTriangle {
+struct GpuLight {
     p0: vec3<f32>,
     cdf: f32,
     e1: vec3<f32>,
@@ -81,7 +81,7 @@ struct LightTriangle {
     e2: vec3<f32>,
     two_sided: u32,
     emission: vec3<f32>,
-    _pad1: u32,
+    kind: u32,
 }
 
 struct RayState {

@@ -109,11 +109,55 @@ pub enum Estimator {
     #[default]
     Plain,
     /// Next-event estimation: at every diffuse, rough-metal or plastic hit, a shadow ray to a
-    /// point on an emissive triangle (chosen by area times emitted luminance) adds that light's
-    /// direct contribution, weighted by multiple importance sampling against the emission the
-    /// next scattered ray may hit. Spheres' emission and the environment still count where a path
-    /// hits them. Unbiased; far less noise where small emitters light diffuse surfaces.
+    /// point on an emissive triangle or sphere (chosen by area times emitted luminance; on a
+    /// sphere, in the cone of its visible cap) adds that light's direct contribution, weighted
+    /// by multiple importance sampling against the emission the next scattered ray may hit.
+    /// The environment still counts where a path escapes. Unbiased; far less noise where small
+    /// emitters light diffuse surfaces.
     Nee,
+}
+
+/// Where a path's random numbers come from (the same numbers on both backends).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Sampler {
+    /// Independent uniform numbers: the `pcg4d` hash of (seed, pixel, sample, bounce,
+    /// dimension), [`rng::rand4`].
+    #[default]
+    Independent,
+    /// ZSobol (Ahmed & Wonka 2020, pbrt-v4's default): Owen-scrambled Sobol' points, each
+    /// pixel's samples a (0, 2)-net per pair of dimensions and neighbouring pixels' errors
+    /// blue noise, [`sobol::sobol4`]. Less error per sample on smooth integrands.
+    ZSobol,
+}
+
+impl Sampler {
+    pub fn name(self) -> &'static str {
+        match self {
+            Sampler::Independent => "independent",
+            Sampler::ZSobol => "zsobol",
+        }
+    }
+
+    /// The value of `SceneUniforms::sampler`.
+    pub fn uniform(self) -> u32 {
+        match self {
+            Sampler::Independent => gpu_types::SAMPLER_INDEPENDENT,
+            Sampler::ZSobol => gpu_types::SAMPLER_ZSOBOL,
+        }
+    }
+}
+
+impl std::str::FromStr for Sampler {
+    type Err = String;
+
+    /// `independent` or `zsobol`.
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "independent" => Ok(Sampler::Independent),
+            "zsobol" => Ok(Sampler::ZSobol),
+            _ => Err(format!("unknown sampler `{s}`: use independent or zsobol")),
+        }
+    }
 }
 
 impl Estimator {

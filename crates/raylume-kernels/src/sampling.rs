@@ -53,6 +53,58 @@ pub fn sample_diffuse(n: Vec3, u: Vec2) -> Vec3 {
     to_world(local, t, b, n)
 }
 
+/// `1 - cos θ_max` of the cone a sphere of radius `r` subtends from a point `d2` (squared
+/// distance to its centre, `> r²`) away, as `sin²/(1 + cos)`: accurate for small, far
+/// spheres, where `1 - cos` would cancel to 0 (below `sin² ~ 1e-7` in f32).
+#[inline]
+pub fn sphere_cone_one_minus_cos(r: f32, d2: f32) -> f32 {
+    let sin2 = (r * r / d2).min(1.0);
+    let cos = (1.0 - sin2).max(0.0).sqrt();
+    sin2 / (1.0 + cos)
+}
+
+/// The solid-angle pdf of [`sample_sphere_cap`] from `p`: uniform over the cone the sphere
+/// subtends, `1 / (2π (1 - cos θ_max))`; 0 on or inside the sphere (nothing sampled there).
+#[inline]
+pub fn sphere_cap_pdf(center: Vec3, r: f32, p: Vec3) -> f32 {
+    let d2 = (center - p).length_squared();
+    if !(d2 > r * r) {
+        return 0.0;
+    }
+    1.0 / (2.0 * PI * sphere_cone_one_minus_cos(r, d2))
+}
+
+/// A point on the part of a sphere visible from `p` (outside it), its direction uniform in
+/// the cone the sphere subtends (pdf [`sphere_cap_pdf`]): pbrt-v4's `Sphere::Sample(ctx, u)`,
+/// which finds the point from the angle `α` at the centre, so that it lies on the sphere and
+/// faces `p` however small and far the sphere is. `None` on or inside the sphere.
+#[inline]
+pub fn sample_sphere_cap(center: Vec3, r: f32, p: Vec3, u: Vec2) -> Option<Vec3> {
+    let to_c = center - p;
+    let d2 = to_c.length_squared();
+    if !(d2 > r * r) {
+        return None;
+    }
+    let sin2_max = r * r / d2;
+    let sin_max = sin2_max.sqrt();
+    let one_minus_cos = u.x * sphere_cone_one_minus_cos(r, d2);
+    let cos_theta = 1.0 - one_minus_cos;
+    let sin2_theta = one_minus_cos * (2.0 - one_minus_cos);
+    let cos_alpha =
+        sin2_theta / sin_max + cos_theta * (1.0 - sin2_theta / sin2_max).max(0.0).sqrt();
+    let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    let w = to_c / d2.sqrt();
+    let (t, b) = orthonormal_basis(w);
+    let n = -to_world(
+        Vec3::new(sin_alpha * phi.cos(), sin_alpha * phi.sin(), cos_alpha),
+        t,
+        b,
+        w,
+    );
+    Some(center + n * r)
+}
+
 /// Smith's Λ for GGX, for a local direction `w` (`w.z` = cos θ > 0).
 #[inline]
 pub fn smith_lambda(w: Vec3, alpha: f32) -> f32 {
@@ -196,6 +248,80 @@ mod tests {
             }
             assert!((t.cross(b) - n).length() < 1e-6);
         }
+    }
+
+    #[test]
+    fn sphere_cap_samples_lie_on_the_visible_cap_uniformly_in_the_cone() {
+        // Spheres from close (d = 1.5 r) to tiny and far (r = 1e-3 at 1e3: sin² θmax = 1e-12,
+        // where `1 - cos θmax` computed directly is 0 in f32). Every point must lie on the
+        // sphere (to the f32 rounding of `center + n r`: a few ulps of the larger of |center|
+        // and r) and face `p` (its normal's angle to p - point under 90°, so a shadow ray
+        // there is not blocked by the sphere itself); the directions must be uniform in the
+        // cone: with a 64x64 grid of stratified u, cos θ of the direction (measured from p)
+        // falls into 8 equal bins of [cos θmax, 1] equally (within 1.5 % of 4096/8 each:
+        // each stratum lands in the bin its u.x says, up to rounding at the bin edges) and
+        // its mean direction is the axis.
+        for (center, r, p) in [
+            (Vec3::new(0.0, 0.0, 0.0), 1.0, Vec3::new(0.0, 0.0, -1.5)),
+            (Vec3::new(1.0, 2.0, 3.0), 0.5, Vec3::new(-3.0, 1.0, 0.5)),
+            (Vec3::new(0.0, 1e3, 0.0), 1e-3, Vec3::ZERO),
+            (Vec3::new(5.0, 0.0, 0.0), 1e-2, Vec3::new(-5.0, 0.0, 0.0)),
+        ] {
+            let to_c = center - p;
+            let (d2, axis) = (to_c.length_squared(), to_c.normalize());
+            let omc = f64::from(sphere_cone_one_minus_cos(r, d2));
+            let exact = f64::from(r * r) / f64::from(d2);
+            let exact_omc = exact / (1.0 + (1.0 - exact).sqrt());
+            assert!(
+                (omc - exact_omc).abs() <= 1e-6 * exact_omc,
+                "{omc} vs {exact_omc}"
+            );
+            let pdf = sphere_cap_pdf(center, r, p);
+            assert!((f64::from(pdf) * 2.0 * std::f64::consts::PI * exact_omc - 1.0).abs() < 1e-5);
+            let mut bins = [0u32; 8];
+            let mut mean_dir = glam::DVec3::ZERO;
+            let scale = center.abs().max_element().max(r);
+            for u in grid(64) {
+                let q = sample_sphere_cap(center, r, p, u).expect("outside the sphere");
+                let n = (q - center) / r;
+                assert!(
+                    ((q - center).length() - r).abs() <= 8.0 * f32::EPSILON * scale,
+                    "{q} is {} from the centre, not {r}",
+                    (q - center).length()
+                );
+                let w = (q - p).normalize();
+                assert!(n.dot(-w) > 0.0, "the point faces p");
+                // 1 - cos θ of the direction, in f64 from the f32 point, relative to the cone.
+                let wd = (q - p).as_dvec3().normalize();
+                let cos = wd.dot(axis.as_dvec3());
+                let t = ((1.0 - cos) / exact_omc).clamp(0.0, 0.999_999);
+                if exact > 1e-6 {
+                    bins[(t * 8.0) as usize] += 1;
+                }
+                mean_dir += wd;
+            }
+            if exact > 1e-6 {
+                for (k, &b) in bins.iter().enumerate() {
+                    assert!(
+                        (f64::from(b) - 512.0).abs() <= 0.015 * 512.0,
+                        "bin {k}: {b} of 4096 ({bins:?})"
+                    );
+                }
+            }
+            let off_axis = (mean_dir / 4096.0)
+                .normalize()
+                .cross(axis.as_dvec3())
+                .length();
+            assert!(off_axis < 1e-2 * exact_omc.sqrt() + 1e-6, "{off_axis}");
+        }
+        assert_eq!(
+            sample_sphere_cap(Vec3::ZERO, 1.0, Vec3::new(0.5, 0.0, 0.0), Vec2::ZERO),
+            None
+        );
+        assert_eq!(
+            sphere_cap_pdf(Vec3::ZERO, 1.0, Vec3::new(0.0, 1.0, 0.0)),
+            0.0
+        );
     }
 
     #[test]

@@ -33,6 +33,50 @@ fn sample_diffuse(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     return to_world(local, basis.t, basis.b, n);
 }
 
+// sampling.rs `sphere_cone_one_minus_cos`: 1 - cos θmax as sin²/(1 + cos).
+fn sphere_cone_one_minus_cos(r: f32, d2: f32) -> f32 {
+    let sin2 = min(r * r / d2, 1.0);
+    let c = sqrt(max(1.0 - sin2, 0.0));
+    return sin2 / (1.0 + c);
+}
+
+// sampling.rs `sphere_cap_pdf`.
+fn sphere_cap_pdf(center: vec3<f32>, r: f32, p: vec3<f32>) -> f32 {
+    let to_c = center - p;
+    let d2 = dot(to_c, to_c);
+    if (!(d2 > r * r)) {
+        return 0.0;
+    }
+    return 1.0 / (2.0 * PI * sphere_cone_one_minus_cos(r, d2));
+}
+
+// sampling.rs `sample_sphere_cap` (pbrt-v4 Sphere::Sample(ctx, u)); `valid` false on or
+// inside the sphere.
+struct CapSample {
+    point: vec3<f32>,
+    valid: bool,
+}
+
+fn sample_sphere_cap(center: vec3<f32>, r: f32, p: vec3<f32>, u: vec2<f32>) -> CapSample {
+    let to_c = center - p;
+    let d2 = dot(to_c, to_c);
+    if (!(d2 > r * r)) {
+        return CapSample(vec3<f32>(0.0), false);
+    }
+    let sin2_max = r * r / d2;
+    let sin_max = sqrt(sin2_max);
+    let one_minus_cos = u.x * sphere_cone_one_minus_cos(r, d2);
+    let cos_theta = 1.0 - one_minus_cos;
+    let sin2_theta = one_minus_cos * (2.0 - one_minus_cos);
+    let cos_alpha = sin2_theta / sin_max + cos_theta * sqrt(max(1.0 - sin2_theta / sin2_max, 0.0));
+    let sin_alpha = sqrt(max(1.0 - cos_alpha * cos_alpha, 0.0));
+    let phi = 2.0 * PI * u.y;
+    let w = to_c / sqrt(d2);
+    let basis = orthonormal_basis(w);
+    let n = -to_world(vec3<f32>(sin_alpha * cos(phi), sin_alpha * sin(phi), cos_alpha), basis.t, basis.b, w);
+    return CapSample(center + n * r, true);
+}
+
 fn smith_lambda(w: vec3<f32>, alpha: f32) -> f32 {
     let a2_tan2 = alpha * alpha * (w.x * w.x + w.y * w.y) / (w.z * w.z);
     return 0.5 * (sqrt(1.0 + a2_tan2) - 1.0);

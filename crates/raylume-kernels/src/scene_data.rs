@@ -9,18 +9,18 @@ use glam::Vec3;
 use raylume_bvh::{GpuBvh, PRIM_SPHERE, PRIM_TRIANGLE};
 use raylume_scene::{Camera, Environment, MaterialKind, Scene, Texture};
 
-use crate::Estimator;
 use crate::KernelError;
 use crate::TraceSettings;
 use crate::bsdf::RoughPlasticTable;
 use crate::camera::camera_basis;
 use crate::gpu_types::LUMINANCE;
 use crate::gpu_types::{
-    ENVIRONMENT_BLACK, ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuMaterial, LightTriangle,
-    MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL, MATERIAL_PLASTIC, MATERIAL_TWO_SIDED,
-    NO_ROULETTE, NO_TABLE, NO_TEXTURE, SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms,
-    TextureHeader, TriangleShading,
+    ENVIRONMENT_BLACK, ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuLight, GpuMaterial, LIGHT_SPHERE,
+    LIGHT_TRIANGLE, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL, MATERIAL_PLASTIC,
+    MATERIAL_TWO_SIDED, NO_ROULETTE, NO_TABLE, NO_TEXTURE, SHADING_HAS_NORMALS, SHADING_HAS_UVS,
+    SceneUniforms, TextureHeader, TriangleShading,
 };
+use crate::{Estimator, Sampler};
 
 /// The placeholder of an empty table buffer (bindings are never empty).
 impl Default for RoughPlasticTable {
@@ -54,7 +54,7 @@ pub struct SceneData {
     pub scene_min: Vec3,
     pub scene_extent: Vec3,
     /// The emissive triangles, for next-event estimation (empty when none emits).
-    pub lights: Vec<LightTriangle>,
+    pub lights: Vec<GpuLight>,
     /// Their total area times emitted luminance.
     pub light_power: f32,
     /// One coat table per distinct (roughness, ior) of the rough plastics
@@ -64,36 +64,55 @@ pub struct SceneData {
     pub estimator: Estimator,
     /// The first segment after whose hit Russian roulette may end a path; `None`: never.
     pub russian_roulette: Option<u32>,
+    /// Where the paths' random numbers come from ([`SceneData::uniforms`]).
+    pub sampler: Sampler,
 }
 
-/// Every emissive triangle with its selection probability proportional to its area times its
-/// emitted luminance ([`LUMINANCE`]), as a running sum, and the total of area times luminance;
-/// empty when nothing emits.
-fn light_list(scene: &Scene) -> (Vec<LightTriangle>, f32) {
+/// Every emitter that next-event estimation samples, with its selection probability
+/// proportional to its area times its emitted luminance ([`LUMINANCE`]) as a running sum, and
+/// the total of area times luminance; empty when nothing emits. Emissive triangles
+/// ([`LIGHT_TRIANGLE`]) first, then emissive spheres ([`LIGHT_SPHERE`], area `4 pi r^2`).
+fn light_list(scene: &Scene) -> (Vec<GpuLight>, f32) {
     let mut lights = Vec::new();
     let mut total = 0.0f64;
+    let mut push = |area: f32, m: &raylume_scene::Material, mut light: GpuLight| {
+        let luminance = m.emission.dot(Vec3::from(LUMINANCE));
+        if !(area > 0.0 && luminance > 0.0 && area.is_finite()) {
+            return;
+        }
+        total += f64::from(area) * f64::from(luminance);
+        light.cdf = total as f32; // the running sum, normalised below
+        light.area = area;
+        light.two_sided = u32::from(m.two_sided);
+        light.emission = m.emission.into();
+        lights.push(light);
+    };
     for t in &scene.triangles {
         let Some(m) = scene.materials.get(t.material as usize) else {
             continue;
         };
         let [p0, p1, p2] = t.positions;
         let (e1, e2) = (p1 - p0, p2 - p0);
-        let area = 0.5 * e1.cross(e2).length();
-        let luminance = m.emission.dot(Vec3::from(LUMINANCE));
-        if !(area > 0.0 && luminance > 0.0 && area.is_finite()) {
-            continue;
-        }
-        total += f64::from(area) * f64::from(luminance);
-        lights.push(LightTriangle {
+        let light = GpuLight {
             p0: p0.into(),
-            cdf: total as f32, // the running sum, normalised below
             e1: e1.into(),
-            area,
             e2: e2.into(),
-            two_sided: u32::from(m.two_sided),
-            emission: m.emission.into(),
-            _pad1: 0,
-        });
+            kind: LIGHT_TRIANGLE,
+            ..Default::default()
+        };
+        push(0.5 * e1.cross(e2).length(), m, light);
+    }
+    for sp in &scene.spheres {
+        let Some(m) = scene.materials.get(sp.material as usize) else {
+            continue;
+        };
+        let light = GpuLight {
+            p0: sp.center.into(),
+            e1: [sp.radius, 0.0, 0.0],
+            kind: LIGHT_SPHERE,
+            ..Default::default()
+        };
+        push(4.0 * std::f32::consts::PI * sp.radius * sp.radius, m, light);
     }
     for l in &mut lights {
         l.cdf = (f64::from(l.cdf) / total) as f32;
@@ -323,6 +342,7 @@ impl SceneData {
             plastic_tables,
             estimator: Estimator::Plain,
             russian_roulette: None,
+            sampler: Sampler::Independent,
         };
         match &scene.environment {
             Environment::Black => {}
@@ -386,6 +406,7 @@ impl SceneData {
             },
             light_power: self.light_power,
             rr_depth: self.russian_roulette.unwrap_or(NO_ROULETTE),
+            sampler: self.sampler.uniform(),
             ..Default::default()
         }
     }

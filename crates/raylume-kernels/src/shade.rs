@@ -9,19 +9,22 @@
 //! scatters one new direction sampled from the material; Russian roulette only when the
 //! uniforms ask for it (`rr_depth`, [`russian_roulette`]). With the light
 //! list, a hit on a material [`samples_lights`] (diffuse, rough metal, plastic) also sends a
-//! shadow ray to a point on an emissive triangle
-//! ([`sample_lights`]), and the two estimates of the light an emissive triangle sends there,
+//! shadow ray to a point on an emitter of the list ([`sample_lights`]): uniform on an emissive
+//! triangle, or uniform in the cone of directions of an emissive sphere's visible cap
+//! ([`crate::sampling::sample_sphere_cap`]), so that small bright spheres are found at a few
+//! samples. The two estimates of the light an emitter sends there,
 //! the shadow ray's and the scattered ray's if it hits one, are weighted by multiple
 //! importance sampling (Veach's power heuristic, [`mis_weight`]): each wins where its pdf is
 //! the larger (the shadow ray for small, far lights; the scattered ray close to a light,
-//! where the shadow ray's 1/distance² would make fireflies). Spheres and the environment
-//! have no light samples and always count in full. Every material scatters on both faces (its normals are flipped towards the
+//! where the shadow ray's 1/distance² would make fireflies). The environment has no light
+//! samples and counts in full where a path escapes. Every random number comes from
+//! [`path_rand4`]: the independent hash or ZSobol, as the uniforms say. Every material scatters on both faces (its normals are flipped towards the
 //! incoming ray, decided by the geometric normal); a scattered direction on the wrong side of
 //! the geometric surface (possible with shading normals) ends the path rather than leaking
 //! light through it.
 
 use glam::{Vec2, Vec3, Vec4};
-use raylume_bvh::{GpuBvh, PRIM_TRIANGLE, Ray};
+use raylume_bvh::{GpuBvh, PRIM_SPHERE, PRIM_TRIANGLE, Ray};
 
 use crate::bsdf::{
     BsdfEval, BsdfSample, bsdf_absorbed, bsdf_eval_zero, eval_conductor, eval_plastic,
@@ -29,13 +32,14 @@ use crate::bsdf::{
     sample_rough_plastic,
 };
 use crate::gpu_types::{
-    DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, GpuMaterial, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_GLASS,
-    MATERIAL_METAL, MATERIAL_PLASTIC, MATERIAL_TWO_SIDED, RAY_ALIVE, RR_MAX_SURVIVAL, RayState,
-    SHADOW_T_SCALE, T_MAX,
+    DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE, GpuMaterial, LIGHT_SPHERE, LUMINANCE,
+    MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL, MATERIAL_PLASTIC, MATERIAL_TWO_SIDED,
+    RAY_ALIVE, RR_MAX_SURVIVAL, RayState, SAMPLER_ZSOBOL, SHADOW_T_SCALE, SceneUniforms, T_MAX,
 };
-use crate::math::INV_PI;
+use crate::math::{INV_PI, PI};
 use crate::rng::rand4;
-use crate::sampling::sample_diffuse;
+use crate::sampling::{sample_diffuse, sample_sphere_cap, sphere_cap_pdf};
+use crate::sobol::sobol4;
 use crate::surface::{
     Globals, SurfaceHit, environment_radiance, material_at, offset_ray_origin, surface_at,
 };
@@ -187,6 +191,26 @@ pub fn shade_hit(
     s.pdf
 }
 
+/// The four random numbers of dimension `dim` (a `DIM_*` constant) at segment `bounce` of
+/// sample `sample` of pixel `pixel` (row-major), from the sampler the uniforms name:
+/// [`rand4`] (independent), or [`sobol4`] (ZSobol) with pair group
+/// `bounce * DIMS_PER_BOUNCE + dim`, the pixel's (x, y) and the render's spp. Every random
+/// number of a path comes from here, so both samplers serve every estimator.
+#[inline]
+pub fn path_rand4(scene: &SceneUniforms, pixel: u32, sample: u32, bounce: u32, dim: u32) -> Vec4 {
+    if scene.sampler == SAMPLER_ZSOBOL {
+        let xy = glam::UVec2::new(pixel % scene.width, pixel / scene.width);
+        return sobol4(
+            scene.seed,
+            xy,
+            sample,
+            scene.spp,
+            bounce * DIMS_PER_BOUNCE + dim,
+        );
+    }
+    rand4(scene.seed, pixel, sample, bounce, dim)
+}
+
 /// Traces the path's current ray (its segment number `depth`, 0 for the camera ray): adds
 /// the environment when it escapes, else shades the hit. Every call traces exactly one ray.
 #[inline]
@@ -221,21 +245,28 @@ pub fn trace_ray(
             path.mis_pdf,
             light_pdf(g, Vec3::from(mat.emission), hit.t * hit.t, cos_l),
         )
+    } else if path.mis_pdf > 0.0 && prim.kind() == PRIM_SPHERE {
+        let (center, r) = (Vec3::new(prim.a[0], prim.a[1], prim.a[2]), prim.a[3]);
+        let cap_pdf = sphere_cap_pdf(center, r, path.origin);
+        mis_weight(
+            path.mis_pdf,
+            sphere_light_pdf(g, Vec3::from(mat.emission), r, cap_pdf),
+        )
     } else {
         1.0
     };
     let sample_here = g.scene.light_count > 0 && samples_lights(&mat) && !last;
     if sample_here {
-        let rnd = rand4(g.scene.seed, pixel, sample, depth, DIM_LIGHT);
+        let rnd = path_rand4(&g.scene, pixel, sample, depth, DIM_LIGHT);
         path.radiance += path.throughput * sample_lights(g, bvh, &surface, &mat, path.dir, rnd);
     }
-    let rnd = rand4(g.scene.seed, pixel, sample, depth, DIM_SCATTER);
+    let rnd = path_rand4(&g.scene, pixel, sample, depth, DIM_SCATTER);
     let pdf = shade_hit(g, path, &surface, &mat, rnd, last, emission_weight);
     path.mis_pdf = if sample_here { pdf } else { 0.0 };
     if path.alive && depth >= g.scene.rr_depth {
         russian_roulette(
             path,
-            rand4(g.scene.seed, pixel, sample, depth, DIM_ROULETTE).x,
+            path_rand4(&g.scene, pixel, sample, depth, DIM_ROULETTE).x,
         );
     }
 }
@@ -301,6 +332,15 @@ pub fn light_pdf(g: &Globals, emission: Vec3, dist2: f32, cos_l: f32) -> f32 {
     emission.dot(Vec3::from(LUMINANCE)) * dist2 / (g.scene.light_power * cos_l)
 }
 
+/// The solid-angle pdf with which [`sample_lights`] picks a direction toward a point of an
+/// emissive sphere of radius `r` emitting `emission`, seen from a point where the sphere's
+/// cone has pdf `cap_pdf` ([`sphere_cap_pdf`], 0 inside the sphere): its selection
+/// probability (`4 π r²` times luminance over the list's total) times `cap_pdf`.
+#[inline]
+pub fn sphere_light_pdf(g: &Globals, emission: Vec3, r: f32, cap_pdf: f32) -> f32 {
+    emission.dot(Vec3::from(LUMINANCE)) * (4.0 * PI * r * r) / g.scene.light_power * cap_pdf
+}
+
 /// Veach's power heuristic: the weight of a sample drawn with pdf `a` when pdf `b` could have
 /// drawn it too.
 #[inline]
@@ -344,10 +384,6 @@ pub fn sample_lights(
         0.0
     };
     let p_select = light.cdf - before;
-    // Uniform on the triangle (the square-root parameterisation).
-    let su = rnd.y.sqrt();
-    let (e1, e2) = (Vec3::from(light.e1), Vec3::from(light.e2));
-    let point = Vec3::from(light.p0) + e1 * (su * (1.0 - rnd.z)) + e2 * (su * rnd.z);
     let ng = hit.geometric_normal;
     let front = dir_in.dot(ng) < 0.0;
     let ng_facing = if front { ng } else { -ng };
@@ -357,21 +393,41 @@ pub fn sample_lights(
         -hit.shading_normal
     };
     let origin = offset_ray_origin(hit, dir_in, ng_facing);
+    let emission = Vec3::from(light.emission);
+    let (point, cos_l) = if light.kind == LIGHT_SPHERE {
+        // A point of the cap seen from the origin: it faces the origin (cos_l > 0).
+        let center = Vec3::from(light.p0);
+        let Some(point) = sample_sphere_cap(center, light.e1[0], origin, Vec2::new(rnd.y, rnd.z))
+        else {
+            return Vec3::ZERO; // inside the sphere: only the scattered ray finds it
+        };
+        (point, 1.0)
+    } else {
+        // Uniform on the triangle (the square-root parameterisation).
+        let su = rnd.y.sqrt();
+        let (e1, e2) = (Vec3::from(light.e1), Vec3::from(light.e2));
+        let point = Vec3::from(light.p0) + e1 * (su * (1.0 - rnd.z)) + e2 * (su * rnd.z);
+        (point, 0.0) // cos_l below, once the direction is known
+    };
     let to = point - origin;
     let dist2 = to.length_squared();
-    let nl = e1.cross(e2);
     if !(p_select > 0.0 && dist2 > 0.0) {
         return Vec3::ZERO;
     }
     let dist = dist2.sqrt();
     let wi = to / dist;
     let cos_s = ns_facing.dot(wi);
-    // The light's front face looks along e1 x e2: a one-sided light sends nothing backwards.
-    let cos_front = -nl.dot(wi) / nl.length();
-    let cos_l = if light.two_sided != 0 {
-        cos_front.abs()
+    let cos_l = if light.kind == LIGHT_SPHERE {
+        cos_l
     } else {
-        cos_front
+        // The light's front face looks along e1 x e2: a one-sided light sends nothing backwards.
+        let nl = Vec3::from(light.e1).cross(Vec3::from(light.e2));
+        let cos_front = -nl.dot(wi) / nl.length();
+        if light.two_sided != 0 {
+            cos_front.abs()
+        } else {
+            cos_front
+        }
     };
     if !(cos_s > 0.0 && ng_facing.dot(wi) > 0.0 && cos_l > 0.0) {
         return Vec3::ZERO;
@@ -381,7 +437,12 @@ pub fn sample_lights(
         return Vec3::ZERO;
     }
     let f = eval_material(g, mat, dir_in, ns_facing, wi);
-    let emission = Vec3::from(light.emission);
+    if light.kind == LIGHT_SPHERE {
+        let r = light.e1[0];
+        let cap_pdf = sphere_cap_pdf(Vec3::from(light.p0), r, origin);
+        let w = mis_weight(sphere_light_pdf(g, emission, r, cap_pdf), f.pdf);
+        return f.value * emission * (w / (p_select * cap_pdf));
+    }
     let w = mis_weight(light_pdf(g, emission, dist2, cos_l), f.pdf);
     f.value * emission * (cos_l * light.area / (dist2 * p_select) * w)
 }

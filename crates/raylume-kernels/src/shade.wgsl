@@ -59,6 +59,15 @@ fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, 
     return s.pdf;
 }
 
+// shade.rs `path_rand4`.
+fn path_rand4(pixel: u32, sample: u32, bounce: u32, dim: u32) -> vec4<f32> {
+    if (scene.sampler == SAMPLER_ZSOBOL) {
+        let xy = vec2<u32>(pixel % scene.width, pixel / scene.width);
+        return sobol4(scene.seed, xy, sample, scene.spp, bounce * DIMS_PER_BOUNCE + dim);
+    }
+    return rand4(scene.seed, pixel, sample, bounce, dim);
+}
+
 fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32) {
     let hit = trace_closest(Ray((*path).origin, (*path).dir), 0.0, T_MAX);
     if (hit.prim == INVALID_INDEX) {
@@ -79,18 +88,21 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
             let n = cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz);
             let cos_l = abs(dot(n, (*path).dir)) / length(n);
             emission_weight = mis_weight((*path).mis_pdf, light_pdf(mat.emission, hit.t * hit.t, cos_l));
+        } else if (HAS_SPHERES && (*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_SPHERE) {
+            let cap_pdf = sphere_cap_pdf(prim.a.xyz, prim.a.w, (*path).origin);
+            emission_weight = mis_weight((*path).mis_pdf, sphere_light_pdf(mat.emission, prim.a.w, cap_pdf));
         }
         sample_here = scene.light_count > 0u && samples_lights(mat) && !last;
         if (sample_here) {
-            let rnd_light = rand4(scene.seed, pixel, sample, depth, DIM_LIGHT);
+            let rnd_light = path_rand4(pixel, sample, depth, DIM_LIGHT);
             (*path).radiance += (*path).throughput * sample_lights(surface, mat, (*path).dir, rnd_light);
         }
     }
-    let rnd = rand4(scene.seed, pixel, sample, depth, DIM_SCATTER);
+    let rnd = path_rand4(pixel, sample, depth, DIM_SCATTER);
     let pdf = shade_hit(path, surface, mat, rnd, last, emission_weight);
     (*path).mis_pdf = select(0.0, pdf, sample_here);
     if ((*path).alive && depth >= scene.rr_depth) {
-        russian_roulette(path, rand4(scene.seed, pixel, sample, depth, DIM_ROULETTE).x);
+        russian_roulette(path, path_rand4(pixel, sample, depth, DIM_ROULETTE).x);
     }
 }
 
@@ -135,6 +147,11 @@ fn light_pdf(emission: vec3<f32>, dist2: f32, cos_l: f32) -> f32 {
     return dot(emission, LUMINANCE) * dist2 / (scene.light_power * cos_l);
 }
 
+// shade.rs `sphere_light_pdf`.
+fn sphere_light_pdf(emission: vec3<f32>, r: f32, cap_pdf: f32) -> f32 {
+    return dot(emission, LUMINANCE) * (4.0 * PI * r * r) / scene.light_power * cap_pdf;
+}
+
 fn mis_weight(a: f32, b: f32) -> f32 {
     let a2 = a * a;
     let b2 = b * b;
@@ -163,25 +180,37 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
         before = lights[lo - 1u].cdf;
     }
     let p_select = light.cdf - before;
-    let su = sqrt(rnd.y);
-    let point = light.p0 + light.e1 * (su * (1.0 - rnd.z)) + light.e2 * (su * rnd.z);
     let ng = hit.geometric_normal;
     let front = dot(dir_in, ng) < 0.0;
     let ng_facing = select(-ng, ng, front);
     let ns_facing = select(-hit.shading_normal, hit.shading_normal, front);
     let origin = offset_ray_origin(hit, dir_in, ng_facing);
+    var point: vec3<f32>;
+    if (HAS_SPHERES && light.kind == LIGHT_SPHERE) {
+        let cap = sample_sphere_cap(light.p0, light.e1.x, origin, rnd.yz);
+        if (!cap.valid) {
+            return vec3<f32>(0.0);
+        }
+        point = cap.point;
+    } else {
+        let su = sqrt(rnd.y);
+        point = light.p0 + light.e1 * (su * (1.0 - rnd.z)) + light.e2 * (su * rnd.z);
+    }
     let to = point - origin;
     let dist2 = dot(to, to);
-    let nl = cross(light.e1, light.e2);
     if (!(p_select > 0.0 && dist2 > 0.0)) {
         return vec3<f32>(0.0);
     }
     let dist = sqrt(dist2);
     let wi = to / dist;
     let cos_s = dot(ns_facing, wi);
-    // A one-sided light sends nothing behind its front face (e1 x e2).
-    let cos_front = -dot(nl, wi) / length(nl);
-    let cos_l = select(cos_front, abs(cos_front), light.two_sided != 0u);
+    var cos_l = 1.0;
+    if (!(HAS_SPHERES && light.kind == LIGHT_SPHERE)) {
+        // A one-sided light sends nothing behind its front face (e1 x e2).
+        let nl = cross(light.e1, light.e2);
+        let cos_front = -dot(nl, wi) / length(nl);
+        cos_l = select(cos_front, abs(cos_front), light.two_sided != 0u);
+    }
     if (!(cos_s > 0.0 && dot(ng_facing, wi) > 0.0 && cos_l > 0.0)) {
         return vec3<f32>(0.0);
     }
@@ -189,6 +218,11 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
         return vec3<f32>(0.0);
     }
     let f = eval_material(mat, dir_in, ns_facing, wi);
+    if (HAS_SPHERES && light.kind == LIGHT_SPHERE) {
+        let cap_pdf = sphere_cap_pdf(light.p0, light.e1.x, origin);
+        let ws = mis_weight(sphere_light_pdf(light.emission, light.e1.x, cap_pdf), f.pdf);
+        return f.value * light.emission * (ws / (p_select * cap_pdf));
+    }
     let w = mis_weight(light_pdf(light.emission, dist2, cos_l), f.pdf);
     return f.value * light.emission * (cos_l * light.area / (dist2 * p_select) * w);
 }

@@ -25,7 +25,7 @@ use raylume_bvh::{Hit, PRIM_SPHERE, Primitive};
 
 use crate::bsdf::RoughPlasticTable;
 use crate::gpu_types::{
-    ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuMaterial, LightTriangle, MATERIAL_GLASS, NO_TEXTURE,
+    ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuLight, GpuMaterial, MATERIAL_GLASS, NO_TEXTURE,
     SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms, TextureHeader, TriangleShading,
 };
 use crate::math::{INV_2PI, INV_PI, acos_poly, atan2_poly, normalize};
@@ -42,7 +42,7 @@ pub struct Globals<'a> {
     pub texture_headers: &'a [TextureHeader],
     pub texels: &'a [f32],
     /// The light list (next-event estimation reads the first `scene.light_count`).
-    pub lights: &'a [LightTriangle],
+    pub lights: &'a [GpuLight],
     /// Rough plastics' coat tables, indexed by `GpuMaterial::table`.
     pub plastic_tables: &'a [RoughPlasticTable],
 }

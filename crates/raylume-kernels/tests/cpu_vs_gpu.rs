@@ -3,7 +3,7 @@
 
 mod support;
 
-use raylume_kernels::{CpuTracer, Estimator, GpuTracer, Schedule, TraceSettings};
+use raylume_kernels::{CpuTracer, Estimator, GpuTracer, Sampler, Schedule, TraceSettings};
 use support::*;
 
 fn compare(name: &str, scene: &raylume_scene::Scene, w: u32, h: u32, spp: u32, bounces: u32) {
@@ -26,14 +26,32 @@ fn compare_with(
     compare_with_roulette(name, scene, [w, h, spp, bounces], schedule, estimator, None);
 }
 
-/// [`compare_with`] with Russian roulette from segment `roulette` on both backends.
+/// [`compare_with_roulette`] with the sampler `sampler` too.
 fn compare_with_roulette(
+    name: &str,
+    scene: &raylume_scene::Scene,
+    size: [u32; 4],
+    schedule: Schedule,
+    estimator: Estimator,
+    roulette: Option<u32>,
+) {
+    compare_all(
+        name,
+        scene,
+        size,
+        schedule,
+        (estimator, roulette, Sampler::Independent),
+    );
+}
+
+/// [`compare_with`] with Russian roulette from segment `roulette` and the sampler `sampler`
+/// on both backends.
+fn compare_all(
     name: &str,
     scene: &raylume_scene::Scene,
     [w, h, spp, bounces]: [u32; 4],
     schedule: Schedule,
-    estimator: Estimator,
-    roulette: Option<u32>,
+    (estimator, roulette, sampler): (Estimator, Option<u32>, Sampler),
 ) {
     let Some(ctx) = raylume_gpu::testing::context_or_skip(name) else {
         return;
@@ -44,6 +62,7 @@ fn compare_with_roulette(
         let mut t = CpuTracer::new(scene, &bvh).unwrap();
         t.set_estimator(estimator);
         t.set_russian_roulette(roulette);
+        t.set_sampler(sampler);
         t
     };
     let cpu_tracer = cpu_with();
@@ -51,6 +70,7 @@ fn compare_with_roulette(
     let mut gpu_tracer = GpuTracer::new(ctx, scene, &bvh).unwrap();
     gpu_tracer.set_estimator(estimator);
     gpu_tracer.set_russian_roulette(roulette);
+    gpu_tracer.set_sampler(sampler);
     let gpu = gpu_tracer.render(&s, &mut |_, _| {}).unwrap();
     let (batch, samples) = gpu_tracer.last_batch_samples().unwrap().unwrap();
     assert_eq!(batch.rays(), w * h * spp, "one batch holds every sample");
@@ -188,5 +208,24 @@ fn cornell_box_with_next_event_estimation_matches_cpu() {
             schedule,
             Estimator::Nee,
         );
+    }
+}
+
+/// The library's defaults (next-event estimation toward triangles and spheres, Russian
+/// roulette, the ZSobol sampler) draw the same numbers and the same shadow rays on both
+/// backends, in both schedules: the spheres scene has a sphere lamp, the materials scene a
+/// triangle lamp and every microfacet material.
+#[test]
+fn zsobol_with_nee_and_roulette_matches_cpu() {
+    for schedule in [Schedule::Megakernel, Schedule::Wavefront] {
+        for (scene, bounces) in [(spheres(), 6), (materials(), 6)] {
+            compare_all(
+                "zsobol_with_nee_and_roulette_matches_cpu",
+                &scene,
+                [32, 32, 4, bounces],
+                schedule,
+                (Estimator::Nee, Some(2), Sampler::ZSobol),
+            );
+        }
     }
 }

@@ -41,6 +41,11 @@ impl CpuTracer {
         self.data.russian_roulette = start;
     }
 
+    /// Where the paths' random numbers come from (default [`crate::Sampler::Independent`]).
+    pub fn set_sampler(&mut self, sampler: crate::Sampler) {
+        self.data.sampler = sampler;
+    }
+
     /// Flattens `scene` for the primitives of `bvh` (built from this scene).
     pub fn new(scene: &Scene, bvh: &GpuBvh) -> Result<Self, KernelError> {
         let t = Instant::now();

@@ -7,7 +7,7 @@ use raylume_bvh::GpuBvh;
 use crate::camera::generate_camera_ray;
 use crate::gpu_types::{DIM_CAMERA, RayState, SceneUniforms};
 use crate::math::sample_is_valid;
-use crate::rng::rand4;
+use crate::shade::path_rand4;
 use crate::shade::{PathState, trace_ray};
 use crate::surface::Globals;
 
@@ -30,7 +30,7 @@ pub fn sample_slot(scene: &SceneUniforms, pixel: u32, sample: u32) -> u32 {
 /// The camera path of a pixel sample.
 #[inline]
 pub fn camera_path(scene: &SceneUniforms, pixel: u32, sample: u32) -> PathState {
-    let j = rand4(scene.seed, pixel, sample, 0, DIM_CAMERA);
+    let j = path_rand4(scene, pixel, sample, 0, DIM_CAMERA);
     let dir = generate_camera_ray(scene, pixel, Vec2::new(j.x, j.y));
     PathState::new(Vec3::from(scene.camera_origin), dir)
 }

@@ -14,7 +14,7 @@
 @group(0) @binding(7) var<storage, read> texels: array<f32>;
 // Emissive triangles for next-event estimation: the first `scene.light_count` (at least one
 // entry, a placeholder when there is none).
-@group(0) @binding(8) var<storage, read> lights: array<LightTriangle>;
+@group(0) @binding(8) var<storage, read> lights: array<GpuLight>;
 // Rough plastics' coat tables (GpuMaterial::table; one placeholder entry when there is none).
 @group(0) @binding(9) var<storage, read> plastic_tables: array<RoughPlasticTable>;
 

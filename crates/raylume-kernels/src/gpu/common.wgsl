@@ -21,7 +21,7 @@ fn sample_slot(pixel: u32, sample: u32) -> u32 {
 }
 
 fn camera_path(pixel: u32, sample: u32) -> PathState {
-    let jitter = rand4(scene.seed, pixel, sample, 0u, DIM_CAMERA).xy;
+    let jitter = path_rand4(pixel, sample, 0u, DIM_CAMERA).xy;
     let dir = generate_camera_ray(pixel, jitter);
     return PathState(scene.camera_origin, dir, vec3<f32>(1.0), vec3<f32>(0.0), true, 0.0);
 }

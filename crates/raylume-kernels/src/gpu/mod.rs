@@ -25,7 +25,7 @@ use raylume_sort::RadixSorter;
 
 use crate::batches::Batch;
 use crate::bsdf::RoughPlasticTable;
-use crate::gpu_types::{GpuMaterial, LightTriangle, SceneUniforms, TextureHeader, TriangleShading};
+use crate::gpu_types::{GpuLight, GpuMaterial, SceneUniforms, TextureHeader, TriangleShading};
 use crate::scene_data::SceneData;
 use crate::{KernelError, TraceOutput, TraceSettings};
 use layout::{bind_group_layouts, upload};
@@ -177,7 +177,7 @@ impl<'a> GpuTracer<'a> {
         let shading = upload::<TriangleShading>(ctx, "triangle shading data", shading)?;
         let headers = upload::<TextureHeader>(ctx, "texture headers", &data.texture_headers)?;
         let texels = upload::<f32>(ctx, "texture and environment-map data", &data.texels)?;
-        let lights = upload::<LightTriangle>(ctx, "light list", &data.lights)?;
+        let lights = upload::<GpuLight>(ctx, "light list", &data.lights)?;
         let plastic_tables =
             upload::<RoughPlasticTable>(ctx, "rough plastic tables", &data.plastic_tables)?;
 
@@ -317,6 +317,11 @@ impl<'a> GpuTracer<'a> {
     /// spent on paths that carry little.
     pub fn set_russian_roulette(&mut self, start: Option<u32>) {
         self.data.russian_roulette = start;
+    }
+
+    /// Where the paths' random numbers come from (default [`crate::Sampler::Independent`]).
+    pub fn set_sampler(&mut self, sampler: crate::Sampler) {
+        self.data.sampler = sampler;
     }
 
     /// The features the pipelines are specialised on.
