@@ -84,6 +84,56 @@ pub fn plan_batches(pixels: u32, spp: u32, batch_spp: u32, max_rays: u64) -> Vec
     out
 }
 
+/// What a batch hook ([`crate::CpuTracer::render_with_hook`],
+/// `GpuTracer::render_with_policy_and_hook`) sees after each **round**: the batches that
+/// together add the same range of samples to every pixel (one batch, or one per pixel range
+/// when the image is split).
+#[derive(Clone, Copy, Debug)]
+pub struct RoundSums<'a> {
+    /// Rounds finished, this one included (1, 2, ...).
+    pub round: u32,
+    /// Samples per pixel traced so far: `sums` holds samples `0..samples_done` of each pixel.
+    pub samples_done: u32,
+    /// Samples per pixel this round added.
+    pub round_samples: u32,
+    /// Per pixel (row-major, top row first), the sum of its samples so far, in the fixed
+    /// order `resolve` adds them: not yet divided by `samples_done`.
+    pub sums: &'a [[f32; 3]],
+}
+
+/// A batch hook's answer after a round.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RoundFlow {
+    /// Trace the next round (if the render has one).
+    Continue,
+    /// Stop here: the image becomes `sums / samples_done`.
+    Stop,
+}
+
+/// A hook called after every round of a render; see [`RoundSums`].
+pub type RoundHook<'h> = dyn FnMut(&RoundSums<'_>) -> RoundFlow + 'h;
+
+/// Puts `batches` (from [`plan_batches`]) in round order: each range of samples over every
+/// pixel range before the next range of samples. A pixel's samples are still summed in the
+/// same order (its batches keep their order), so the image is the same bit for bit; only a
+/// hooked render needs it (it sees whole images between rounds).
+pub fn into_rounds(batches: &mut [Batch]) {
+    batches.sort_by_key(|b| (b.sample_begin, b.pixel_begin));
+}
+
+/// True when `b` ends a round of a `pixels`-pixel render in round order ([`into_rounds`]).
+pub fn ends_round(b: &Batch, pixels: u32) -> bool {
+    b.pixel_begin + b.pixel_count == pixels
+}
+
+/// A pixel's mean from its running sum after `spp` samples: `sum * (1 / spp)`, the very
+/// arithmetic of `resolve` on a pixel's last batch, so that a render stopped after `spp`
+/// samples equals an `spp`-sample render bit for bit.
+pub fn mean_of_sum(sum: [f32; 3], spp: u32) -> [f32; 3] {
+    let scale = 1.0 / spp as f32;
+    (glam::Vec3::from(sum) * scale).into()
+}
+
 /// Workgroup counts `(x, y)` covering `threads` threads with `x` at most `max_per_dim`.
 pub fn dispatch_size(threads: u32, workgroup_size: u32, max_per_dim: u32) -> (u32, u32) {
     let groups = threads.div_ceil(workgroup_size);
@@ -137,6 +187,38 @@ mod tests {
             b.iter()
                 .all(|b| b.sample_count == 20 && b.pixel_count == 1_000_000)
         );
+    }
+
+    #[test]
+    fn round_order_keeps_each_pixels_batches_in_order_and_ends_rounds_at_the_last_pixel() {
+        let mut b = plan_batches(100, 5, 20, 30); // pixel ranges of 30 (10 last), 1 spp each
+        let before = b.clone();
+        into_rounds(&mut b);
+        assert_eq!(b.len(), before.len());
+        let rounds: Vec<u32> = b
+            .iter()
+            .filter(|x| ends_round(x, 100))
+            .map(|x| x.sample_begin + x.sample_count)
+            .collect();
+        assert_eq!(rounds, vec![1, 2, 3, 4, 5]);
+        for p in [0, 30, 60, 90] {
+            let of = |v: &[Batch]| -> Vec<u32> {
+                v.iter()
+                    .filter(|x| x.pixel_begin == p)
+                    .map(|x| x.sample_begin)
+                    .collect()
+            };
+            assert_eq!(of(&b), of(&before), "pixel range {p}");
+        }
+        // Every round covers every pixel once before the next begins.
+        let mut covered = 0;
+        for x in &b {
+            covered += x.pixel_count;
+            if ends_round(x, 100) {
+                assert_eq!(covered, 100);
+                covered = 0;
+            }
+        }
     }
 
     #[test]

@@ -11,7 +11,7 @@ use raylume_bvh::GpuBvh;
 use raylume_scene::Scene;
 use rayon::prelude::*;
 
-use crate::batches::plan_batches;
+use crate::batches::{RoundFlow, RoundHook, RoundSums, ends_round, into_rounds, plan_batches};
 use crate::gpu_types::{RayState, SceneUniforms};
 use crate::scene_data::SceneData;
 use crate::surface::Globals;
@@ -88,14 +88,41 @@ impl CpuTracer {
         settings: &TraceSettings,
         progress: &mut dyn FnMut(u32, u32),
     ) -> Result<TraceOutput, KernelError> {
+        self.render_rounds(settings, progress, None)
+    }
+
+    /// As [`CpuTracer::render`], calling `hook` after every round of batches with the image's
+    /// running sums ([`RoundSums`]); when it answers [`RoundFlow::Stop`] the render ends
+    /// there and its image is the mean of the samples traced, bit for bit the image of a
+    /// render of that many samples (without ZSobol, whose points are laid out for
+    /// `settings.spp`: there it is the first samples of the full render).
+    pub fn render_with_hook(
+        &mut self,
+        settings: &TraceSettings,
+        progress: &mut dyn FnMut(u32, u32),
+        hook: &mut RoundHook<'_>,
+    ) -> Result<TraceOutput, KernelError> {
+        self.render_rounds(settings, progress, Some(hook))
+    }
+
+    fn render_rounds(
+        &mut self,
+        settings: &TraceSettings,
+        progress: &mut dyn FnMut(u32, u32),
+        mut hook: Option<&mut RoundHook<'_>>,
+    ) -> Result<TraceOutput, KernelError> {
         settings.validate()?;
         let pixels = settings.width * settings.height;
-        let batches = plan_batches(
+        let mut batches = plan_batches(
             pixels,
             settings.spp,
             settings.batch_spp,
             CPU_MAX_RAYS_PER_BATCH,
         );
+        if hook.is_some() {
+            into_rounds(&mut batches);
+        }
+        let (mut round, mut spp_done) = (0u32, settings.spp);
         let base = self.data.uniforms(settings);
         let mut image = vec![[0.0f32; 3]; pixels as usize];
         let mut slots: Vec<[f32; 3]> = Vec::new();
@@ -105,7 +132,10 @@ impl CpuTracer {
         let mut samples_done = 0u64;
         let start = Instant::now();
         for (bi, b) in batches.iter().enumerate() {
-            let scene = b.uniforms(&base, bi as u32, settings.spp, b.rays());
+            let mut scene = b.uniforms(&base, bi as u32, settings.spp, b.rays());
+            if hook.is_some() {
+                scene.resolve_scale = 1.0; // sums until the hook stops; divided below
+            }
             let g = self.globals(&scene);
             let bvh = &self.bvh;
             let n = b.rays() as usize;
@@ -167,6 +197,25 @@ impl CpuTracer {
             t_resolve += t.elapsed().as_secs_f64();
             samples_done += u64::from(b.rays());
             progress((samples_done / u64::from(pixels)) as u32, settings.spp);
+            if let Some(h) = hook.as_mut()
+                && ends_round(b, pixels)
+            {
+                round += 1;
+                spp_done = b.sample_begin + b.sample_count;
+                let sums = RoundSums {
+                    round,
+                    samples_done: spp_done,
+                    round_samples: b.sample_count,
+                    sums: &image,
+                };
+                if h(&sums) == RoundFlow::Stop {
+                    break;
+                }
+            }
+        }
+        if hook.is_some() {
+            let mean = |p: &mut [f32; 3]| *p = crate::batches::mean_of_sum(*p, spp_done);
+            image.par_iter_mut().for_each(mean);
         }
         let trace = start.elapsed().as_secs_f64();
         let mut timings = vec![("upload", self.prepare_seconds)];

@@ -12,7 +12,10 @@ use super::capture::CaptureBuffers;
 use super::clock::StageClock;
 use super::work::{self, WorkBuffers, WorkLayouts};
 use super::{BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, TraceStats};
-use crate::batches::{dispatch_size, plan_batches};
+use crate::batches::{
+    RoundFlow, RoundHook, RoundSums, dispatch_size, ends_round, into_rounds, mean_of_sum,
+    plan_batches,
+};
 use crate::gpu_types::{RayState, SceneUniforms};
 use crate::{KernelError, ReorderMode, Schedule, TraceSettings, WORKGROUP_SIZE};
 
@@ -37,6 +40,34 @@ impl GpuTracer<'_> {
         settings: &TraceSettings,
         policy: &mut dyn BatchPolicy,
         progress: &mut dyn FnMut(u32, u32),
+    ) -> Result<TraceStats, KernelError> {
+        self.render_with_policy_and_hook(settings, policy, progress, None)
+    }
+
+    /// [`GpuTracer::render_to_buffer`] with a round hook: see
+    /// [`GpuTracer::render_with_policy_and_hook`].
+    pub fn render_to_buffer_with_hook(
+        &mut self,
+        settings: &TraceSettings,
+        progress: &mut dyn FnMut(u32, u32),
+        hook: &mut RoundHook<'_>,
+    ) -> Result<TraceStats, KernelError> {
+        settings.validate()?;
+        let mut fixed = super::policy::Fixed(BatchPlan::of(settings));
+        self.render_with_policy_and_hook(settings, &mut fixed, progress, Some(hook))
+    }
+
+    /// [`GpuTracer::render_with_policy`], calling `hook` (if given) after every round of
+    /// batches with the image's running sums, read back from the GPU ([`RoundSums`]); when it
+    /// answers [`RoundFlow::Stop`] the render ends there and the image buffer holds the mean
+    /// of the samples traced, computed as `resolve` computes it (so, as on the CPU, the
+    /// image of a render of that many samples).
+    pub fn render_with_policy_and_hook(
+        &mut self,
+        settings: &TraceSettings,
+        policy: &mut dyn BatchPolicy,
+        progress: &mut dyn FnMut(u32, u32),
+        mut hook: Option<&mut RoundHook<'_>>,
     ) -> Result<TraceStats, KernelError> {
         settings.validate()?;
         let ctx = self.ctx;
@@ -64,7 +95,12 @@ impl GpuTracer<'_> {
         };
         let max_rays =
             (ctx.max_binding_bytes() / per_ray).min(self.batch_ray_limit.unwrap_or(u64::MAX));
-        let batches = plan_batches(pixels, settings.spp, settings.batch_spp, max_rays);
+        let mut batches = plan_batches(pixels, settings.spp, settings.batch_spp, max_rays);
+        if hook.is_some() {
+            into_rounds(&mut batches);
+        }
+        let (mut round, mut batches_run) = (0u32, 0usize);
+        let mut sums: Vec<[f32; 3]> = Vec::new();
         let capacity = batches.iter().map(|b| b.rays()).max().unwrap_or(1);
         let need = work::WorkKey {
             wavefront,
@@ -171,7 +207,10 @@ impl GpuTracer<'_> {
             let plan = policy.plan(bi, &batches);
             self.check_plan(&plan, settings, permute)?;
             let t_batch = Instant::now();
-            let u = b.uniforms(&base, bi as u32, settings.spp, capacity);
+            let mut u = b.uniforms(&base, bi as u32, settings.spp, capacity);
+            if hook.is_some() {
+                u.resolve_scale = 1.0; // sums until the hook stops; divided below
+            }
             ctx.queue
                 .write_buffer(&self.scene.uniforms, 0, bytemuck::bytes_of(&u));
             if plan.schedule == Schedule::Wavefront {
@@ -231,11 +270,37 @@ impl GpuTracer<'_> {
             timings_of_batches.push(timing);
             samples_done += u64::from(b.rays());
             progress((samples_done / u64::from(pixels)) as u32, settings.spp);
+            batches_run = bi + 1;
+            if let Some(h) = hook.as_mut()
+                && ends_round(b, pixels)
+            {
+                round += 1;
+                let work = self.work.as_ref().expect("allocated above");
+                sums = ctx.read_buffer::<[f32; 3]>(&work.accumulation, pixels as usize)?;
+                let round_sums = RoundSums {
+                    round,
+                    samples_done: b.sample_begin + b.sample_count,
+                    round_samples: b.sample_count,
+                    sums: &sums,
+                };
+                if h(&round_sums) == RoundFlow::Stop {
+                    break;
+                }
+            }
+        }
+        let work = self.work.as_ref().expect("allocated above");
+        if hook.is_some() {
+            let done = batches[batches_run - 1];
+            let spp = done.sample_begin + done.sample_count;
+            let means: Vec<[f32; 3]> = sums.iter().map(|p| mean_of_sum(*p, spp)).collect();
+            ctx.scoped("writing the image's means", || {
+                ctx.queue
+                    .write_buffer(&work.accumulation, 0, bytemuck::cast_slice(&means))
+            })?;
         }
         let trace = start.elapsed().as_secs_f64();
-        self.last_batch = batches.last().copied();
-        let work = self.work.as_ref().expect("allocated above");
-        let stats: Vec<u32> = ctx.read_buffer(&work.batch_stats, 4 * batches.len())?;
+        self.last_batch = batches[..batches_run].last().copied();
+        let stats: Vec<u32> = ctx.read_buffer(&work.batch_stats, 4 * batches_run)?;
         let (mut rays_traced, mut dropped_samples) = (0u64, 0u64);
         for s in stats.chunks_exact(4) {
             rays_traced += u64::from(s[0]) | (u64::from(s[1]) << 32);
