@@ -1,0 +1,161 @@
+//! Every estimator and sampler computes the same image: long renders of the same scene with
+//! and without next-event estimation, Russian roulette and each sampler converge to the same
+//! mean within a bound derived from their own spread; and the low-discrepancy sampler pays
+//! (less error at equal samples). On the CPU mirror (the GPU traces the same paths:
+//! `cpu_vs_gpu.rs`).
+
+mod support;
+
+use raylume_kernels::{CpuTracer, Estimator, Sampler, Schedule, TraceSettings};
+use raylume_scene::Scene;
+use support::*;
+
+#[derive(Clone, Copy, Debug)]
+struct Config {
+    estimator: Estimator,
+    sampler: Sampler,
+    roulette: Option<u32>,
+}
+
+fn render(scene: &Scene, c: Config, size: u32, spp: u32, bounces: u32, seed: u32) -> Vec<[f32; 3]> {
+    let s = TraceSettings {
+        seed,
+        ..settings(size, size, spp, bounces, Schedule::Megakernel)
+    };
+    let mut t = CpuTracer::new(scene, &bvh(scene)).unwrap();
+    t.set_estimator(c.estimator);
+    t.set_sampler(c.sampler);
+    t.set_russian_roulette(c.roulette);
+    t.render(&s, &mut |_, _| {}).unwrap().radiance
+}
+
+/// The box seen from above its floor, the lamp out of view (its own pixels would dominate).
+fn floor_view() -> Scene {
+    let mut s = cornell_box();
+    s.camera.position = glam::Vec3::new(0.0, 1.6, 0.9);
+    s.camera.look_at = glam::Vec3::new(0.0, 0.0, -0.2);
+    s
+}
+
+#[test]
+fn every_estimator_and_sampler_converges_to_the_same_mean() {
+    // Scrambled Sobol' renders with different seeds are independent randomisations (each seed
+    // hashes new Owen scrambles and digit permutations), so the spread of per-seed image means
+    // is an honest standard error for every configuration alike.
+    let plain = Config {
+        estimator: Estimator::Plain,
+        sampler: Sampler::Independent,
+        roulette: None,
+    };
+    let configs = [
+        (
+            "nee",
+            Config {
+                estimator: Estimator::Nee,
+                ..plain
+            },
+        ),
+        (
+            "nee zsobol",
+            Config {
+                estimator: Estimator::Nee,
+                sampler: Sampler::ZSobol,
+                ..plain
+            },
+        ),
+        (
+            "nee zsobol roulette from 1",
+            Config {
+                estimator: Estimator::Nee,
+                sampler: Sampler::ZSobol,
+                roulette: Some(1),
+            },
+        ),
+        (
+            "plain zsobol",
+            Config {
+                sampler: Sampler::ZSobol,
+                ..plain
+            },
+        ),
+        (
+            "plain roulette from 2",
+            Config {
+                roulette: Some(2),
+                ..plain
+            },
+        ),
+    ];
+    for (name, scene) in [("cornell box floor", floor_view()), ("spheres", spheres())] {
+        let seeds = 8u32;
+        let estimate = |c: Config, spp: u32| -> [(f64, f64); 3] {
+            let means: Vec<[f64; 3]> = (0..seeds)
+                .map(|k| mean(&render(&scene, c, 8, spp, 5, 100 + k)))
+                .collect();
+            std::array::from_fn(|ch| {
+                let n = f64::from(seeds);
+                let m = means.iter().map(|x| x[ch]).sum::<f64>() / n;
+                let var = means.iter().map(|x| (x[ch] - m).powi(2)).sum::<f64>() / (n - 1.0);
+                (m, (var / n).sqrt())
+            })
+        };
+        let reference = estimate(plain, 1024);
+        for (cname, c) in configs {
+            let e = estimate(c, 256);
+            for ch in 0..3 {
+                let ((mr, sr), (m, s)) = (reference[ch], e[ch]);
+                let se = (sr * sr + s * s).sqrt();
+                eprintln!(
+                    "{name}, {cname}, channel {ch}: {m:.5} ± {s:.5} vs plain {mr:.5} ± {sr:.5}"
+                );
+                // Their difference is noise of standard deviation `se` (8 renders each): 5 of
+                // them is a 1-in-3-million chance for a Gaussian; 0.5 % of the value allows for
+                // the t-distribution of 8-sample standard errors without room for a missing
+                // light, a doubled or dropped weight, or a roulette that forgets to divide.
+                assert!(
+                    (m - mr).abs() < 5.0 * se + 0.005 * mr,
+                    "{name}, {cname}, channel {ch}: {m} vs {mr} (standard error {se})"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn zsobol_has_less_error_than_independent_samples() {
+    // Direct light from the box's lamp (one bounce): a smooth integrand over the pixel area
+    // and the light's area, where stratified points pay most. Against a 4096-spp reference.
+    let scene = floor_view();
+    let nee = |sampler| Config {
+        estimator: Estimator::Nee,
+        sampler,
+        roulette: None,
+    };
+    let reference = render(&scene, nee(Sampler::Independent), 16, 4096, 1, 7);
+    for spp in [16, 64] {
+        let err = |sampler| {
+            // The mean over 4 seeds of the squared relative error, so one lucky seed
+            // does not decide.
+            let e: f64 = (0..4)
+                .map(|k| {
+                    relative_rmse(
+                        &render(&scene, nee(sampler), 16, spp, 1, 20 + k),
+                        &reference,
+                    )
+                    .powi(2)
+                })
+                .sum::<f64>()
+                / 4.0;
+            e.sqrt()
+        };
+        let (indep, zsobol) = (err(Sampler::Independent), err(Sampler::ZSobol));
+        eprintln!("{spp} spp, direct light: independent {indep:.4}, zsobol {zsobol:.4}");
+        // Measured on this scene: ZSobol's error is 0.64x independent's at 16 spp and 0.57x
+        // at 64 (its advantage grows with spp, as stratification should). The reference's
+        // own error (4096 spp, ~0.003) is far below either. Asked: 0.8x.
+        assert!(
+            zsobol < 0.8 * indep,
+            "{spp} spp: zsobol {zsobol}, independent {indep}"
+        );
+    }
+}
