@@ -69,7 +69,8 @@ struct Args {
     /// Samples per pixel per batch.
     #[arg(long)]
     batch_spp: Option<u32>,
-    /// Estimator: plain (the paper's) or nee (next-event estimation with MIS).
+    /// Estimator: plain (the paper's, the default here) or nee (next-event estimation with
+    /// MIS). Either way with independent random numbers and no Russian roulette, as the paper.
     #[arg(long, default_value = "plain")]
     estimator: raylume::Estimator,
     /// Best of at least this many runs per cell (see --min-seconds).
@@ -228,6 +229,10 @@ fn run(args: Args) -> Result<(), String> {
     let configs = configs(&args);
     let mut rows = Vec::new();
     let mut tracer = Tracer::new(args.backend);
+    // The paper's estimator (plain, independent numbers, no Russian roulette), not the
+    // library's defaults: Table 1 compares with the paper. `--estimator nee` changes only the
+    // estimator.
+    tracer.paper_estimator();
     tracer.estimator = args.estimator;
     if let Some(b) = args.batch_spp {
         tracer.batch_spp = b;

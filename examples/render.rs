@@ -11,7 +11,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use clap::Parser;
-use raylume::{Backend, Estimator, ReorderPolicy, Scene, Schedule, Tracer};
+use raylume::{Backend, Estimator, ReorderPolicy, Sampler, Scene, Schedule, Tracer};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -27,9 +27,14 @@ struct Args {
     /// auto (hardware GPU, else CPU), gpu (any adapter, software included) or cpu.
     #[arg(long, default_value = "auto")]
     backend: Backend,
-    /// Samples per pixel.
+    /// Samples per pixel (with --target-error: the most it may trace).
     #[arg(long)]
     spp: Option<u32>,
+    /// Trace batches until the relative MSE estimated from their spread is below E (e.g.
+    /// 1e-3), then stop; the scene's or --spp's samples per pixel are the cap. Needs at least
+    /// 2 batches of --batch-spp samples under the cap to estimate anything.
+    #[arg(long, value_name = "E")]
+    target_error: Option<f32>,
     /// Maximum bounces per path.
     #[arg(long)]
     bounces: Option<u32>,
@@ -50,11 +55,18 @@ struct Args {
     /// GPU schedule: megakernel (bounces in registers) or wavefront (the paper's kernels).
     #[arg(long)]
     schedule: Option<Schedule>,
-    /// Estimator: plain (the paper's) or nee (next-event estimation with multiple importance
-    /// sampling: a shadow ray to an emissive triangle at every diffuse hit; far less noise
-    /// per sample under small lights).
-    #[arg(long, default_value = "plain")]
+    /// Estimator: nee (the default: next-event estimation with multiple importance sampling,
+    /// a shadow ray to an emitter at every reflecting hit; far less noise per sample under
+    /// small lights) or plain (the paper's).
+    #[arg(long, default_value = "nee")]
     estimator: Estimator,
+    /// Random numbers: zsobol (the default: scrambled Sobol' points, pbrt-v4's) or
+    /// independent (the paper's).
+    #[arg(long, default_value = "zsobol")]
+    sampler: Sampler,
+    /// Russian roulette from this path segment on (default 5, as Mitsuba 3's `path`), or off.
+    #[arg(long, default_value = "5", value_parser = parse_rr_depth)]
+    rr_depth: RrDepth,
     /// Skip the scene's bloom pass.
     #[arg(long)]
     no_bloom: bool,
@@ -67,6 +79,20 @@ struct Args {
     /// No progress bar.
     #[arg(long, short = 'q')]
     quiet: bool,
+}
+
+/// `--rr-depth`: a segment number or `off`.
+#[derive(Clone, Copy, Debug)]
+struct RrDepth(Option<u32>);
+
+fn parse_rr_depth(s: &str) -> Result<RrDepth, String> {
+    if s.trim() == "off" {
+        return Ok(RrDepth(None));
+    }
+    s.trim()
+        .parse()
+        .map(|d| RrDepth(Some(d)))
+        .map_err(|_| format!("`{s}` is not a path segment number or `off`"))
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -169,6 +195,9 @@ fn run(args: Args) -> Result<(), String> {
         tracer.batch_spp = b;
     }
     tracer.estimator = args.estimator;
+    tracer.sampler = args.sampler;
+    tracer.russian_roulette = args.rr_depth.0;
+    tracer.target_error = args.target_error;
     if let Some(s) = args.schedule {
         tracer.schedule = s;
     }
@@ -195,13 +224,20 @@ fn run(args: Args) -> Result<(), String> {
     render.stats.seconds.total += load_s;
 
     let s = &render.stats;
+    let roulette = match s.russian_roulette {
+        Some(d) => format!("roulette from {d}"),
+        None => "roulette off".into(),
+    };
     eprintln!(
-        "raylume: rendered {} ({}x{}, {} spp, {} bounces) on {} [{}]: {} ({})",
+        "raylume: rendered {} ({}x{}, {} spp, {} bounces; estimator {}, sampler {}, {roulette}) \
+         on {} [{}]: {} ({})",
         args.scene.display(),
         s.width,
         s.height,
         s.spp,
         s.max_bounces,
+        s.estimator,
+        s.sampler,
         s.backend.to_uppercase(),
         s.adapter,
         s.backend_reason,
@@ -217,6 +253,9 @@ fn run(args: Args) -> Result<(), String> {
         s.seconds.upload,
         s.seconds.post
     );
+    if let Some(target) = s.target_error {
+        eprintln!("raylume: {}", describe_target(s, target));
+    }
     if s.dropped_samples > 0 {
         eprintln!(
             "warning: {} samples had non-finite or overflowing radiance and were dropped",
@@ -233,6 +272,33 @@ fn run(args: Args) -> Result<(), String> {
     }
     eprintln!("raylume: wrote {}", args.output.display());
     Ok(())
+}
+
+/// The summary of a render with a target error: where it stopped and why.
+fn describe_target(s: &raylume::RenderStats, target: f32) -> String {
+    let cap = s.spp_cap.unwrap_or(s.spp);
+    let batches = s.batches.unwrap_or(0);
+    let estimate = match s.estimated_error {
+        Some(e) => format!("estimated relative MSE {e:.3e}"),
+        None => format!(
+            "no estimate: an estimate needs at least 2 batches, and the cap of {cap} spp holds \
+             {batches} of {} spp (raise --spp or lower --batch-spp)",
+            s.batch_spp
+        ),
+    };
+    if s.target_reached == Some(true) {
+        format!(
+            "target error {target:.3e}: reached at {} of at most {cap} spp ({batches} batches of \
+             {} spp), {estimate}",
+            s.spp, s.batch_spp
+        )
+    } else {
+        format!(
+            "target error {target:.3e}: not reached, stopped at the cap of {cap} spp ({batches} \
+             batches of {} spp), {estimate}",
+            s.batch_spp
+        )
+    }
 }
 
 fn main() -> ExitCode {

@@ -23,6 +23,9 @@ pub enum Error {
     /// Settings that cannot render (zero sizes, absurd sizes, ...).
     #[error("invalid render settings: {0}")]
     Settings(String),
+    /// A [`crate::Tracer::target_error`] that is not a finite relative MSE above 0.
+    #[error("target error {0}: use a relative MSE above 0 (e.g. 1e-3), a finite number")]
+    TargetError(f32),
     /// Writing the output failed; nothing was left at `path`.
     #[error("cannot write {path}: {reason}")]
     Output { path: PathBuf, reason: String },

@@ -65,6 +65,7 @@ mod auto;
 mod error;
 mod output;
 mod stats;
+mod target;
 mod tracer;
 
 pub use auto::AutoDecision;
@@ -74,7 +75,7 @@ pub use stats::{DepthSeconds, RenderStats, StageSeconds};
 pub use tracer::{Backend, Progress, Render, ReorderPolicy, Tracer};
 
 pub use raylume_bvh::BvhQuality;
-pub use raylume_kernels::{BatchPlan, Estimator, Reorder, ReorderMode, Schedule};
+pub use raylume_kernels::{BatchPlan, Estimator, Reorder, ReorderMode, Sampler, Schedule};
 pub use raylume_scene::{Feature, Features, RenderSettings, Scene};
 
 /// The scene model and its loaders (`raylume-scene`, re-exported): [`scene::Camera`],

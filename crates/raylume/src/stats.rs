@@ -36,7 +36,22 @@ pub struct RenderStats {
     pub backend_reason: String,
     pub width: u32,
     pub height: u32,
+    /// Samples per pixel traced: the scene's, or with a target error where the render stopped.
     pub spp: u32,
+    /// With a target error: the scene's `spp`, the most the render could trace.
+    pub spp_cap: Option<u32>,
+    /// The target relative MSE ([`crate::Tracer::target_error`]), if one was set.
+    pub target_error: Option<f32>,
+    /// With a target error: the relative MSE estimated from the batches' spread after the last
+    /// batch traced; `None` when fewer than 2 batches were traced (no estimate exists).
+    pub estimated_error: Option<f64>,
+    /// With a target error: true when the render stopped because the estimate fell below the
+    /// target, false when it reached the cap (`spp_cap`) first.
+    pub target_reached: Option<bool>,
+    /// With a target error: the batches traced, each `batch_spp` samples of every pixel (the
+    /// last may hold fewer; an image too large for one batch splits each into pixel ranges,
+    /// counted once): the number of batch means the estimate used.
+    pub batches: Option<u32>,
     pub max_bounces: u32,
     pub batch_spp: u32,
     pub seed: u32,
@@ -49,6 +64,10 @@ pub struct RenderStats {
     pub schedule: String,
     /// `plain` (the paper's estimator) or `nee` (next-event estimation with MIS).
     pub estimator: String,
+    /// `independent` (the paper's `pcg4d` numbers) or `zsobol` (scrambled Sobol' points).
+    pub sampler: String,
+    /// The segment from which Russian roulette may end a path; `None` (JSON `null`): off.
+    pub russian_roulette: Option<u32>,
     /// The reorder policy and what it ran: `off`, `on: wavefront, sort-index before depths
     /// 1..=10`, `auto: <the plan> (fastest measured per N-ray batch: ...)`, `auto: still
     /// measuring (...)`, or why it did not run (the CPU backend).

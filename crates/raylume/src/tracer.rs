@@ -6,13 +6,15 @@ use std::time::Instant;
 
 use raylume_bvh::{BvhQuality, GpuBvh};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, GpuError};
+use raylume_kernels::batches::{RoundHook, RoundSums};
 use raylume_kernels::{
-    BatchPlan, CpuTracer, Estimator, GpuTracer, GpuWorkspace, Reorder, ReorderMode, Schedule,
-    TraceSettings, TraceStats,
+    BatchPlan, CpuTracer, Estimator, GpuTracer, GpuWorkspace, Reorder, ReorderMode, Sampler,
+    Schedule, TraceSettings, TraceStats,
 };
 use raylume_scene::Scene;
 
 use crate::auto::{AutoDecision, AutoPolicy, AutoState, fingerprint};
+use crate::target::TargetRun;
 use crate::{DepthSeconds, Error, ImageFormat, RenderStats};
 
 /// Where rays are traced.
@@ -154,10 +156,35 @@ pub struct Tracer {
     /// paper's whole key; 16 takes half the radix passes). See [`Reorder::key_bits`].
     pub reorder_key_bits: u32,
     pub schedule: Schedule,
-    /// The estimator: the paper's plain one (default), or next-event estimation with multiple
-    /// importance sampling (far less noise per sample where emissive triangles light the
-    /// scene; each diffuse hit also casts a shadow ray). The same on both backends.
+    /// The estimator: next-event estimation with multiple importance sampling
+    /// ([`Estimator::Nee`], the default: far less noise per sample where emitters light the
+    /// scene; each reflecting hit also casts a shadow ray), or the paper's plain one
+    /// ([`Estimator::Plain`]). The same on both backends.
     pub estimator: Estimator,
+    /// Where the paths' random numbers come from: [`Sampler::ZSobol`] (the default, pbrt-v4's:
+    /// Owen-scrambled Sobol' points, less error per sample on smooth integrands) or
+    /// [`Sampler::Independent`] (the paper's independent `pcg4d` numbers).
+    pub sampler: Sampler,
+    /// The segment from which Russian roulette may end a path (`Some(5)`, the default, as
+    /// Mitsuba 3's `path`; `None`: off, every path runs to `max_bounces` or until it escapes).
+    /// After each hit of a segment `>= start` the path goes on with probability
+    /// `min(max throughput, 0.95)` and its throughput is divided by it: unbiased, fewer rays.
+    pub russian_roulette: Option<u32>,
+    /// Render until the image's relative MSE (as `raylume_post::relative_mse` measures it
+    /// against the converged image), estimated from the spread of its own batches, is below
+    /// this value; the scene's `spp` is then the cap. `None` (the default): render the
+    /// scene's `spp`. After every batch of `batch_spp` samples of every pixel (a round: see
+    /// [`RenderStats::batches`]) the estimate is the mean over pixels and channels of
+    /// `Var(pixel mean) / (mean^2 + 1e-2)`, `Var(pixel mean)` the sample variance of the
+    /// batches' means divided by their number; it needs at least 2 batches, so a cap of one
+    /// batch renders it and reports no estimate. The render stops at the first batch whose
+    /// estimate is below the target, and its image is then exactly that of a render of the
+    /// samples traced (with [`Sampler::ZSobol`], whose points are laid out for the cap: the
+    /// first samples of the capped render). The estimate is of the traced radiance, before
+    /// bloom. [`RenderStats`] reports `target_error`, `estimated_error`, `target_reached`,
+    /// `batches`, `spp` (done) and `spp_cap`. Must be finite and above 0
+    /// ([`Error::TargetError`]); on the GPU every batch's image is read back to estimate it.
+    pub target_error: Option<f32>,
     pub bvh_quality: BvhQuality,
     /// Run the scene's bloom, if it has one (`--no-bloom` clears this).
     pub bloom: bool,
@@ -237,6 +264,9 @@ impl std::fmt::Debug for Tracer {
             .field("reorder_key_bits", &self.reorder_key_bits)
             .field("schedule", &self.schedule)
             .field("estimator", &self.estimator)
+            .field("sampler", &self.sampler)
+            .field("russian_roulette", &self.russian_roulette)
+            .field("target_error", &self.target_error)
             .field("bloom", &self.bloom)
             .finish()
     }
@@ -246,6 +276,14 @@ impl Tracer {
     /// The paper's batch size: 20 samples per pixel per batch.
     pub const DEFAULT_BATCH_SPP: u32 = 20;
 
+    /// The Russian-roulette start of [`Tracer::new`]: segment 5, as Mitsuba 3's `path`.
+    pub const DEFAULT_RUSSIAN_ROULETTE: u32 = 5;
+
+    /// A tracer with the defaults a user expects of a path tracer: next-event estimation with
+    /// MIS ([`Estimator::Nee`]), the ZSobol sampler ([`Sampler::ZSobol`]) and Russian
+    /// roulette from segment 5; batches of 20 samples per pixel, no ray reordering, the
+    /// megakernel. For the paper's estimator set [`Tracer::paper_estimator`] (plain,
+    /// independent numbers, no roulette), as the Table-1 `bench` does.
     pub fn new(backend: Backend) -> Self {
         Self {
             backend,
@@ -255,7 +293,10 @@ impl Tracer {
             reorder_mode: ReorderMode::SortIndex,
             reorder_key_bits: raylume_sort::RAY_KEY_BITS,
             schedule: Schedule::default(),
-            estimator: Estimator::default(),
+            estimator: Estimator::Nee,
+            sampler: Sampler::ZSobol,
+            russian_roulette: Some(Self::DEFAULT_RUSSIAN_ROULETTE),
+            target_error: None,
             bvh_quality: BvhQuality::default(),
             bloom: true,
             tone: raylume_post::ToneMap::default(),
@@ -266,6 +307,15 @@ impl Tracer {
             auto: HashMap::new(),
             bvh_cache: None,
         }
+    }
+
+    /// Sets the paper's estimator: [`Estimator::Plain`], [`Sampler::Independent`], no Russian
+    /// roulette (what the kernels do by default, and what `bench` compares with the paper).
+    pub fn paper_estimator(&mut self) -> &mut Self {
+        self.estimator = Estimator::Plain;
+        self.sampler = Sampler::Independent;
+        self.russian_roulette = None;
+        self
     }
 
     /// Calls `f` after every batch.
@@ -313,10 +363,12 @@ impl Tracer {
             scene,
             &self.trace_settings(scene),
             &format!(
-                "{:?} {} {}",
+                "{:?} {} {} {} {:?}",
                 self.bvh_quality,
                 self.reorder_key_bits,
-                self.estimator.name()
+                self.estimator.name(),
+                self.sampler.name(),
+                self.russian_roulette
             ),
         )
     }
@@ -405,6 +457,11 @@ impl Tracer {
     pub fn render(&mut self, scene: &Scene) -> Result<Render, Error> {
         let t_total = Instant::now();
         Self::check_settings(scene)?;
+        if let Some(e) = self.target_error
+            && !(e.is_finite() && e > 0.0)
+        {
+            return Err(Error::TargetError(e));
+        }
         scene.validate()?;
         let (use_gpu, reason) = self.choose_backend()?;
         let r = scene.render;
@@ -457,6 +514,8 @@ impl Tracer {
             features: scene.features().names(),
             schedule: settings.schedule.name().into(),
             estimator: self.estimator.name().into(),
+            sampler: self.sampler.name().into(),
+            russian_roulette: self.russian_roulette,
             reorder,
             ..Default::default()
         };
@@ -490,6 +549,9 @@ impl Tracer {
         } else {
             None
         };
+        let mut target = self
+            .target_error
+            .map(|e| TargetRun::new(e, (r.width * r.height) as usize));
         let result = if use_gpu {
             self.trace_gpu(
                 scene,
@@ -497,17 +559,18 @@ impl Tracer {
                 &settings,
                 auto_key,
                 bloom,
+                target.as_mut(),
                 &mut stats,
                 &mut report,
             )
         } else {
             stats.adapter = format!("CPU, {} threads", rayon::current_num_threads());
-            Self::trace_cpu(
+            self.trace_cpu(
                 scene,
                 &bvh,
                 &settings,
-                self.estimator,
                 bloom,
+                target.as_mut(),
                 &mut stats,
                 &mut report,
             )
@@ -521,6 +584,14 @@ impl Tracer {
             self.gpu_workspace = None;
         }
         let pixels = result?;
+        if let Some(t) = &target {
+            stats.target_error = Some(t.target);
+            stats.estimated_error = t.estimate;
+            stats.target_reached = Some(t.reached);
+            stats.batches = Some(t.rounds);
+            stats.spp_cap = Some(r.spp);
+            stats.spp = t.spp_done;
+        }
         stats.seconds.total = t_total.elapsed().as_secs_f64();
         if stats.seconds.trace > 0.0 {
             stats.mrays_per_s = stats.rays_traced as f64 / stats.seconds.trace / 1e6;
@@ -544,6 +615,7 @@ impl Tracer {
         settings: &TraceSettings,
         auto_key: Option<u64>,
         bloom: Option<raylume_post::BloomParams>,
+        target: Option<&mut TargetRun>,
         stats: &mut RenderStats,
         report: &mut dyn FnMut(u32, u32),
     ) -> Result<Vec<[f32; 3]>, Error> {
@@ -552,20 +624,26 @@ impl Tracer {
         let t = Instant::now();
         let mut tracer = GpuTracer::new(ctx, scene, bvh)?;
         tracer.set_estimator(self.estimator);
+        tracer.set_sampler(self.sampler);
+        tracer.set_russian_roulette(self.russian_roulette);
         if let Some(workspace) = self.gpu_workspace.take() {
             tracer.use_workspace(workspace);
         }
         stats.seconds.upload = t.elapsed().as_secs_f64();
-        let out = match auto_key {
-            None => tracer.render_to_buffer(settings, report)?,
-            Some(key) => {
+        let mut on_round = target.map(|t| move |r: &RoundSums<'_>| t.on_round(r));
+        let hook = on_round.as_mut().map(|f| f as &mut RoundHook<'_>);
+        let out = match (auto_key, hook) {
+            (None, None) => tracer.render_to_buffer(settings, report)?,
+            (None, Some(hook)) => tracer.render_to_buffer_with_hook(settings, report, hook)?,
+            (Some(key), hook) => {
                 let (off_schedule, bits) = (self.schedule, self.reorder_key_bits);
                 let state = self
                     .auto
                     .entry(key)
                     .or_insert_with(|| AutoState::new(off_schedule, settings.max_bounces, bits));
+                let mut policy = AutoPolicy::new(state);
                 let out =
-                    tracer.render_with_policy(settings, &mut AutoPolicy::new(state), report)?;
+                    tracer.render_with_policy_and_hook(settings, &mut policy, report, hook)?;
                 stats.reorder = state.describe();
                 out
             }
@@ -630,17 +708,23 @@ impl Tracer {
     /// Traces on the CPU and runs bloom there.
     #[allow(clippy::too_many_arguments)]
     fn trace_cpu(
+        &self,
         scene: &Scene,
         bvh: &GpuBvh,
         settings: &TraceSettings,
-        estimator: Estimator,
         bloom: Option<raylume_post::BloomParams>,
+        target: Option<&mut TargetRun>,
         stats: &mut RenderStats,
         report: &mut dyn FnMut(u32, u32),
     ) -> Result<Vec<[f32; 3]>, Error> {
         let mut tracer = CpuTracer::new(scene, bvh)?;
-        tracer.set_estimator(estimator);
-        let out = tracer.render(settings, report)?;
+        tracer.set_estimator(self.estimator);
+        tracer.set_sampler(self.sampler);
+        tracer.set_russian_roulette(self.russian_roulette);
+        let out = match target {
+            None => tracer.render(settings, report)?,
+            Some(t) => tracer.render_with_hook(settings, report, &mut |r| t.on_round(r))?,
+        };
         stats.take_trace(out.rays_traced, out.dropped_samples, &out.timings);
         let mut pixels = out.radiance;
         let t = Instant::now();

@@ -319,3 +319,99 @@ fn invalid_scene_leaves_no_output() {
         &["bad.toml"],
     );
 }
+
+#[test]
+fn estimator_flags_and_target_error_reach_the_stats_and_the_summary() {
+    let d = tmp("target");
+    let (png, stats) = (d.join("out.png"), d.join("stats.json"));
+    let base = [
+        "scenes/cornell-box.toml",
+        "-o",
+        png.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--size",
+        "16x12",
+        "--bounces",
+        "2",
+        "-q",
+        "--stats",
+        stats.to_str().unwrap(),
+    ];
+    // The defaults: NEE, ZSobol, roulette from segment 5, no target.
+    let o = run(&[&base[..], &["--spp", "2"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("estimator nee, sampler zsobol, roulette from 5"),
+        "{}",
+        stderr(&o)
+    );
+    let v = json(&stats);
+    assert_eq!(
+        (&v["estimator"], &v["sampler"], &v["russian_roulette"]),
+        (
+            &serde_json::json!("nee"),
+            &serde_json::json!("zsobol"),
+            &serde_json::json!(5)
+        )
+    );
+    assert!(v["target_error"].is_null() && v["estimated_error"].is_null());
+
+    // Any estimate is below 1e9: the render stops after the second batch, the first with an
+    // estimate, at 2 x 4 of the 64 spp allowed.
+    let o = run(&[
+        &base[..],
+        &[
+            "--spp",
+            "64",
+            "--batch-spp",
+            "4",
+            "--target-error",
+            "1e9",
+            "--estimator",
+            "plain",
+            "--sampler",
+            "independent",
+            "--rr-depth",
+            "off",
+        ],
+    ]
+    .concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    for part in [
+        "estimator plain, sampler independent, roulette off",
+        "target error 1.000e9: reached at 8 of at most 64 spp (2 batches of 4 spp), estimated \
+         relative MSE",
+    ] {
+        assert!(err.contains(part), "lacks `{part}`: {err}");
+    }
+    let v = json(&stats);
+    assert_eq!(v["spp"], 8);
+    assert_eq!(v["spp_cap"], 64);
+    assert_eq!(v["batches"], 2);
+    assert_eq!(v["target_reached"], true);
+    assert!(v["estimated_error"].as_f64().is_some_and(|e| e < 1e9));
+    assert!(v["russian_roulette"].is_null());
+
+    for (flag, value, message) in [
+        (
+            "--target-error",
+            "0",
+            "target error 0: use a relative MSE above 0",
+        ),
+        ("--target-error", "lots", "lots"),
+        ("--sampler", "sobolish", "unknown sampler `sobolish`"),
+        (
+            "--rr-depth",
+            "never",
+            "`never` is not a path segment number or `off`",
+        ),
+    ] {
+        let out = d.join(format!("bad-{value}.png"));
+        let mut args = base.to_vec();
+        args[2] = out.to_str().unwrap();
+        args.extend([flag, value]);
+        check_failure(&args, &out, &[message]);
+    }
+}

@@ -96,8 +96,13 @@ fn every_scene_renders_the_same_paths_on_cpu_and_gpu() {
     else {
         return;
     };
+    // The paper's estimator, explicitly: the divergence rate and the rounding figures above
+    // were measured with it (the library's default adds shadow rays and roulette decisions,
+    // more places for rounding to flip a path).
     let mut cpu = Tracer::new(Backend::Cpu);
     let mut gpu = Tracer::new(Backend::Gpu);
+    cpu.paper_estimator();
+    gpu.paper_estimator();
     for path in scenes() {
         let scene = small(&path);
         let c = cpu.render(&scene).unwrap();
@@ -144,6 +149,7 @@ fn every_scene_renders_the_same_paths_on_cpu_and_gpu() {
         // The comparison has teeth: another seed's image diverges in more than twice the
         // pixels allowed (28 to 400 of 400 here; the Cornell boxes are mostly black at 2 spp).
         let mut other = Tracer::new(Backend::Cpu);
+        other.paper_estimator();
         other.seed = Some(scene.render.seed.wrapping_add(1));
         let o = other.render(&scene).unwrap();
         let noise = rel_rmse(&o.pixels, &c.pixels);

@@ -196,7 +196,16 @@ pub fn furnace_series(a: f32, e: Vec3, n: u32) -> Vec3 {
 fn gpu_tracer(test: &str) -> Option<&'static Mutex<Tracer>> {
     raylume_gpu::testing::context_or_skip(test)?;
     static GPU: OnceLock<Mutex<Tracer>> = OnceLock::new();
-    Some(GPU.get_or_init(|| Mutex::new(Tracer::new(Backend::Gpu))))
+    Some(GPU.get_or_init(|| Mutex::new(paper_tracer(Backend::Gpu))))
+}
+
+/// A tracer with the paper's estimator (plain, independent numbers, no Russian roulette):
+/// the answers here are exact per sample and every path runs its full length only under it
+/// (next-event estimation and roulette make each sample random, unbiased but not exact).
+pub fn paper_tracer(backend: Backend) -> Tracer {
+    let mut t = Tracer::new(backend);
+    t.paper_estimator();
+    t
 }
 
 /// One backend's render of a case.
@@ -220,7 +229,7 @@ pub fn render_both(
     drops_allowed: bool,
     max_flipped: usize,
 ) -> Vec<Rendered> {
-    let cpu = Tracer::new(Backend::Cpu)
+    let cpu = paper_tracer(Backend::Cpu)
         .render(scene)
         .unwrap_or_else(|e| panic!("{test}: CPU render failed: {e}"));
     let mut out = vec![Rendered {
