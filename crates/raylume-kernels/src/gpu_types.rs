@@ -61,6 +61,8 @@ pub const DIM_ROULETTE: u32 = 3;
 pub const LIGHT_TRIANGLE: u32 = 0;
 /// `GpuLight::kind`: an emissive sphere (its outside; also its inside when two-sided).
 pub const LIGHT_SPHERE: u32 = 1;
+/// `GpuLight::kind`: the environment (constant, or a map sampled by its luminance).
+pub const LIGHT_ENVIRONMENT: u32 = 2;
 /// `SceneUniforms::sampler`: independent numbers, `rand4`.
 pub const SAMPLER_INDEPENDENT: u32 = 0;
 /// `SceneUniforms::sampler`: ZSobol, `sobol4`.
@@ -158,8 +160,14 @@ pub struct SceneUniforms {
     pub rr_depth: u32,
     /// [`SAMPLER_INDEPENDENT`] or [`SAMPLER_ZSOBOL`]: where the path's random numbers come from.
     pub sampler: u32,
-    pub _pad1: u32,
-    pub _pad2: u32,
+    /// The environment's selection probability in the light list (its share of
+    /// `light_power`); 0 when next-event estimation does not sample it (then an escaping path
+    /// counts it in full).
+    pub environment_select: f32,
+    /// An environment map's sampling distribution ([`crate::surface::sample_environment`]):
+    /// the index in `texels` (floats, not texels) of its row CDF (`environment_height`
+    /// floats), followed by each row's column CDF (`environment_width` floats per row).
+    pub environment_cdf: u32,
 }
 
 /// One material.
@@ -228,8 +236,9 @@ pub struct TextureHeader {
 
 /// An emitter of the light list that next-event estimation samples, chosen with probability
 /// `cdf - previous cdf` (proportional to area times emitted luminance): an emissive triangle
-/// ([`LIGHT_TRIANGLE`]: a point `p0 + u e1 + v e2`) or an emissive sphere ([`LIGHT_SPHERE`]:
-/// centre `p0`, radius `e1.x`; a point of the cap seen from the shading point).
+/// ([`LIGHT_TRIANGLE`]: a point `p0 + u e1 + v e2`), an emissive sphere ([`LIGHT_SPHERE`]:
+/// centre `p0`, radius `e1.x`; a point of the cap seen from the shading point) or the
+/// environment ([`LIGHT_ENVIRONMENT`], last; a direction, other fields unused).
 ///
 /// `repr(C)`, `Pod`, 64 bytes. WGSL: `GpuLight`.
 #[repr(C)]
@@ -346,6 +355,7 @@ pub fn wgsl_constants() -> String {
     s += &u("DIMS_PER_BOUNCE", DIMS_PER_BOUNCE);
     s += &u("LIGHT_TRIANGLE", LIGHT_TRIANGLE);
     s += &u("LIGHT_SPHERE", LIGHT_SPHERE);
+    s += &u("LIGHT_ENVIRONMENT", LIGHT_ENVIRONMENT);
     s += &u("SAMPLER_INDEPENDENT", SAMPLER_INDEPENDENT);
     s += &u("SAMPLER_ZSOBOL", SAMPLER_ZSOBOL);
     s += &u("NO_ROULETTE", NO_ROULETTE);

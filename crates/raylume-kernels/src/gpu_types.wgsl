@@ -34,8 +34,8 @@ struct SceneUniforms {
     light_power: f32,
     rr_depth: u32,
     sampler: u32,
-    _pad1: u32,
-    _pad2: u32,
+    environment_select: f32,
+    environment_cdf: u32,
 }
 
 struct GpuMaterial {

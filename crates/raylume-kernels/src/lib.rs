@@ -109,11 +109,11 @@ pub enum Estimator {
     #[default]
     Plain,
     /// Next-event estimation: at every diffuse, rough-metal or plastic hit, a shadow ray to a
-    /// point on an emissive triangle or sphere (chosen by area times emitted luminance; on a
+    /// point on an emissive triangle or sphere or the sky (chosen by power; on a
     /// sphere, in the cone of its visible cap) adds that light's direct contribution, weighted
     /// by multiple importance sampling against the emission the next scattered ray may hit.
-    /// The environment still counts where a path escapes. Unbiased; far less noise where small
-    /// emitters light diffuse surfaces.
+    /// The environment too: a constant sky uniformly over directions, a map by its luminance.
+    /// Unbiased; far less noise where small emitters light diffuse surfaces.
     Nee,
 }
 

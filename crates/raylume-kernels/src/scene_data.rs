@@ -15,10 +15,10 @@ use crate::bsdf::RoughPlasticTable;
 use crate::camera::camera_basis;
 use crate::gpu_types::LUMINANCE;
 use crate::gpu_types::{
-    ENVIRONMENT_BLACK, ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuLight, GpuMaterial, LIGHT_SPHERE,
-    LIGHT_TRIANGLE, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL, MATERIAL_PLASTIC,
-    MATERIAL_TWO_SIDED, NO_ROULETTE, NO_TABLE, NO_TEXTURE, SHADING_HAS_NORMALS, SHADING_HAS_UVS,
-    SceneUniforms, TextureHeader, TriangleShading,
+    ENVIRONMENT_BLACK, ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuLight, GpuMaterial,
+    LIGHT_ENVIRONMENT, LIGHT_SPHERE, LIGHT_TRIANGLE, MATERIAL_DIFFUSE, MATERIAL_GLASS,
+    MATERIAL_METAL, MATERIAL_PLASTIC, MATERIAL_TWO_SIDED, NO_ROULETTE, NO_TABLE, NO_TEXTURE,
+    SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms, TextureHeader, TriangleShading,
 };
 use crate::{Estimator, Sampler};
 
@@ -51,6 +51,11 @@ pub struct SceneData {
     pub environment_width: u32,
     pub environment_height: u32,
     pub environment_offset: u32,
+    /// An environment map's sampling distribution in `texels` (a float index; see
+    /// `SceneUniforms::environment_cdf`), 0 without a map.
+    pub environment_cdf: u32,
+    /// The environment's selection probability in `lights` (0 when it is not there).
+    pub environment_select: f32,
     pub scene_min: Vec3,
     pub scene_extent: Vec3,
     /// The emissive triangles, for next-event estimation (empty when none emits).
@@ -71,8 +76,10 @@ pub struct SceneData {
 /// Every emitter that next-event estimation samples, with its selection probability
 /// proportional to its area times its emitted luminance ([`LUMINANCE`]) as a running sum, and
 /// the total of area times luminance; empty when nothing emits. Emissive triangles
-/// ([`LIGHT_TRIANGLE`]) first, then emissive spheres ([`LIGHT_SPHERE`], area `4 pi r^2`).
-fn light_list(scene: &Scene) -> (Vec<GpuLight>, f32) {
+/// ([`LIGHT_TRIANGLE`]) first, then emissive spheres ([`LIGHT_SPHERE`], area `4 pi r^2`),
+/// then the environment ([`LIGHT_ENVIRONMENT`]) when `environment_power` (its selection
+/// weight, in the same units) is positive. Also returns the environment's probability.
+fn light_list(scene: &Scene, environment_power: f32) -> (Vec<GpuLight>, f32, f32) {
     let mut lights = Vec::new();
     let mut total = 0.0f64;
     let mut push = |area: f32, m: &raylume_scene::Material, mut light: GpuLight| {
@@ -114,13 +121,72 @@ fn light_list(scene: &Scene) -> (Vec<GpuLight>, f32) {
         };
         push(4.0 * std::f32::consts::PI * sp.radius * sp.radius, m, light);
     }
+    let before_environment = total;
+    if environment_power > 0.0 && environment_power.is_finite() {
+        total += f64::from(environment_power);
+        lights.push(GpuLight {
+            cdf: total as f32,
+            kind: LIGHT_ENVIRONMENT,
+            ..Default::default()
+        });
+    }
     for l in &mut lights {
         l.cdf = (f64::from(l.cdf) / total) as f32;
     }
     if let Some(last) = lights.last_mut() {
         last.cdf = 1.0;
     }
-    (lights, total as f32)
+    let environment_select = match lights.last() {
+        Some(l) if l.kind == LIGHT_ENVIRONMENT => 1.0 - (before_environment / total) as f32,
+        _ => 0.0,
+    };
+    (lights, total as f32, environment_select)
+}
+
+/// The sampling distribution of an environment map, in the layout
+/// `SceneUniforms::environment_cdf` describes: texel `(x, y)` is chosen with probability
+/// proportional to `(luminance + floor) sin θ_y` (θ at the row's centre: the solid angle of
+/// its texels), `floor` a thousandth of the mean luminance so that every direction can be
+/// drawn. Returns the CDFs and the map's mean luminance over the sphere of directions
+/// (solid-angle weighted, before `strength`).
+pub fn environment_distribution(image: &Texture) -> (Vec<f32>, f32) {
+    let (w, h) = (image.width as usize, image.height as usize);
+    let lum = |t: &[f32; 3]| f64::from(Vec3::from(*t).dot(Vec3::from(LUMINANCE)).max(0.0));
+    let plain_mean = image.texels.iter().map(lum).sum::<f64>() / (w * h).max(1) as f64;
+    let floor = if plain_mean > 0.0 {
+        1e-3 * plain_mean
+    } else {
+        1.0
+    };
+    let mut rows = vec![0.0f64; h];
+    let mut columns = vec![0.0f32; w * h];
+    let (mut weighted, mut solid) = (0.0f64, 0.0f64);
+    for y in 0..h {
+        let sin = ((y as f64 + 0.5) / h as f64 * std::f64::consts::PI).sin();
+        let mut run = 0.0f64;
+        for x in 0..w {
+            let l = lum(&image.texels[y * w + x]);
+            weighted += l * sin;
+            solid += sin;
+            run += (l + floor) * sin;
+            columns[y * w + x] = run as f32;
+        }
+        for c in &mut columns[y * w..(y + 1) * w] {
+            *c = (f64::from(*c) / run) as f32;
+        }
+        columns[y * w + w - 1] = 1.0;
+        rows[y] = run;
+    }
+    let total: f64 = rows.iter().sum();
+    let mut cdf = Vec::with_capacity(h + w * h);
+    let mut run = 0.0f64;
+    for r in &rows {
+        run += r;
+        cdf.push((run / total) as f32);
+    }
+    cdf[h - 1] = 1.0;
+    cdf.extend(columns);
+    (cdf, (weighted / solid) as f32)
 }
 
 /// Each rough plastic's table key ([`table_key`]) to its index in the table buffer.
@@ -335,6 +401,8 @@ impl SceneData {
             environment_width: 0,
             environment_height: 0,
             environment_offset: 0,
+            environment_cdf: 0,
+            environment_select: 0.0,
             scene_min: Vec3::ZERO,
             scene_extent: Vec3::ZERO,
             lights: Vec::new(),
@@ -365,13 +433,45 @@ impl SceneData {
                 data.environment_height = image.height;
             }
         }
+        // The environment's mean radiance over directions (luminance), for its share of the
+        // light list.
+        let mut environment_luminance = 0.0f32;
+        match &scene.environment {
+            Environment::Constant(c) if c.max_element() > 0.0 => {
+                environment_luminance = c.dot(Vec3::from(LUMINANCE));
+            }
+            Environment::Map {
+                image, strength, ..
+            } => {
+                let (cdf, mean) = environment_distribution(image);
+                data.environment_cdf = u32::try_from(texels.len()).map_err(|_| {
+                    KernelError::InvalidScene(
+                        "the textures and the environment map's distribution hold more than \
+                         2^32 floats"
+                            .into(),
+                    )
+                })?;
+                texels.extend(cdf);
+                environment_luminance = mean * strength;
+            }
+            _ => {}
+        }
         data.texels = texels;
-        (data.lights, data.light_power) = light_list(scene);
         let bounds = scene.bounds();
         if !bounds.is_empty() {
             data.scene_min = bounds.min;
             data.scene_extent = bounds.extent();
         }
+        // pbrt's estimate of an infinite light's power: its radiance over a disc of the
+        // scene's bounding radius.
+        let radius = if bounds.is_empty() {
+            1.0
+        } else {
+            (0.5 * bounds.extent().length()).max(f32::MIN_POSITIVE)
+        };
+        let environment_power = std::f32::consts::PI * radius * radius * environment_luminance;
+        (data.lights, data.light_power, data.environment_select) =
+            light_list(scene, environment_power);
         Ok(data)
     }
 
@@ -407,6 +507,11 @@ impl SceneData {
             light_power: self.light_power,
             rr_depth: self.russian_roulette.unwrap_or(NO_ROULETTE),
             sampler: self.sampler.uniform(),
+            environment_select: match self.estimator {
+                Estimator::Plain => 0.0,
+                Estimator::Nee => self.environment_select,
+            },
+            environment_cdf: self.environment_cdf,
             ..Default::default()
         }
     }

@@ -16,8 +16,11 @@
 //! the shadow ray's and the scattered ray's if it hits one, are weighted by multiple
 //! importance sampling (Veach's power heuristic, [`mis_weight`]): each wins where its pdf is
 //! the larger (the shadow ray for small, far lights; the scattered ray close to a light,
-//! where the shadow ray's 1/distance² would make fireflies). The environment has no light
-//! samples and counts in full where a path escapes. Every random number comes from
+//! where the shadow ray's 1/distance² would make fireflies). The environment is the list's
+//! last entry when it shines: a constant sky is sampled uniformly on the sphere of directions
+//! (as Mitsuba's `constant` emitter), a map by its luminance times `sin θ`
+//! ([`crate::surface::sample_environment`]); a path that escapes after such a vertex weighs
+//! the sky it sees the same way. Every random number comes from
 //! [`path_rand4`]: the independent hash or ZSobol, as the uniforms say. Every material scatters on both faces (its normals are flipped towards the
 //! incoming ray, decided by the geometric normal); a scattered direction on the wrong side of
 //! the geometric surface (possible with shading normals) ends the path rather than leaking
@@ -32,16 +35,18 @@ use crate::bsdf::{
     sample_rough_plastic,
 };
 use crate::gpu_types::{
-    DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE, GpuMaterial, LIGHT_SPHERE, LUMINANCE,
-    MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL, MATERIAL_PLASTIC, MATERIAL_TWO_SIDED,
-    RAY_ALIVE, RR_MAX_SURVIVAL, RayState, SAMPLER_ZSOBOL, SHADOW_T_SCALE, SceneUniforms, T_MAX,
+    DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE, GpuMaterial, LIGHT_ENVIRONMENT,
+    LIGHT_SPHERE, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL, MATERIAL_PLASTIC,
+    MATERIAL_TWO_SIDED, RAY_ALIVE, RR_MAX_SURVIVAL, RayState, SAMPLER_ZSOBOL, SHADOW_T_SCALE,
+    SceneUniforms, T_MAX,
 };
 use crate::math::{INV_PI, PI};
 use crate::rng::rand4;
 use crate::sampling::{sample_diffuse, sample_sphere_cap, sphere_cap_pdf};
 use crate::sobol::sobol4;
 use crate::surface::{
-    Globals, SurfaceHit, environment_radiance, material_at, offset_ray_origin, surface_at,
+    Globals, SurfaceHit, environment_pdf, environment_radiance, material_at, offset_ray_origin,
+    sample_environment, surface_at,
 };
 
 /// A path between two segments, as a thread holds it in registers.
@@ -227,7 +232,17 @@ pub fn trace_ray(
         dir: path.dir,
     };
     let Some(hit) = bvh.trace_closest(&ray, 0.0, T_MAX) else {
-        path.radiance += path.throughput * environment_radiance(g, path.dir);
+        // Escaped from a vertex that sampled the lights, the environment among them: weigh
+        // the scattered ray's estimate against the shadow ray's.
+        let w = if path.mis_pdf > 0.0 && g.scene.environment_select > 0.0 {
+            mis_weight(
+                path.mis_pdf,
+                g.scene.environment_select * environment_pdf(g, path.dir),
+            )
+        } else {
+            1.0
+        };
+        path.radiance += path.throughput * environment_radiance(g, path.dir) * w;
         path.alive = false;
         return;
     };
@@ -394,6 +409,19 @@ pub fn sample_lights(
     };
     let origin = offset_ray_origin(hit, dir_in, ng_facing);
     let emission = Vec3::from(light.emission);
+    if light.kind == LIGHT_ENVIRONMENT {
+        // A direction toward the sky; the shadow ray must escape the scene.
+        let (wi, pdf) = sample_environment(g, Vec2::new(rnd.y, rnd.z));
+        if !(pdf > 0.0 && p_select > 0.0 && ns_facing.dot(wi) > 0.0 && ng_facing.dot(wi) > 0.0) {
+            return Vec3::ZERO;
+        }
+        if bvh.trace_any(&Ray { origin, dir: wi }, 0.0, T_MAX) {
+            return Vec3::ZERO;
+        }
+        let f = eval_material(g, mat, dir_in, ns_facing, wi);
+        let w = mis_weight(g.scene.environment_select * environment_pdf(g, wi), f.pdf);
+        return f.value * environment_radiance(g, wi) * (w / (p_select * pdf));
+    }
     let (point, cos_l) = if light.kind == LIGHT_SPHERE {
         // A point of the cap seen from the origin: it faces the origin (cos_l > 0).
         let center = Vec3::from(light.p0);

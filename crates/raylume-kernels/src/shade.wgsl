@@ -71,7 +71,12 @@ fn path_rand4(pixel: u32, sample: u32, bounce: u32, dim: u32) -> vec4<f32> {
 fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32) {
     let hit = trace_closest(Ray((*path).origin, (*path).dir), 0.0, T_MAX);
     if (hit.prim == INVALID_INDEX) {
-        (*path).radiance += (*path).throughput * environment_radiance((*path).dir);
+        // shade.rs: weighed against the shadow ray toward the environment.
+        var w_env = 1.0;
+        if ((*path).mis_pdf > 0.0 && scene.environment_select > 0.0) {
+            w_env = mis_weight((*path).mis_pdf, scene.environment_select * environment_pdf((*path).dir));
+        }
+        (*path).radiance += (*path).throughput * environment_radiance((*path).dir) * w_env;
         (*path).alive = false;
         return;
     }
@@ -82,7 +87,7 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     // weigh the scattered ray's estimate against the shadow ray's (shade.rs).
     var emission_weight = 1.0;
     var sample_here = false;
-    if (HAS_EMISSION && (HAS_DIFFUSE || HAS_PLASTIC || HAS_ROUGH_METAL)) {
+    if ((HAS_EMISSION || HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && (HAS_DIFFUSE || HAS_PLASTIC || HAS_ROUGH_METAL)) {
         let prim = bvh_primitives[hit.prim];
         if ((*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_TRIANGLE) {
             let n = cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz);
@@ -185,6 +190,19 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
     let ng_facing = select(-ng, ng, front);
     let ns_facing = select(-hit.shading_normal, hit.shading_normal, front);
     let origin = offset_ray_origin(hit, dir_in, ng_facing);
+    if ((HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && light.kind == LIGHT_ENVIRONMENT) {
+        // A direction toward the sky; the shadow ray must escape the scene.
+        let es = sample_environment(rnd.yz);
+        if (!(es.pdf > 0.0 && p_select > 0.0 && dot(ns_facing, es.dir) > 0.0 && dot(ng_facing, es.dir) > 0.0)) {
+            return vec3<f32>(0.0);
+        }
+        if (trace_any(Ray(origin, es.dir), 0.0, T_MAX)) {
+            return vec3<f32>(0.0);
+        }
+        let fe = eval_material(mat, dir_in, ns_facing, es.dir);
+        let we = mis_weight(scene.environment_select * environment_pdf(es.dir), fe.pdf);
+        return fe.value * environment_radiance(es.dir) * (we / (p_select * es.pdf));
+    }
     var point: vec3<f32>;
     if (HAS_SPHERES && light.kind == LIGHT_SPHERE) {
         let cap = sample_sphere_cap(light.p0, light.e1.x, origin, rnd.yz);

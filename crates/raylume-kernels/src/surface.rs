@@ -28,7 +28,7 @@ use crate::gpu_types::{
     ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuLight, GpuMaterial, MATERIAL_GLASS, NO_TEXTURE,
     SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms, TextureHeader, TriangleShading,
 };
-use crate::math::{INV_2PI, INV_PI, acos_poly, atan2_poly, normalize};
+use crate::math::{INV_2PI, INV_PI, PI, acos_poly, atan2_poly, normalize};
 
 /// The Rust mirror of the shader's global bindings: what the plain functions read.
 #[derive(Clone, Copy)]
@@ -225,6 +225,95 @@ pub fn environment_radiance(g: &Globals, dir: Vec3) -> Vec3 {
     Vec3::ZERO
 }
 
+/// The first index `i` in `lo..=hi` of the CDF stored at `texels[base..]` with
+/// `cdf[i] > u` (`hi` when none: the last entry is 1).
+#[inline]
+fn cdf_search(g: &Globals, base: u32, count: u32, u: f32) -> u32 {
+    let (mut lo, mut hi) = (0u32, count - 1);
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if g.texels[(base + mid) as usize] > u {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    lo
+}
+
+/// `cdf[i] - cdf[i - 1]` (with `cdf[-1] = 0`) of the CDF stored at `texels[base..]`, and
+/// `cdf[i - 1]`.
+#[inline]
+fn cdf_step(g: &Globals, base: u32, i: u32) -> (f32, f32) {
+    let before = if i > 0 {
+        g.texels[(base + i - 1) as usize]
+    } else {
+        0.0
+    };
+    (g.texels[(base + i) as usize] - before, before)
+}
+
+/// The solid-angle pdf with which [`sample_environment`] draws `dir` (no selection
+/// probability): `1 / 4π` for a constant environment; for a map, its texel's probability
+/// times `width * height` over the Jacobian `2π² sin θ` of the equirectangular mapping.
+#[inline]
+pub fn environment_pdf(g: &Globals, dir: Vec3) -> f32 {
+    let s = &g.scene;
+    if s.environment_kind != ENVIRONMENT_MAP {
+        return 0.25 * INV_PI;
+    }
+    let sin_theta = (1.0 - dir.y * dir.y).max(0.0).sqrt();
+    if !(sin_theta > 0.0) {
+        return 0.0;
+    }
+    let e = direction_to_equirect(dir);
+    let u = e.x + s.environment_rotation;
+    let u = u - u.floor();
+    let (w, h) = (s.environment_width, s.environment_height);
+    let x = ((u * w as f32) as u32).min(w - 1);
+    let y = ((e.y.clamp(0.0, 1.0) * h as f32) as u32).min(h - 1);
+    let (p_row, _) = cdf_step(g, s.environment_cdf, y);
+    let (p_col, _) = cdf_step(g, s.environment_cdf + h + y * w, x);
+    p_row * p_col * (w * h) as f32 / (2.0 * PI * PI * sin_theta)
+}
+
+/// A direction toward the environment from `u` and its solid-angle pdf: uniform on the
+/// sphere for a constant environment; for a map, a texel drawn by its luminance times
+/// `sin θ` (the row from `u.x`, the column from `u.y`), uniform within it in the map's
+/// `(u, v)`, and turned into a direction by the inverse of [`direction_to_equirect`] (with the
+/// map's rotation). Pdf 0 (a direction to ignore) at the poles.
+#[inline]
+pub fn sample_environment(g: &Globals, u: Vec2) -> (Vec3, f32) {
+    let s = &g.scene;
+    if s.environment_kind != ENVIRONMENT_MAP {
+        let z = 1.0 - 2.0 * u.x;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = 2.0 * PI * u.y;
+        return (Vec3::new(r * phi.cos(), z, r * phi.sin()), 0.25 * INV_PI);
+    }
+    let (w, h) = (s.environment_width, s.environment_height);
+    let y = cdf_search(g, s.environment_cdf, h, u.x);
+    let (p_row, row_before) = cdf_step(g, s.environment_cdf, y);
+    let columns = s.environment_cdf + h + y * w;
+    let x = cdf_search(g, columns, w, u.y);
+    let (p_col, col_before) = cdf_step(g, columns, x);
+    let fv = ((u.x - row_before) / p_row).clamp(0.0, 1.0);
+    let fu = ((u.y - col_before) / p_col).clamp(0.0, 1.0);
+    let v = (y as f32 + fv) / h as f32;
+    let tex_u = (x as f32 + fu) / w as f32;
+    let theta = v * PI;
+    let phi = (tex_u - s.environment_rotation - 0.5) * (2.0 * PI);
+    let sin_theta = theta.sin();
+    let dir = Vec3::new(sin_theta * phi.sin(), theta.cos(), -sin_theta * phi.cos());
+    if !(sin_theta > 0.0 && p_row > 0.0 && p_col > 0.0) {
+        return (dir, 0.0);
+    }
+    (
+        dir,
+        p_row * p_col * (w * h) as f32 / (2.0 * PI * PI * sin_theta),
+    )
+}
+
 /// The unit roundoff of `f32`, 2^-24: `fl(x op y) = (x op y)(1 + δ)` with `|δ| <= UNIT_ROUNDOFF`.
 pub const UNIT_ROUNDOFF: f32 = 1.0 / 16_777_216.0;
 /// Roundoff units, per unit of coordinate magnitude, for the hit point's own error: 5 bound
@@ -309,6 +398,127 @@ mod tests {
 
     use crate::gpu_types::{GpuMaterial, T_MAX};
     use raylume_bvh::{Ray, intersect_primitive, shear_ray};
+
+    /// An 8x4 map with one bright texel, a dark row and a black texel, its distribution after
+    /// it in the texel buffer, and uniforms that point at both (rotated by 0.3 turns).
+    fn environment_fixture() -> (Vec<f32>, SceneUniforms, Vec<f64>) {
+        let (w, h) = (8u32, 4u32);
+        let texels: Vec<[f32; 3]> = (0..w * h)
+            .map(|i| match i {
+                10 => [40.0, 30.0, 20.0],
+                0..=7 => [0.05, 0.05, 0.05],
+                20 => [0.0; 3],
+                _ => [0.5 + (i % 3) as f32 * 0.25, 0.6, 0.7],
+            })
+            .collect();
+        let image = raylume_scene::Texture {
+            name: "sky".into(),
+            width: w,
+            height: h,
+            texels: texels.clone(),
+        };
+        let (cdf, _) = crate::scene_data::environment_distribution(&image);
+        let mut buffer: Vec<f32> = texels.iter().flatten().copied().collect();
+        let base = buffer.len() as u32;
+        buffer.extend(&cdf);
+        let scene = SceneUniforms {
+            environment_kind: ENVIRONMENT_MAP,
+            environment_width: w,
+            environment_height: h,
+            environment_offset: 0,
+            environment_cdf: base,
+            environment_rotation: 0.3,
+            environment_color: [1.0; 3],
+            ..Default::default()
+        };
+        // Each texel's probability as the distribution defines it (luminance + a thousandth
+        // of the mean, times sin θ of its row).
+        let lum: Vec<f64> = texels
+            .iter()
+            .map(|t| f64::from(Vec3::from(*t).dot(Vec3::from(crate::gpu_types::LUMINANCE))))
+            .collect();
+        let floor = 1e-3 * lum.iter().sum::<f64>() / f64::from(w * h);
+        let mut p: Vec<f64> = (0..(w * h) as usize)
+            .map(|i| {
+                let row = (i / w as usize) as f64;
+                (lum[i] + floor) * ((row + 0.5) / f64::from(h) * std::f64::consts::PI).sin()
+            })
+            .collect();
+        let total: f64 = p.iter().sum();
+        p.iter_mut().for_each(|x| *x /= total);
+        (buffer, scene, p)
+    }
+
+    #[test]
+    fn environment_samples_follow_the_luminance_and_their_pdf_integrates_to_one() {
+        let (texels, scene, expected) = environment_fixture();
+        let g = Globals {
+            scene: &scene,
+            primitives: &[],
+            materials: &[],
+            prim_materials: &[],
+            triangle_shading: &[],
+            texture_headers: &[],
+            texels: &texels,
+            lights: &[],
+            plastic_tables: &[],
+        };
+        let (w, h) = (scene.environment_width, scene.environment_height);
+        // 1. Texel frequencies: n = 256² stratified samples; each texel's count is binomial
+        // (less variable when stratified), so 5 binomial standard deviations bound it.
+        let n = 256u32;
+        let mut counts = vec![0u32; (w * h) as usize];
+        let mut mismatched = 0;
+        for i in 0..n {
+            for j in 0..n {
+                let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
+                let (dir, pdf) = sample_environment(&g, u);
+                assert!(
+                    (dir.length() - 1.0).abs() < 1e-5 && pdf > 0.0,
+                    "{dir} {pdf}"
+                );
+                let e = direction_to_equirect(dir);
+                let tu = (e.x + scene.environment_rotation).rem_euclid(1.0);
+                let x = ((tu * w as f32) as u32).min(w - 1);
+                let y = ((e.y * h as f32) as u32).min(h - 1);
+                counts[(y * w + x) as usize] += 1;
+                // 2. The pdf it reports is the one environment_pdf gives that direction
+                // (which multiple importance sampling uses), except where the polynomial
+                // atan2/acos put a direction on a texel border into the neighbour.
+                let again = environment_pdf(&g, dir);
+                if (again - pdf).abs() > 1e-3 * pdf {
+                    mismatched += 1;
+                }
+            }
+        }
+        let total = f64::from(n * n);
+        for (k, (&c, &p)) in counts.iter().zip(&expected).enumerate() {
+            let sd = (total * p * (1.0 - p)).sqrt();
+            assert!(
+                (f64::from(c) - total * p).abs() <= 5.0 * sd + 2.0,
+                "texel {k}: {c} samples, expected {:.1}",
+                total * p
+            );
+        }
+        assert!(mismatched * 1000 < n * n, "{mismatched} pdfs disagree");
+        // 3. ∫ pdf dω = 1: the mean of pdf over uniform directions times 4π (a 512² grid in
+        // (cos θ, φ), which is uniform on the sphere), within 1 %.
+        let m = 512;
+        let mut sum = 0.0f64;
+        for i in 0..m {
+            for j in 0..m {
+                let z = 1.0 - 2.0 * (i as f32 + 0.5) / m as f32;
+                let phi = 2.0 * PI * (j as f32 + 0.5) / m as f32;
+                let r = (1.0 - z * z).sqrt();
+                sum += f64::from(environment_pdf(
+                    &g,
+                    Vec3::new(r * phi.cos(), z, r * phi.sin()),
+                ));
+            }
+        }
+        let integral = sum / f64::from(m * m) * 4.0 * std::f64::consts::PI;
+        assert!((integral - 1.0).abs() < 0.01, "{integral}");
+    }
 
     #[test]
     fn offset_scales_with_the_scene_and_grows_with_the_distance_from_the_origin() {

@@ -126,6 +126,85 @@ fn environment_radiance(dir: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
+// surface.rs `cdf_search`: the first i < count with cdf[i] > u, the CDF at texels[base..].
+fn cdf_search(base: u32, count: u32, u: f32) -> u32 {
+    var lo = 0u;
+    var hi = count - 1u;
+    while (lo < hi) {
+        let mid = (lo + hi) / 2u;
+        if (texels[base + mid] > u) {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    return lo;
+}
+
+// surface.rs `cdf_step`: (cdf[i] - cdf[i - 1], cdf[i - 1]).
+fn cdf_step(base: u32, i: u32) -> vec2<f32> {
+    var before = 0.0;
+    if (i > 0u) {
+        before = texels[base + i - 1u];
+    }
+    return vec2<f32>(texels[base + i] - before, before);
+}
+
+// surface.rs `environment_pdf`.
+fn environment_pdf(dir: vec3<f32>) -> f32 {
+    if (!(HAS_ENVIRONMENT_MAP && scene.environment_kind == ENVIRONMENT_MAP)) {
+        return 0.25 * INV_PI;
+    }
+    let sin_theta = sqrt(max(1.0 - dir.y * dir.y, 0.0));
+    if (!(sin_theta > 0.0)) {
+        return 0.0;
+    }
+    let e = direction_to_equirect(dir);
+    let u0 = e.x + scene.environment_rotation;
+    let u = u0 - floor(u0);
+    let w = scene.environment_width;
+    let h = scene.environment_height;
+    let x = min(u32(u * f32(w)), w - 1u);
+    let y = min(u32(min(max(e.y, 0.0), 1.0) * f32(h)), h - 1u);
+    let p_row = cdf_step(scene.environment_cdf, y).x;
+    let p_col = cdf_step(scene.environment_cdf + h + y * w, x).x;
+    return p_row * p_col * f32(w * h) / (2.0 * PI * PI * sin_theta);
+}
+
+// surface.rs `sample_environment`: a direction and its solid-angle pdf.
+struct EnvironmentSample {
+    dir: vec3<f32>,
+    pdf: f32,
+}
+
+fn sample_environment(u: vec2<f32>) -> EnvironmentSample {
+    if (!(HAS_ENVIRONMENT_MAP && scene.environment_kind == ENVIRONMENT_MAP)) {
+        let z = 1.0 - 2.0 * u.x;
+        let r = sqrt(max(1.0 - z * z, 0.0));
+        let phi = 2.0 * PI * u.y;
+        return EnvironmentSample(vec3<f32>(r * cos(phi), z, r * sin(phi)), 0.25 * INV_PI);
+    }
+    let w = scene.environment_width;
+    let h = scene.environment_height;
+    let y = cdf_search(scene.environment_cdf, h, u.x);
+    let row = cdf_step(scene.environment_cdf, y);
+    let columns = scene.environment_cdf + h + y * w;
+    let x = cdf_search(columns, w, u.y);
+    let col = cdf_step(columns, x);
+    let fv = clamp((u.x - row.y) / row.x, 0.0, 1.0);
+    let fu = clamp((u.y - col.y) / col.x, 0.0, 1.0);
+    let v = (f32(y) + fv) / f32(h);
+    let tex_u = (f32(x) + fu) / f32(w);
+    let theta = v * PI;
+    let phi = (tex_u - scene.environment_rotation - 0.5) * (2.0 * PI);
+    let sin_theta = sin(theta);
+    let dir = vec3<f32>(sin_theta * sin(phi), cos(theta), -sin_theta * cos(phi));
+    if (!(sin_theta > 0.0 && row.x > 0.0 && col.x > 0.0)) {
+        return EnvironmentSample(dir, 0.0);
+    }
+    return EnvironmentSample(dir, row.x * col.x * f32(w * h) / (2.0 * PI * PI * sin_theta));
+}
+
 // The next ray's origin: pushed off the surface by a bound on the rounding error of the hit
 // point and of re-finding the primitive from there (surface.rs documents the derivation).
 const UNIT_ROUNDOFF: f32 = 1.0 / 16777216.0;

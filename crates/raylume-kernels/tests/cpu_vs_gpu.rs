@@ -213,12 +213,13 @@ fn cornell_box_with_next_event_estimation_matches_cpu() {
 
 /// The library's defaults (next-event estimation toward triangles and spheres, Russian
 /// roulette, the ZSobol sampler) draw the same numbers and the same shadow rays on both
-/// backends, in both schedules: the spheres scene has a sphere lamp, the materials scene a
-/// triangle lamp and every microfacet material.
+/// backends, in both schedules: the spheres scene has a sphere lamp and a constant sky, the
+/// materials scene a triangle lamp and every microfacet material, the environment-lit scene a
+/// sky map sampled by its luminance.
 #[test]
 fn zsobol_with_nee_and_roulette_matches_cpu() {
     for schedule in [Schedule::Megakernel, Schedule::Wavefront] {
-        for (scene, bounces) in [(spheres(), 6), (materials(), 6)] {
+        for (scene, bounces) in [(spheres(), 6), (materials(), 6), (environment_lit(), 4)] {
             compare_all(
                 "zsobol_with_nee_and_roulette_matches_cpu",
                 &scene,

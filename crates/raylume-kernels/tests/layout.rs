@@ -57,7 +57,7 @@ fn layout_matches_wgsl() {
             scene_extent, light_count, environment_rotation, environment_width, environment_height,
             environment_offset, sample_begin, sample_count, pixel_begin, pixel_count, batch_index,
             resolve_scale, rays_in_batch, queue_capacity, primitive_count, material_count,
-            texture_count, light_power, rr_depth, sampler, _pad1, _pad2),
+            texture_count, light_power, rr_depth, sampler, environment_select, environment_cdf),
         rust_layout!(GpuMaterial; color, kind, emission, alpha, ior, texture, flags, table, eta, _pad0, k, _pad1),
         rust_layout!(TriangleShading; n0, u0, n1, v0, n2, u1, v1, u2, v2, flags),
         rust_layout!(TextureHeader; offset, width, height, _pad0),

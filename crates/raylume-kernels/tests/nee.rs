@@ -139,17 +139,6 @@ fn next_event_estimation_has_less_noise_at_equal_samples() {
 }
 
 #[test]
-fn without_emissive_triangles_nee_renders_what_plain_renders() {
-    // The sky-lit spheres scene's light comes from the environment alone, which is not in
-    // the light list: the estimators must agree bit for bit.
-    let scene = environment_lit();
-    assert_eq!(
-        render(&scene, Estimator::Nee, 4, 3),
-        render(&scene, Estimator::Plain, 4, 3)
-    );
-}
-
-#[test]
 fn next_event_estimation_on_glossy_floors_converges_to_the_plain_estimate() {
     // Direct light only (one bounce, black sky): a lamp above a glossy floor whose highlight
     // the camera sees, where the light samples and the microfacet samples overlap most. The
