@@ -8,7 +8,8 @@
 //! (on every material, from the front face unless the material is two-sided), escaping paths collect the environment, and each hit
 //! scatters one new direction sampled from the material; Russian roulette only when the
 //! uniforms ask for it (`rr_depth`, [`russian_roulette`]). With the light
-//! list, a hit on a material [`samples_lights`] (diffuse, rough metal, plastic) also sends a
+//! list, a hit on a material [`samples_lights`] (diffuse, rough metal, plastic, rough glass)
+//! also sends a
 //! shadow ray to a point on an emitter of the list ([`sample_lights`]): uniform on an emissive
 //! triangle, or uniform in the cone of directions of an emissive sphere's visible cap
 //! ([`crate::sampling::sample_sphere_cap`]), so that small bright spheres are found at a few
@@ -31,8 +32,8 @@ use raylume_bvh::{GpuBvh, PRIM_SPHERE, PRIM_TRIANGLE, Ray};
 
 use crate::bsdf::{
     BsdfEval, BsdfSample, bsdf_absorbed, bsdf_eval_zero, eval_conductor, eval_plastic,
-    eval_rough_plastic, sample_conductor, sample_plastic, sample_rough_dielectric,
-    sample_rough_plastic,
+    eval_rough_dielectric, eval_rough_plastic, sample_conductor, sample_plastic,
+    sample_rough_dielectric, sample_rough_plastic,
 };
 use crate::gpu_types::{
     DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE, GpuMaterial, LIGHT_ENVIRONMENT,
@@ -300,22 +301,46 @@ pub fn russian_roulette(path: &mut PathState, u: f32) {
 }
 
 /// Whether next-event estimation samples the lights at a hit on `mat`: every material whose
-/// reflection can be evaluated for a given direction (diffuse, rough metal, plastic, whose
-/// smooth coat's delta lobe is left to the scattered ray). Not smooth metal (a delta) and not
-/// glass (its transmission would need a shadow ray through the surface).
+/// scattering can be evaluated for a given direction (diffuse, rough metal, plastic, whose
+/// smooth coat's delta lobe is left to the scattered ray, rough glass on both sides, the
+/// shadow ray leaving from behind for transmission: [`light_side`]). Not smooth metal or
+/// smooth glass (deltas).
 #[inline]
 pub fn samples_lights(mat: &GpuMaterial) -> bool {
     mat.kind == MATERIAL_DIFFUSE
         || mat.kind == MATERIAL_PLASTIC
-        || (mat.kind == MATERIAL_METAL && mat.alpha > 0.0)
+        || ((mat.kind == MATERIAL_METAL || mat.kind == MATERIAL_GLASS) && mat.alpha > 0.0)
+}
+
+/// Where a light direction `wi` lies for a hit on `mat` whose normals face the incoming ray:
+/// 1 in front (both the shading and the geometric normal agree), -1 behind (both agree) for
+/// rough glass, which transmits; 0 where they disagree or the material cannot transmit.
+#[inline]
+pub fn light_side(mat: &GpuMaterial, ns_facing: Vec3, ng_facing: Vec3, wi: Vec3) -> f32 {
+    let (s, g) = (ns_facing.dot(wi), ng_facing.dot(wi));
+    if s > 0.0 && g > 0.0 {
+        return 1.0;
+    }
+    if mat.kind == MATERIAL_GLASS && s < 0.0 && g < 0.0 {
+        return -1.0;
+    }
+    0.0
 }
 
 /// The reflection of `mat` from the incoming `dir_in` into `wi` about the unit shading normal
 /// `n` facing `dir_in`: `f · cos θ` and the pdf with which [`shade_hit`] samples `wi` (the
 /// same pdf, so that multiple importance sampling weighs the two strategies consistently).
-/// Zero for materials [`samples_lights`] excludes.
+/// Zero for materials [`samples_lights`] excludes. `front`: the ray meets the geometric
+/// front face (glass: it enters).
 #[inline]
-pub fn eval_material(g: &Globals, mat: &GpuMaterial, dir_in: Vec3, n: Vec3, wi: Vec3) -> BsdfEval {
+pub fn eval_material(
+    g: &Globals,
+    mat: &GpuMaterial,
+    dir_in: Vec3,
+    n: Vec3,
+    wi: Vec3,
+    front: bool,
+) -> BsdfEval {
     let color = Vec3::from(mat.color);
     if mat.kind == MATERIAL_DIFFUSE {
         let pdf = n.dot(wi).max(0.0) * INV_PI;
@@ -334,6 +359,11 @@ pub fn eval_material(g: &Globals, mat: &GpuMaterial, dir_in: Vec3, n: Vec3, wi: 
             return eval_rough_plastic(dir_in, n, wi, mat.alpha, mat.ior, color, table);
         }
         return eval_plastic(dir_in, n, wi, mat.ior, color);
+    }
+    if mat.kind == MATERIAL_GLASS {
+        // Entering when the ray meets the geometric front face (as in shade_hit).
+        let eta = if front { 1.0 / mat.ior } else { mat.ior };
+        return eval_rough_dielectric(dir_in, n, wi, mat.alpha, eta, color);
     }
     bsdf_eval_zero()
 }
@@ -412,13 +442,26 @@ pub fn sample_lights(
     if light.kind == LIGHT_ENVIRONMENT {
         // A direction toward the sky; the shadow ray must escape the scene.
         let (wi, pdf) = sample_environment(g, Vec2::new(rnd.y, rnd.z));
-        if !(pdf > 0.0 && p_select > 0.0 && ns_facing.dot(wi) > 0.0 && ng_facing.dot(wi) > 0.0) {
+        let side = light_side(mat, ns_facing, ng_facing, wi);
+        if !(pdf > 0.0 && p_select > 0.0 && side != 0.0) {
             return Vec3::ZERO;
         }
-        if bvh.trace_any(&Ray { origin, dir: wi }, 0.0, T_MAX) {
+        let from = if side > 0.0 {
+            origin
+        } else {
+            offset_ray_origin(hit, dir_in, -ng_facing)
+        };
+        if bvh.trace_any(
+            &Ray {
+                origin: from,
+                dir: wi,
+            },
+            0.0,
+            T_MAX,
+        ) {
             return Vec3::ZERO;
         }
-        let f = eval_material(g, mat, dir_in, ns_facing, wi);
+        let f = eval_material(g, mat, dir_in, ns_facing, wi, front);
         let w = mis_weight(g.scene.environment_select * environment_pdf(g, wi), f.pdf);
         return f.value * environment_radiance(g, wi) * (w / (p_select * pdf));
     }
@@ -444,7 +487,7 @@ pub fn sample_lights(
     }
     let dist = dist2.sqrt();
     let wi = to / dist;
-    let cos_s = ns_facing.dot(wi);
+    let side = light_side(mat, ns_facing, ng_facing, wi);
     let cos_l = if light.kind == LIGHT_SPHERE {
         cos_l
     } else {
@@ -457,14 +500,24 @@ pub fn sample_lights(
             cos_front
         }
     };
-    if !(cos_s > 0.0 && ng_facing.dot(wi) > 0.0 && cos_l > 0.0) {
+    if !(side != 0.0 && cos_l > 0.0) {
         return Vec3::ZERO;
     }
-    let shadow = Ray { origin, dir: wi };
+    // Through rough glass the shadow ray leaves from behind the surface (the distance to the
+    // light differs by the offset alone, which SHADOW_T_SCALE covers).
+    let from = if side > 0.0 {
+        origin
+    } else {
+        offset_ray_origin(hit, dir_in, -ng_facing)
+    };
+    let shadow = Ray {
+        origin: from,
+        dir: wi,
+    };
     if bvh.trace_any(&shadow, 0.0, dist * SHADOW_T_SCALE) {
         return Vec3::ZERO;
     }
-    let f = eval_material(g, mat, dir_in, ns_facing, wi);
+    let f = eval_material(g, mat, dir_in, ns_facing, wi, front);
     if light.kind == LIGHT_SPHERE {
         let r = light.e1[0];
         let cap_pdf = sphere_cap_pdf(Vec3::from(light.p0), r, origin);

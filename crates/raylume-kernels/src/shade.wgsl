@@ -87,7 +87,7 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     // weigh the scattered ray's estimate against the shadow ray's (shade.rs).
     var emission_weight = 1.0;
     var sample_here = false;
-    if ((HAS_EMISSION || HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && (HAS_DIFFUSE || HAS_PLASTIC || HAS_ROUGH_METAL)) {
+    if ((HAS_EMISSION || HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && (HAS_DIFFUSE || HAS_PLASTIC || HAS_ROUGH_METAL || HAS_ROUGH_GLASS)) {
         let prim = bvh_primitives[hit.prim];
         if ((*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_TRIANGLE) {
             let n = cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz);
@@ -126,11 +126,25 @@ fn russian_roulette(path: ptr<function, PathState>, u: f32) {
 fn samples_lights(mat: GpuMaterial) -> bool {
     return (HAS_DIFFUSE && mat.kind == MATERIAL_DIFFUSE)
         || (HAS_PLASTIC && mat.kind == MATERIAL_PLASTIC)
-        || (HAS_ROUGH_METAL && mat.kind == MATERIAL_METAL && mat.alpha > 0.0);
+        || (HAS_ROUGH_METAL && mat.kind == MATERIAL_METAL && mat.alpha > 0.0)
+        || (HAS_ROUGH_GLASS && mat.kind == MATERIAL_GLASS && mat.alpha > 0.0);
+}
+
+// shade.rs `light_side`: 1 in front, -1 behind (rough glass), 0 neither.
+fn light_side(mat: GpuMaterial, ns_facing: vec3<f32>, ng_facing: vec3<f32>, wi: vec3<f32>) -> f32 {
+    let s = dot(ns_facing, wi);
+    let g = dot(ng_facing, wi);
+    if (s > 0.0 && g > 0.0) {
+        return 1.0;
+    }
+    if (HAS_ROUGH_GLASS && mat.kind == MATERIAL_GLASS && s < 0.0 && g < 0.0) {
+        return -1.0;
+    }
+    return 0.0;
 }
 
 // shade.rs `eval_material`: f cos and the sampling pdf of `mat` from dir_in into wi.
-fn eval_material(mat: GpuMaterial, dir_in: vec3<f32>, n: vec3<f32>, wi: vec3<f32>) -> BsdfEval {
+fn eval_material(mat: GpuMaterial, dir_in: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, front: bool) -> BsdfEval {
     if (HAS_DIFFUSE && mat.kind == MATERIAL_DIFFUSE) {
         let pdf = max(dot(n, wi), 0.0) * INV_PI;
         return BsdfEval(mat.color * pdf, pdf);
@@ -144,6 +158,10 @@ fn eval_material(mat: GpuMaterial, dir_in: vec3<f32>, n: vec3<f32>, wi: vec3<f32
             return eval_rough_plastic(dir_in, n, wi, mat.alpha, mat.ior, mat.color, &table);
         }
         return eval_plastic(dir_in, n, wi, mat.ior, mat.color);
+    }
+    if (HAS_ROUGH_GLASS && mat.kind == MATERIAL_GLASS) {
+        let eta = select(mat.ior, 1.0 / mat.ior, front);
+        return eval_rough_dielectric(dir_in, n, wi, mat.alpha, eta, mat.color);
     }
     return bsdf_eval_zero();
 }
@@ -193,13 +211,18 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
     if ((HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && light.kind == LIGHT_ENVIRONMENT) {
         // A direction toward the sky; the shadow ray must escape the scene.
         let es = sample_environment(rnd.yz);
-        if (!(es.pdf > 0.0 && p_select > 0.0 && dot(ns_facing, es.dir) > 0.0 && dot(ng_facing, es.dir) > 0.0)) {
+        let side_e = light_side(mat, ns_facing, ng_facing, es.dir);
+        if (!(es.pdf > 0.0 && p_select > 0.0 && side_e != 0.0)) {
             return vec3<f32>(0.0);
         }
-        if (trace_any(Ray(origin, es.dir), 0.0, T_MAX)) {
+        var from_e = origin;
+        if (side_e < 0.0) {
+            from_e = offset_ray_origin(hit, dir_in, -ng_facing);
+        }
+        if (trace_any(Ray(from_e, es.dir), 0.0, T_MAX)) {
             return vec3<f32>(0.0);
         }
-        let fe = eval_material(mat, dir_in, ns_facing, es.dir);
+        let fe = eval_material(mat, dir_in, ns_facing, es.dir, front);
         let we = mis_weight(scene.environment_select * environment_pdf(es.dir), fe.pdf);
         return fe.value * environment_radiance(es.dir) * (we / (p_select * es.pdf));
     }
@@ -221,7 +244,7 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
     }
     let dist = sqrt(dist2);
     let wi = to / dist;
-    let cos_s = dot(ns_facing, wi);
+    let side = light_side(mat, ns_facing, ng_facing, wi);
     var cos_l = 1.0;
     if (!(HAS_SPHERES && light.kind == LIGHT_SPHERE)) {
         // A one-sided light sends nothing behind its front face (e1 x e2).
@@ -229,13 +252,17 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
         let cos_front = -dot(nl, wi) / length(nl);
         cos_l = select(cos_front, abs(cos_front), light.two_sided != 0u);
     }
-    if (!(cos_s > 0.0 && dot(ng_facing, wi) > 0.0 && cos_l > 0.0)) {
+    if (!(side != 0.0 && cos_l > 0.0)) {
         return vec3<f32>(0.0);
     }
-    if (trace_any(Ray(origin, wi), 0.0, dist * SHADOW_T_SCALE)) {
+    var shadow_from = origin;
+    if (side < 0.0) {
+        shadow_from = offset_ray_origin(hit, dir_in, -ng_facing);
+    }
+    if (trace_any(Ray(shadow_from, wi), 0.0, dist * SHADOW_T_SCALE)) {
         return vec3<f32>(0.0);
     }
-    let f = eval_material(mat, dir_in, ns_facing, wi);
+    let f = eval_material(mat, dir_in, ns_facing, wi, front);
     if (HAS_SPHERES && light.kind == LIGHT_SPHERE) {
         let cap_pdf = sphere_cap_pdf(light.p0, light.e1.x, origin);
         let ws = mis_weight(sphere_light_pdf(light.emission, light.e1.x, cap_pdf), f.pdf);

@@ -87,11 +87,13 @@ fn every_estimator_and_sampler_converges_to_the_same_mean() {
         ),
     ];
     // The spheres have a sphere lamp and a constant sky; the environment-lit spheres a sky map
-    // (importance-sampled by luminance) and nothing else.
+    // (importance-sampled by luminance) and nothing else; the materials every microfacet
+    // material, rough glass (light sampled through it) among them, and a triangle lamp.
     for (name, scene) in [
         ("cornell box floor", floor_view()),
         ("spheres", spheres()),
         ("environment-lit spheres", environment_lit()),
+        ("materials", materials()),
     ] {
         let seeds = 8u32;
         let estimate = |c: Config, spp: u32| -> [(f64, f64); 3] {
