@@ -68,7 +68,7 @@ pub fn sphere_cone_one_minus_cos(r: f32, d2: f32) -> f32 {
 #[inline]
 pub fn sphere_cap_pdf(center: Vec3, r: f32, p: Vec3) -> f32 {
     let d2 = (center - p).length_squared();
-    if !(d2 > r * r) {
+    if !(d2 > r * r && d2.is_finite()) {
         return 0.0;
     }
     1.0 / (2.0 * PI * sphere_cone_one_minus_cos(r, d2))
@@ -82,7 +82,7 @@ pub fn sphere_cap_pdf(center: Vec3, r: f32, p: Vec3) -> f32 {
 pub fn sample_sphere_cap(center: Vec3, r: f32, p: Vec3, u: Vec2) -> Option<Vec3> {
     let to_c = center - p;
     let d2 = to_c.length_squared();
-    if !(d2 > r * r) {
+    if !(d2 > r * r && d2.is_finite()) {
         return None;
     }
     let sin2_max = r * r / d2;

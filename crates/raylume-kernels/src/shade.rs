@@ -273,16 +273,16 @@ pub fn trace_ray(
     };
     let sample_here = g.scene.light_count > 0 && samples_lights(&mat) && !last;
     if sample_here {
-        let rnd = path_rand4(&g.scene, pixel, sample, depth, DIM_LIGHT);
+        let rnd = path_rand4(g.scene, pixel, sample, depth, DIM_LIGHT);
         path.radiance += path.throughput * sample_lights(g, bvh, &surface, &mat, path.dir, rnd);
     }
-    let rnd = path_rand4(&g.scene, pixel, sample, depth, DIM_SCATTER);
+    let rnd = path_rand4(g.scene, pixel, sample, depth, DIM_SCATTER);
     let pdf = shade_hit(g, path, &surface, &mat, rnd, last, emission_weight);
     path.mis_pdf = if sample_here { pdf } else { 0.0 };
     if path.alive && depth >= g.scene.rr_depth {
         russian_roulette(
             path,
-            path_rand4(&g.scene, pixel, sample, depth, DIM_ROULETTE).x,
+            path_rand4(g.scene, pixel, sample, depth, DIM_ROULETTE).x,
         );
     }
 }

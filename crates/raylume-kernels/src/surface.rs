@@ -263,7 +263,7 @@ pub fn environment_pdf(g: &Globals, dir: Vec3) -> f32 {
         return 0.25 * INV_PI;
     }
     let sin_theta = (1.0 - dir.y * dir.y).max(0.0).sqrt();
-    if !(sin_theta > 0.0) {
+    if !(sin_theta > 0.0 && sin_theta.is_finite()) {
         return 0.0;
     }
     let e = direction_to_equirect(dir);

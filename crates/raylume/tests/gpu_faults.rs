@@ -195,12 +195,17 @@ fn a_scene_larger_than_a_binding_says_what_does_not_fit() {
     ) else {
         return;
     };
-    // An environment map one row larger than a storage binding holds (12 bytes a texel):
-    // 4096 x 342 under the 16 MiB limit.
+    // An environment map one row larger than a storage binding holds: 12 bytes a texel of
+    // radiance, 4 of its sampling distribution's column CDF, and 4 a row of the row CDF
+    // (raylume_kernels::scene_data::environment_distribution): 4096 x 1024 under the 16 MiB
+    // limit.
     let limit = ctx.max_binding_bytes();
     assert_eq!(limit, TEST_BINDING_LIMIT);
     let width = 4096u64;
-    let height = limit / 12 / width + 1;
+    let row_bytes = width * 16 + 4;
+    let height = limit / row_bytes + 1;
+    let bytes_of = |h: u64| h * row_bytes;
+    assert!(bytes_of(height) > limit && bytes_of(height - 1) <= limit);
     assert!(height <= 16384, "within the loaders' texture limit");
     let mut scene = sphere_scene();
     scene.environment = Environment::Map {
@@ -231,7 +236,7 @@ fn a_scene_larger_than_a_binding_says_what_does_not_fit() {
             ..
         }) => {
             assert_eq!(what, "texture and environment-map data");
-            assert_eq!(*bytes, width * height * 12);
+            assert_eq!(*bytes, bytes_of(height));
             assert_eq!(*l, limit);
         }
         other => panic!("expected SceneTooLarge, got {other:?}"),
@@ -239,7 +244,7 @@ fn a_scene_larger_than_a_binding_says_what_does_not_fit() {
     let msg = err.to_string();
     for part in [
         "too large for the GPU adapter",
-        &format!("{} bytes", width * height * 12),
+        &format!("{} bytes", bytes_of(height)),
         &format!("at most {limit} bytes"),
         "or the CPU backend",
     ] {
