@@ -36,7 +36,8 @@
 //!
 //! Differences from pbrt-v4, all for a u32-only GPU mirror: the index is 32 bits (pbrt: 64),
 //! so the Morton code of the pixel plus `log2(spp)` bits must fit in 32 (e.g. 4096x4096 at
-//! 256 spp; beyond that, pixels whose codes differ only above the top bit share samples);
+//! 256 spp); beyond that the image is split into tiles that do fit, each with its own seed
+//! ([`zsobol_tile`]), rather than letting pixels share samples;
 //! all 16 base-4 digits are permuted (pbrt permutes only as many as the resolution needs;
 //! the extra digits are zero and their permutation is a fixed bijection); the hashes are
 //! `pcg4d` and Wellons' 32-bit `lowbias32` instead of MurmurHash64A and `MixBits`, and the seed
@@ -248,12 +249,36 @@ pub fn sobol_keys(seed: u32, dim: u32) -> [u32; 2] {
     [k[0], k[1]]
 }
 
+/// Where a pixel's samples live when the image is too large for the 32-bit index: pixels whose
+/// coordinates fit `b = (32 - log2_spp) / 2` bits keep `(seed, pixel)`; any other pixel is
+/// placed at its coordinates modulo `2^b` in a tile of its own, whose seed is a hash of the
+/// tile's coordinates (so its scrambles and digit permutations, and its points, are
+/// independent of every other tile's, instead of repeating the first tile's). Each pixel still
+/// gets a whole aligned block of indices, so its samples stay a (0, 2)-net; only the blue
+/// noise across tile borders is lost. E.g. 1000x1000 at 8192 spp (b = 9): tiles of 512x512.
+#[inline]
+pub fn zsobol_tile(seed: u32, pixel: UVec2, log2_spp: u32) -> (u32, UVec2) {
+    let b = (32 - log2_spp.min(32)) / 2;
+    if b >= 16 {
+        return (seed, pixel);
+    }
+    let (tx, ty) = (pixel.x >> b, pixel.y >> b);
+    if tx == 0 && ty == 0 {
+        return (seed, pixel);
+    }
+    let mask = (1u32 << b) - 1;
+    let tile_seed = pcg4d([seed, tx, ty, SOBOL_SALT ^ 2])[0];
+    (tile_seed, UVec2::new(pixel.x & mask, pixel.y & mask))
+}
+
 /// Four numbers in `[0, 1)` for (seed, pixel (x, y), sample in `0..spp`, dim): `(x, y)` is
-/// ZSobol pair `2 * dim`, `(z, w)` pair `2 * dim + 1`.
+/// ZSobol pair `2 * dim`, `(z, w)` pair `2 * dim + 1`. Images too large for the 32-bit index
+/// at this spp are split into tiles ([`zsobol_tile`]).
 #[inline]
 pub fn sobol4(seed: u32, pixel: UVec2, sample: u32, spp: u32, dim: u32) -> Vec4 {
     debug_assert!(sample < spp.max(1), "sample {sample} of {spp}");
     let log2_spp = sobol_log2_spp(spp);
+    let (seed, pixel) = zsobol_tile(seed, pixel, log2_spp);
     let s = sobol_scrambles(seed, dim);
     let k = sobol_keys(seed, dim);
     let a = zsobol_pair_bits(pixel, sample, log2_spp, k[0], s[0], s[1]);
@@ -431,6 +456,44 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn large_images_get_independent_tiles_and_keep_their_nets() {
+        // 1000x1000 at 8192 spp needs 20 + 13 bits: pixels (x, y) and (x, y + 512) would share
+        // every sample without tiles (y's top bit is the Morton code's 20th). With them, each pixel's first 2048 samples (2 * 4^5, an
+        // aligned block for the odd log2 13: a (0, 11, 2)-net) stay a net, and pixels a tile
+        // apart draw different points.
+        let spp = 8192;
+        let first = |px: UVec2| -> Vec<[f32; 2]> {
+            (0..2048)
+                .map(|i| {
+                    let v = sobol4(9, px, i, spp, 3);
+                    [v.x, v.y]
+                })
+                .collect()
+        };
+        for px in [UVec2::new(5, 7), UVec2::new(517, 519), UVec2::new(999, 600)] {
+            is_02_net(&first(px), 11).unwrap_or_else(|e| panic!("pixel {px}: {e}"));
+        }
+        let (a, b) = (first(UVec2::new(5, 7)), first(UVec2::new(5, 519)));
+        let same = a.iter().zip(&b).filter(|(p, q)| p == q).count();
+        assert!(
+            same < 4,
+            "{same} of 1024 samples repeat across the tile border"
+        );
+        // Inside the first tile nothing changes: the image's top-left 512x512 pixels draw
+        // what they drew before tiles existed.
+        assert_eq!(
+            zsobol_tile(9, UVec2::new(511, 3), 13),
+            (9, UVec2::new(511, 3))
+        );
+        assert_ne!(zsobol_tile(9, UVec2::new(512, 3), 13).0, 9);
+        // Up to 65536 x 65536 pixels at 1 spp nothing is tiled.
+        assert_eq!(
+            zsobol_tile(4, UVec2::new(65535, 65535), 0),
+            (4, UVec2::new(65535, 65535))
+        );
     }
 
     #[test]

@@ -103,8 +103,32 @@ fn sobol_keys(seed: u32, dim: u32) -> vec2<u32> {
     return pcg4d(vec4<u32>(seed, dim, SOBOL_SALT, 1u)).xy;
 }
 
-fn sobol4(seed: u32, pixel: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec4<f32> {
+// sobol.rs `zsobol_tile`: (seed, pixel) of the pixel's tile when the image is too large for
+// the 32-bit index at this spp.
+struct ZSobolTile {
+    seed: u32,
+    pixel: vec2<u32>,
+}
+
+fn zsobol_tile(seed: u32, pixel: vec2<u32>, log2_spp: u32) -> ZSobolTile {
+    let b = (32u - min(log2_spp, 32u)) / 2u;
+    if (b >= 16u) {
+        return ZSobolTile(seed, pixel);
+    }
+    let t = pixel >> vec2<u32>(b);
+    if (t.x == 0u && t.y == 0u) {
+        return ZSobolTile(seed, pixel);
+    }
+    let mask = (1u << b) - 1u;
+    let tile_seed = pcg4d(vec4<u32>(seed, t.x, t.y, SOBOL_SALT ^ 2u)).x;
+    return ZSobolTile(tile_seed, pixel & vec2<u32>(mask));
+}
+
+fn sobol4(seed_in: u32, pixel_in: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec4<f32> {
     let log2_spp = sobol_log2_spp(spp);
+    let tile = zsobol_tile(seed_in, pixel_in, log2_spp);
+    let seed = tile.seed;
+    let pixel = tile.pixel;
     let s = sobol_scrambles(seed, dim);
     let k = sobol_keys(seed, dim);
     let a = zsobol_pair_bits(pixel, sample, log2_spp, k.x, s.x, s.y);

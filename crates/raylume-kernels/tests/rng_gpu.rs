@@ -1,9 +1,11 @@
 //! The WGSL random numbers equal the Rust mirror's bit for bit: pcg4d's four words and the
 //! four floats of `rand4`, for 100 000 keys (consecutive pixels and samples, as the tracer
-//! uses them, and random keys with every bit pattern).
+//! uses them, and random keys with every bit pattern); and ZSobol's `sobol4`, large images
+//! split into tiles included.
 
 use raylume_gpu::wgpu;
 use raylume_kernels::rng::{RNG_WGSL, pcg4d, rand4, rng_key};
+use raylume_kernels::sobol::{SOBOL_WGSL, sobol4};
 
 const KERNEL: &str = r#"
 @group(0) @binding(0) var<storage, read> keys: array<u32>;
@@ -64,22 +66,37 @@ fn wgsl_rng_equals_rust_bit_for_bit() {
     };
     let keys = keys();
     let flat: Vec<u32> = keys.iter().flatten().copied().collect();
+    let out = run(ctx, &format!("{RNG_WGSL}\n{KERNEL}"), &flat, keys.len() * 8);
+    for (i, k) in keys.iter().enumerate() {
+        let [seed, pixel, sample, bounce, dim] = *k;
+        let h = pcg4d(rng_key(seed, pixel, sample, bounce, dim));
+        let f = rand4(seed, pixel, sample, bounce, dim)
+            .to_array()
+            .map(f32::to_bits);
+        assert_eq!(&out[8 * i..8 * i + 4], &h, "pcg4d of key {k:?}");
+        assert_eq!(&out[8 * i + 4..8 * i + 8], &f, "rand4 of key {k:?}");
+    }
+}
+
+/// Runs the test kernel `wgsl` (entry `main`, keys at binding 0, `out_words` words of output
+/// at binding 1) over `keys.len()` invocations' worth of workgroups, and reads `out` back.
+fn run(ctx: &raylume_gpu::GpuContext, wgsl: &str, keys: &[u32], out_words: usize) -> Vec<u32> {
     let key_buf = ctx
-        .storage_buffer("rng keys", &flat, wgpu::BufferUsages::empty())
+        .storage_buffer("test keys", keys, wgpu::BufferUsages::empty())
         .unwrap();
     let out_buf = ctx
         .storage_buffer_zeroed(
-            "rng out",
-            (keys.len() * 32) as u64,
+            "test out",
+            (out_words * 4) as u64,
             wgpu::BufferUsages::COPY_SRC,
         )
         .unwrap();
-    ctx.scoped("rng kernel", || {
+    ctx.scoped("test kernel", || {
         let module = ctx
             .device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some("rng test"),
-                source: wgpu::ShaderSource::Wgsl(format!("{RNG_WGSL}\n{KERNEL}").into()),
+                source: wgpu::ShaderSource::Wgsl(wgsl.into()),
             });
         let pipeline = ctx
             .device
@@ -115,14 +132,80 @@ fn wgsl_rng_equals_rust_bit_for_bit() {
         ctx.queue.submit([enc.finish()]);
     })
     .unwrap();
-    let out: Vec<u32> = ctx.read_buffer(&out_buf, keys.len() * 8).unwrap();
+    ctx.read_buffer(&out_buf, out_words).unwrap()
+}
+
+const SOBOL_KERNEL: &str = r#"
+const SOBOL_KEY_WORDS: u32 = 6u;
+@group(0) @binding(0) var<storage, read> keys: array<u32>;
+@group(0) @binding(1) var<storage, read_write> out: array<u32>;
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if (i >= arrayLength(&keys) / SOBOL_KEY_WORDS) {
+        return;
+    }
+    let k = SOBOL_KEY_WORDS * i;
+    let f = sobol4(keys[k], vec2<u32>(keys[k + 1u], keys[k + 2u]), keys[k + 3u], keys[k + 4u], keys[k + 5u]);
+    out[4u * i] = bitcast<u32>(f.x);
+    out[4u * i + 1u] = bitcast<u32>(f.y);
+    out[4u * i + 2u] = bitcast<u32>(f.z);
+    out[4u * i + 3u] = bitcast<u32>(f.w);
+}
+"#;
+
+#[test]
+fn wgsl_sobol_equals_rust_bit_for_bit() {
+    let Some(ctx) = raylume_gpu::testing::context_or_skip("wgsl_sobol_equals_rust_bit_for_bit")
+    else {
+        return;
+    };
+    // (seed, x, y, sample, spp, dim): a small image's pixels and samples as the tracer draws
+    // them (spp 1 to 64, powers of 2 and not), the tiles of large images at large spp
+    // (1000x1000 at 8192, 5000 x 3000 at 2^20: tiles of 512 and 64 pixels), and random keys.
+    let mut keys: Vec<[u32; 6]> = Vec::new();
+    for p in 0..4096u32 {
+        let spp = [1u32, 4, 7, 16, 50, 64][(p % 6) as usize];
+        keys.push([3, p % 64, p / 64, p % spp, spp, p % 40]);
+    }
+    for p in 0..4096u32 {
+        keys.push([11, (p * 37) % 1000, (p * 101) % 1000, p % 8192, 8192, p % 9]);
+        keys.push([
+            12,
+            (p * 97) % 5000,
+            (p * 61) % 3000,
+            p * 255,
+            1 << 20,
+            p % 5,
+        ]);
+    }
+    let mut x = 0x2545_F491u32;
+    let mut next = || {
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        x
+    };
+    while keys.len() < 20_000 {
+        let spp = 1 + (next() % (1 << 20));
+        keys.push([
+            next(),
+            next() % 32_768,
+            next() % 32_768,
+            next() % spp,
+            spp,
+            next() % 64,
+        ]);
+    }
+    let flat: Vec<u32> = keys.iter().flatten().copied().collect();
+    let wgsl = format!("{RNG_WGSL}\n{SOBOL_WGSL}\n{SOBOL_KERNEL}");
+    let out = run(ctx, &wgsl, &flat, keys.len() * 4);
     for (i, k) in keys.iter().enumerate() {
-        let [seed, pixel, sample, bounce, dim] = *k;
-        let h = pcg4d(rng_key(seed, pixel, sample, bounce, dim));
-        let f = rand4(seed, pixel, sample, bounce, dim)
+        let [seed, px, py, sample, spp, dim] = *k;
+        let f = sobol4(seed, glam::UVec2::new(px, py), sample, spp, dim)
             .to_array()
             .map(f32::to_bits);
-        assert_eq!(&out[8 * i..8 * i + 4], &h, "pcg4d of key {k:?}");
-        assert_eq!(&out[8 * i + 4..8 * i + 8], &f, "rand4 of key {k:?}");
+        assert_eq!(&out[4 * i..4 * i + 4], &f, "sobol4 of key {k:?}");
     }
 }
