@@ -5,10 +5,19 @@
 //! ```
 //! GPU if a hardware adapter is present, else the CPU (it says which). Flags override the
 //! scene's `[render]` values. On any error: a message, a non-zero exit, no output file.
+//!
+//! What it prints, all to stderr: the loader's and the render's warnings (`warning: ...`,
+//! among them a scene that nothing lights), then one line with the settings (`raylume:
+//! backend CPU (...), size 1000x1000, spp 100, ...`) before the first batch, an estimate of
+//! the trace time after the first batch, progress (a bar on a terminal; with stderr piped or
+//! redirected a plain line every 5 seconds, or every `RAYLUME_PROGRESS_SECS`), and a summary.
+//! `-q` drops the progress and the estimate.
 
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Instant;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use clap::Parser;
 use raylume::{Backend, Estimator, ReorderPolicy, Sampler, Scene, Schedule, Tracer};
@@ -16,6 +25,7 @@ use raylume::{Backend, Estimator, ReorderPolicy, Sampler, Scene, Schedule, Trace
 #[derive(Parser, Debug)]
 #[command(
     name = "render",
+    version,
     about = "Render a raylume scene (.toml, .obj, .gltf/.glb, Tungsten scene.json) to .png or .exr"
 )]
 struct Args {
@@ -76,7 +86,7 @@ struct Args {
     /// Exposure in stops for .png output (-64 to 64).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true, value_parser = parse_exposure)]
     exposure: f32,
-    /// No progress bar.
+    /// No progress bar, progress lines or time estimate.
     #[arg(long, short = 'q')]
     quiet: bool,
 }
@@ -172,9 +182,6 @@ fn run(args: Args) -> Result<(), String> {
     let t_load = Instant::now();
     let mut scene = Scene::load(&args.scene).map_err(|e| e.to_string())?;
     let load_s = t_load.elapsed().as_secs_f64();
-    for w in &scene.warnings {
-        eprintln!("warning: {w}");
-    }
     if let Some((w, h)) = args.size {
         scene.render.width = w;
         scene.render.height = h;
@@ -201,7 +208,9 @@ fn run(args: Args) -> Result<(), String> {
     if let Some(s) = args.schedule {
         tracer.schedule = s;
     }
-    let bar = if args.quiet {
+    // A bar on a terminal; plain lines (no escape codes) when stderr is piped or redirected.
+    let terminal = std::io::stderr().is_terminal();
+    let bar = if args.quiet || !terminal {
         indicatif::ProgressBar::hidden()
     } else {
         let bar = indicatif::ProgressBar::new(u64::from(scene.render.spp));
@@ -213,10 +222,51 @@ fn run(args: Args) -> Result<(), String> {
         );
         bar
     };
+    let scene_name = args.scene.display().to_string();
+    let capped = args.target_error.is_some();
+    tracer.on_start(move |s| {
+        for w in &s.warnings {
+            eprintln!("warning: {w}");
+        }
+        eprintln!("raylume: {}", settings_line(&scene_name, s, capped));
+    });
     let bar_cb = bar.clone();
+    let interval = progress_interval();
+    let last_line = Arc::new(Mutex::new(None::<Duration>));
+    let quiet = args.quiet;
     tracer.on_progress(move |p| {
         bar_cb.set_length(u64::from(p.total_spp));
         bar_cb.set_position(u64::from(p.done_spp));
+        if quiet || p.done_spp == 0 {
+            return;
+        }
+        let mut last = last_line.lock().unwrap_or_else(|e| e.into_inner());
+        let secs = p.elapsed.as_secs_f64();
+        let estimate = secs * f64::from(p.total_spp) / f64::from(p.done_spp);
+        match *last {
+            None => {
+                // After the first batch: what the whole trace will cost.
+                let line = format!(
+                    "raylume: first batch: {} of {} spp in {secs:.2} s; estimated trace time \
+                     {}{estimate:.1} s",
+                    p.done_spp,
+                    p.total_spp,
+                    if capped { "at most " } else { "" },
+                );
+                bar_cb.suspend(|| eprintln!("{line}"));
+                *last = Some(p.elapsed);
+            }
+            Some(t) if !terminal && p.elapsed.saturating_sub(t) >= interval => {
+                eprintln!(
+                    "raylume: progress {}/{} spp, {secs:.1} s, about {:.1} s left",
+                    p.done_spp,
+                    p.total_spp,
+                    (estimate - secs).max(0.0)
+                );
+                *last = Some(p.elapsed);
+            }
+            Some(_) => {}
+        }
     });
     let mut render = tracer.render(&scene).map_err(|e| e.to_string())?;
     bar.finish_and_clear();
@@ -230,7 +280,7 @@ fn run(args: Args) -> Result<(), String> {
     };
     eprintln!(
         "raylume: rendered {} ({}x{}, {} spp, {} bounces; estimator {}, sampler {}, {roulette}) \
-         on {} [{}]: {} ({})",
+         on {} [{}]: {} (reorder {})",
         args.scene.display(),
         s.width,
         s.height,
@@ -274,6 +324,68 @@ fn run(args: Args) -> Result<(), String> {
     Ok(())
 }
 
+/// The line printed before the first batch: what the render will do, each value labelled.
+fn settings_line(scene: &str, s: &raylume::RenderStats, capped: bool) -> String {
+    let roulette = match s.russian_roulette {
+        Some(d) => format!("from segment {d}"),
+        None => "off".into(),
+    };
+    format!(
+        "rendering {scene}: backend {} ({}; {}), size {}x{}, spp {}{}, bounces {}, batch {} spp, \
+         estimator {}, sampler {}, roulette {roulette}, reorder {}, schedule {}, lights {}",
+        s.backend.to_uppercase(),
+        s.adapter,
+        s.backend_reason,
+        s.width,
+        s.height,
+        if capped { "at most " } else { "" },
+        s.spp,
+        s.max_bounces,
+        s.batch_spp,
+        s.estimator,
+        s.sampler,
+        s.reorder,
+        s.schedule,
+        s.lights.describe(),
+    )
+}
+
+/// How often piped progress prints a line: 5 s, or `RAYLUME_PROGRESS_SECS` (the tests use a
+/// short one).
+fn progress_interval() -> Duration {
+    std::env::var("RAYLUME_PROGRESS_SECS")
+        .ok()
+        .and_then(|v| v.trim().parse::<f64>().ok())
+        .filter(|v| v.is_finite() && *v >= 0.0)
+        .map_or(Duration::from_secs(5), Duration::from_secs_f64)
+}
+
+/// Without `XDG_RUNTIME_DIR` the Vulkan loader prints `error: XDG_RUNTIME_DIR is invalid or
+/// not set` (twice) when the GPU instance is created, with the same `error:` prefix as real
+/// errors. It only wants a private folder for runtime files, so when the variable is unset
+/// (or names no folder) the command points it at one of its own: `<tmp>/raylume-runtime-<user>`,
+/// created with mode 0700.
+fn ensure_runtime_dir() {
+    let set = std::env::var_os("XDG_RUNTIME_DIR")
+        .is_some_and(|d| !d.is_empty() && Path::new(&d).is_dir());
+    if set {
+        return;
+    }
+    let user = std::env::var("USER").unwrap_or_else(|_| "user".into());
+    let dir = std::env::temp_dir().join(format!("raylume-runtime-{user}"));
+    if std::fs::create_dir_all(&dir).is_err() {
+        return;
+    }
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let _ = std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700));
+    }
+    // SAFETY: called first thing in `main`, before any other thread exists, so nothing reads
+    // the environment concurrently.
+    unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
+}
+
 /// The summary of a render with a target error: where it stopped and why.
 fn describe_target(s: &raylume::RenderStats, target: f32) -> String {
     let cap = s.spp_cap.unwrap_or(s.spp);
@@ -302,6 +414,7 @@ fn describe_target(s: &raylume::RenderStats, target: f32) -> String {
 }
 
 fn main() -> ExitCode {
+    ensure_runtime_dir();
     let args = Args::parse();
     match run(args) {
         Ok(()) => ExitCode::SUCCESS,

@@ -71,7 +71,7 @@ mod tracer;
 pub use auto::AutoDecision;
 pub use error::Error;
 pub use output::{ImageFormat, save_exr, save_png};
-pub use stats::{DepthSeconds, RenderStats, StageSeconds};
+pub use stats::{DepthSeconds, LightStats, NO_LIGHT_WARNING, RenderStats, StageSeconds};
 pub use tracer::{Backend, Progress, Render, ReorderPolicy, Tracer};
 
 pub use raylume_bvh::BvhQuality;

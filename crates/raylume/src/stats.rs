@@ -1,5 +1,7 @@
 //! What a render reports about itself (also the `--stats` JSON of the `render` example).
 
+use glam::Vec3;
+use raylume_scene::{Environment, Scene};
 use serde::Serialize;
 
 /// Seconds per phase. `trace` is the paper's "ray tracing phase": ray generation,
@@ -93,7 +95,105 @@ pub struct RenderStats {
     pub post_passes: Vec<&'static str>,
     /// Per bounce depth of the wavefront batches (empty for the megakernel and the CPU).
     pub depth_seconds: Vec<DepthSeconds>,
+    /// The emitters next-event estimation samples ([`LightStats::of`]).
+    pub lights: LightStats,
+    /// What the scene's loaders approximated or dropped ([`Scene::warnings`]), then what the
+    /// render itself warns of: a scene that nothing can light ([`LightStats::is_empty`]: no
+    /// emissive triangle or sphere and a black environment, so the image is black and
+    /// next-event estimation has no light to sample). The `render` command prints each with
+    /// `warning:` before the first batch.
+    pub warnings: Vec<String>,
 }
+
+/// The light list of a scene: what emits, and so what next-event estimation
+/// ([`crate::Estimator::Nee`]) samples. An emitter is picked with probability proportional to
+/// its power (area times emitted luminance; for the environment, its mean luminance over a
+/// disc of the scene's bounding radius, as pbrt-v4 estimates it).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct LightStats {
+    /// Triangles whose material emits (emission luminance above 0).
+    pub triangles: usize,
+    /// Spheres whose material emits.
+    pub spheres: usize,
+    /// Whether the environment emits: a constant of luminance above 0, or a map with a texel
+    /// of luminance above 0 and a strength above 0 (not [`Environment::Black`]).
+    pub environment: bool,
+    /// How an emitter is chosen for a shadow ray: `"power"`.
+    pub selection: &'static str,
+}
+
+/// Rec. 709 luminance weights (the kernels' `LUMINANCE`).
+const LUMINANCE: Vec3 = Vec3::new(0.2126, 0.7152, 0.0722);
+
+impl LightStats {
+    /// Counts the emitters of `scene` as the kernels' light list does.
+    pub fn of(scene: &Scene) -> Self {
+        let emits = |m: u32| {
+            scene
+                .materials
+                .get(m as usize)
+                .is_some_and(|m| m.emission.dot(LUMINANCE) > 0.0)
+        };
+        let environment = match &scene.environment {
+            Environment::Black => false,
+            Environment::Constant(c) => c.dot(LUMINANCE) > 0.0,
+            Environment::Map {
+                image, strength, ..
+            } => {
+                *strength > 0.0
+                    && image
+                        .texels
+                        .iter()
+                        .any(|t| Vec3::from(*t).dot(LUMINANCE) > 0.0)
+            }
+        };
+        Self {
+            triangles: scene
+                .triangles
+                .iter()
+                .filter(|t| emits(t.material) && t.double_area() > 0.0)
+                .count(),
+            spheres: scene
+                .spheres
+                .iter()
+                .filter(|s| emits(s.material) && s.radius > 0.0)
+                .count(),
+            environment,
+            selection: "power",
+        }
+    }
+
+    /// True when nothing emits: every render of the scene is black.
+    pub fn is_empty(&self) -> bool {
+        self.triangles == 0 && self.spheres == 0 && !self.environment
+    }
+
+    /// `2 emissive triangles, 0 emissive spheres, no environment (picked by power)`, or
+    /// `none`.
+    pub fn describe(&self) -> String {
+        if self.is_empty() {
+            return "none".into();
+        }
+        format!(
+            "{} emissive triangle{}, {} emissive sphere{}, {} (picked by {})",
+            self.triangles,
+            if self.triangles == 1 { "" } else { "s" },
+            self.spheres,
+            if self.spheres == 1 { "" } else { "s" },
+            if self.environment {
+                "the environment"
+            } else {
+                "no environment"
+            },
+            self.selection
+        )
+    }
+}
+
+/// The warning for a scene that nothing lights (see [`RenderStats::warnings`]).
+pub const NO_LIGHT_WARNING: &str = "the scene cannot be lit: no emissive triangle or sphere \
+     and a black environment, so the image will be black (and next-event estimation has no \
+     light to sample); give a material an `emission` or add an `[environment]`";
 
 /// Seconds spent on one bounce depth, summed over a render's wavefront batches (GPU
 /// timestamps where the adapter has them).

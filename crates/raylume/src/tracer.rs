@@ -2,7 +2,7 @@
 
 use std::collections::HashMap;
 use std::path::Path;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use raylume_bvh::{BvhQuality, GpuBvh};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, GpuError};
@@ -74,13 +74,17 @@ impl std::str::FromStr for ReorderPolicy {
     }
 }
 
-/// Progress of a render, reported after every batch.
+/// Progress of a render, reported after every batch ([`Tracer::on_progress`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Progress {
     /// Samples per pixel finished so far.
     pub done_spp: u32,
-    /// Samples per pixel in total.
+    /// Samples per pixel in total (with [`Tracer::target_error`]: the cap).
     pub total_spp: u32,
+    /// Time since tracing began (after the BVH; on the GPU including the upload and pipeline
+    /// creation before the first batch): `elapsed * total_spp / done_spp` estimates the whole
+    /// trace.
+    pub elapsed: Duration,
 }
 
 /// The largest image side, and the most pixels, a render accepts: beyond that the HDR image
@@ -138,6 +142,7 @@ impl Render {
 }
 
 type ProgressFn = Box<dyn FnMut(Progress) + Send>;
+type StartFn = Box<dyn FnMut(&RenderStats) + Send>;
 
 /// The batched tracer. Configure the public fields, then call [`Tracer::render`]; a GPU
 /// context, once created, is kept for later renders.
@@ -197,6 +202,7 @@ pub struct Tracer {
     /// Exposure, tone curve and encoding for `.png` output.
     pub tone: raylume_post::ToneMap,
     progress: Option<ProgressFn>,
+    on_start: Option<StartFn>,
     gpu: Option<GpuContext>,
     gpu_bloom: Option<raylume_post::GpuBloom>,
     /// The GPU work buffers and ray sorters of the last render, handed to the next one so that
@@ -307,6 +313,7 @@ impl Tracer {
             bloom: true,
             tone: raylume_post::ToneMap::default(),
             progress: None,
+            on_start: None,
             gpu: None,
             gpu_bloom: None,
             gpu_workspace: None,
@@ -327,6 +334,16 @@ impl Tracer {
     /// Calls `f` after every batch.
     pub fn on_progress(&mut self, f: impl FnMut(Progress) + Send + 'static) -> &mut Self {
         self.progress = Some(Box::new(f));
+        self
+    }
+
+    /// Calls `f` once per render, after the backend is chosen and before the BVH is built and
+    /// the first batch traced, with what the render will do: [`RenderStats`] with the backend,
+    /// adapter, size, spp, bounces, batch size, estimator, sampler, roulette, reorder policy
+    /// (`auto` until it has run), light list and warnings filled in (timings and counts still
+    /// 0). The `render` command prints its settings line and warnings from it.
+    pub fn on_start(&mut self, f: impl FnMut(&RenderStats) + Send + 'static) -> &mut Self {
+        self.on_start = Some(Box::new(f));
         self
     }
 
@@ -503,7 +520,7 @@ impl Tracer {
             }
             (true, ReorderPolicy::Auto) => {
                 auto_key = Some(self.auto_key(scene));
-                String::new() // filled in after the render
+                "auto".to_string() // the decision is filled in after the render
             }
         };
         let mut stats = RenderStats {
@@ -523,8 +540,22 @@ impl Tracer {
             sampler: self.sampler.name().into(),
             russian_roulette: self.russian_roulette,
             reorder,
+            adapter: match (use_gpu, self.gpu.as_ref()) {
+                (true, Some(ctx)) => ctx.describe(),
+                _ => format!("CPU, {} threads", rayon::current_num_threads()),
+            },
+            lights: crate::LightStats::of(scene),
+            warnings: scene.warnings.clone(),
             ..Default::default()
         };
+        if stats.lights.is_empty() {
+            stats
+                .warnings
+                .push(crate::stats::NO_LIGHT_WARNING.to_string());
+        }
+        if let Some(f) = self.on_start.as_mut() {
+            f(&stats);
+        }
 
         let t = Instant::now();
         let key = GeometryKey::of(scene, self.bvh_quality);
@@ -538,11 +569,13 @@ impl Tracer {
         stats.bvh_nodes = bvh.nodes.len();
 
         let mut progress = self.progress.take();
+        let t_trace = Instant::now();
         let mut report = |done: u32, total: u32| {
             if let Some(p) = progress.as_mut() {
                 p(Progress {
                     done_spp: done,
                     total_spp: total,
+                    elapsed: t_trace.elapsed(),
                 });
             }
         };
@@ -570,7 +603,6 @@ impl Tracer {
                 &mut report,
             )
         } else {
-            stats.adapter = format!("CPU, {} threads", rayon::current_num_threads());
             self.trace_cpu(
                 scene,
                 &bvh,

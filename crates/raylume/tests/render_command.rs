@@ -415,3 +415,238 @@ fn estimator_flags_and_target_error_reach_the_stats_and_the_summary() {
         check_failure(&args, &out, &[message]);
     }
 }
+
+/// An unlit scene: a diffuse sphere, no emitter, no environment.
+const UNLIT: &str = "[camera]\nposition = [0.0, 0.0, 4.0]\nlook_at = [0.0, 0.0, 0.0]\nvfov = 40.0\n\n\
+     [materials.white]\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n\n\
+     [[sphere]]\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"white\"\n";
+
+fn lines(s: &str) -> Vec<&str> {
+    s.lines().collect()
+}
+
+#[test]
+fn settings_line_comes_before_any_progress_and_names_the_backend() {
+    let d = tmp("settings");
+    let png = d.join("out.png");
+    let o = run(&[
+        "scenes/cornell-box.toml",
+        "-o",
+        png.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--size",
+        "24x16",
+        "--spp",
+        "4",
+        "--batch-spp",
+        "2",
+        "--bounces",
+        "2",
+    ]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let all = lines(&err);
+    let settings = all
+        .iter()
+        .position(|l| l.starts_with("raylume: rendering "))
+        .unwrap_or_else(|| panic!("no settings line: {err}"));
+    for part in [
+        "backend CPU (CPU, ",
+        "size 24x16",
+        "spp 4",
+        "bounces 2",
+        "batch 2 spp",
+        "estimator nee",
+        "sampler zsobol",
+        "roulette from segment 5",
+        "reorder off",
+        "lights 2 emissive triangles, 0 emissive spheres, no environment (picked by power)",
+    ] {
+        assert!(
+            all[settings].contains(part),
+            "lacks `{part}`: {}",
+            all[settings]
+        );
+    }
+    let first = all
+        .iter()
+        .position(|l| l.starts_with("raylume: first batch: 2 of 4 spp in "))
+        .unwrap_or_else(|| panic!("no estimate after the first batch: {err}"));
+    assert!(
+        all[first].contains("estimated trace time "),
+        "{}",
+        all[first]
+    );
+    assert!(settings < first, "{err}");
+    assert!(
+        !all.iter()
+            .take(settings)
+            .any(|l| l.starts_with("raylume: ")),
+        "nothing before the settings line but warnings: {err}"
+    );
+}
+
+#[test]
+fn piped_progress_prints_plain_lines() {
+    let d = tmp("piped");
+    let png = d.join("out.png");
+    let o = Command::new(common::render_exe())
+        .args([
+            "scenes/cornell-box.toml",
+            "-o",
+            png.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--size",
+            "32x32",
+            "--spp",
+            "8",
+            "--batch-spp",
+            "1",
+            "--bounces",
+            "2",
+        ])
+        .current_dir(repo())
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        // Every batch after the first prints a line (5 s apart by default).
+        .env("RAYLUME_PROGRESS_SECS", "0")
+        .output()
+        .expect("run render");
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let progress: Vec<&str> = lines(&err)
+        .into_iter()
+        .filter(|l| l.starts_with("raylume: progress "))
+        .collect();
+    assert_eq!(
+        progress.len(),
+        7,
+        "one line per batch after the first: {err}"
+    );
+    assert!(
+        progress[6].starts_with("raylume: progress 8/8 spp, "),
+        "{err}"
+    );
+    assert!(
+        !err.contains('\u{1b}'),
+        "no escape codes when piped: {err:?}"
+    );
+    assert!(
+        !err.contains('\r'),
+        "no carriage returns when piped: {err:?}"
+    );
+}
+
+#[test]
+fn quiet_drops_progress_but_keeps_the_settings_line() {
+    let d = tmp("quiet");
+    let png = d.join("out.png");
+    let mut args = vec![
+        "scenes/cornell-box.toml",
+        "-o",
+        png.to_str().unwrap(),
+        "--backend",
+        "cpu",
+    ];
+    args.extend(SMALL);
+    args.push("1");
+    let o = run(&args);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("raylume: rendering "), "{err}");
+    assert!(
+        !err.contains("raylume: first batch") && !err.contains("raylume: progress"),
+        "{err}"
+    );
+}
+
+#[test]
+fn version_prints_the_crate_version() {
+    let o = run(&["--version"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(out.trim(), format!("render {}", env!("CARGO_PKG_VERSION")));
+}
+
+#[test]
+fn unlit_scene_warns_and_lit_scene_does_not() {
+    let d = tmp("unlit");
+    let scene = d.join("unlit.toml");
+    std::fs::write(&scene, UNLIT).unwrap();
+    let (png, stats) = (d.join("out.png"), d.join("stats.json"));
+    let mut args = vec![
+        scene.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--stats",
+        stats.to_str().unwrap(),
+    ];
+    args.extend(SMALL);
+    args.push("1");
+    let o = run(&args);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    let warnings: Vec<&str> = lines(&err)
+        .into_iter()
+        .filter(|l| l.starts_with("warning: "))
+        .collect();
+    assert_eq!(
+        warnings,
+        [format!("warning: {}", raylume::NO_LIGHT_WARNING)],
+        "{err}"
+    );
+    let settings = err.find("raylume: rendering ").expect("settings line");
+    assert!(
+        err.find("warning: ").unwrap() < settings,
+        "warned before rendering: {err}"
+    );
+    assert!(err.contains("lights none"), "{err}");
+    let v = json(&stats);
+    assert_eq!(
+        v["warnings"],
+        serde_json::json!([raylume::NO_LIGHT_WARNING])
+    );
+    assert_eq!(
+        v["lights"],
+        serde_json::json!({"triangles": 0, "spheres": 0, "environment": false, "selection": "power"})
+    );
+
+    args[0] = "scenes/cornell-box.toml";
+    let o = run(&args);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("warning:"), "{err}");
+    let v = json(&stats);
+    assert_eq!(v["warnings"], serde_json::json!([]));
+    assert_eq!(v["lights"]["triangles"], 2);
+}
+
+/// Without `XDG_RUNTIME_DIR`, the Vulkan loader would print `error: XDG_RUNTIME_DIR is invalid
+/// or not set` when the GPU instance is created (`auto` creates one to look for a GPU).
+#[test]
+fn no_vulkan_loader_noise_without_xdg_runtime_dir() {
+    let d = tmp("xdg");
+    let png = d.join("out.png");
+    let mut args = vec![
+        "scenes/cornell-box.toml",
+        "-o",
+        png.to_str().unwrap(),
+        "--backend",
+        "auto",
+    ];
+    args.extend(SMALL);
+    args.push("1");
+    let o = Command::new(common::render_exe())
+        .args(&args)
+        .current_dir(repo())
+        .env_remove("XDG_RUNTIME_DIR")
+        .output()
+        .expect("run render");
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("XDG_RUNTIME_DIR"), "{err}");
+    assert!(!err.contains("error"), "{err}");
+}
