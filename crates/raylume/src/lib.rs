@@ -16,8 +16,11 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! A scene built in code, rendered on the CPU, saved, and read back as 8-bit sRGB (the same
-//! bytes as the PNG):
+//! A scene comes from a file ([`Scene::load`]: TOML, OBJ, glTF, Tungsten) or from code
+//! ([`SceneBuilder`]: camera, materials, quads, boxes, spheres, meshes from files, environment;
+//! validated as a loaded file is). The model types are in [`scene`], the `glam` they use is
+//! [`glam`]. The fields can also be filled by hand, then checked by [`Scene::validate`] (which
+//! [`Tracer::render`] runs first):
 //!
 //! ```
 //! use raylume::glam::Vec3;
@@ -62,6 +65,7 @@
 //! time, where files go), never kernels: every ray computation lives in `raylume-kernels`.
 
 mod auto;
+mod build;
 mod error;
 mod output;
 mod stats;
@@ -69,6 +73,7 @@ mod target;
 mod tracer;
 
 pub use auto::AutoDecision;
+pub use build::{MaterialId, SceneBuilder, Transform};
 pub use error::Error;
 pub use output::{ImageFormat, save_exr, save_png};
 pub use stats::{DepthSeconds, LightStats, NO_LIGHT_WARNING, RenderStats, StageSeconds};
