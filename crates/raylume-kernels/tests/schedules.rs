@@ -265,7 +265,11 @@ fn bad_input_is_a_typed_error() {
         };
         s
     };
-    let texels = (limit / 12) as usize;
+    // A w x 1 map takes 12 bytes a texel of radiance, 4 of its sampling distribution's column
+    // CDF, and 4 for its one row of the row CDF (scene_data::environment_distribution).
+    let bytes_of = |w: usize| w as u64 * 16 + 4;
+    let texels = ((limit - 4) / 16) as usize;
+    assert!(bytes_of(texels) <= limit && bytes_of(texels + 1) > limit);
     assert!(GpuTracer::new(&limited, &env_map(texels), &bvh).is_ok());
     let e = GpuTracer::new(&limited, &env_map(texels + 1), &bvh)
         .err()
@@ -278,7 +282,7 @@ fn bad_input_is_a_typed_error() {
             ..
         } => {
             assert_eq!(what, "texture and environment-map data");
-            assert_eq!(*bytes, (texels as u64 + 1) * 12);
+            assert_eq!(*bytes, bytes_of(texels + 1));
             assert_eq!(*l, limit);
         }
         other => panic!("expected SceneTooLarge, got {other}"),
