@@ -4,7 +4,7 @@
 //! **Architecture invariant:** this crate knows nothing about GPUs, BVHs or rays.
 //!
 //! # Entry points
-//! - [`Scene::load`]: by extension — `.toml` (raylume's format, `DESIGN.md`), `.obj`
+//! - [`Scene::load`]: by extension — `.toml` (raylume's format, `docs/SCENE_FORMAT.md`), `.obj`
 //!   (+ `.mtl`), `.gltf` / `.glb`, `.json` (Tungsten). Paths inside a file are relative to it.
 //! - [`Scene::from_toml_str`]: a TOML scene held in memory.
 //! - [`Scene::validate`]: the checks every loader runs before returning.

@@ -53,6 +53,7 @@ const STEADY_WITHIN: f64 = 0.03;
 /// What `auto` chose for a scene, and why.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AutoDecision {
+    /// The plan every later batch of the scene runs.
     pub plan: BatchPlan,
     /// E.g. `wavefront, sort-index before depths 2..=10 (fastest measured, ms per million
     /// camera samples: megakernel 3.210 (1 render), ...)`.

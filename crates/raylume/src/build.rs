@@ -96,7 +96,7 @@ impl Transform {
                 for n in ns.iter_mut() {
                     *n = (nm * *n).normalize_or_zero();
                 }
-                if ns.iter().any(|n| *n == Vec3::ZERO) {
+                if ns.contains(&Vec3::ZERO) {
                     t.normals = None;
                 }
             }

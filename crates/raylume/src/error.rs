@@ -28,7 +28,12 @@ pub enum Error {
     TargetError(f32),
     /// Writing the output failed; nothing was left at `path`.
     #[error("cannot write {path}: {reason}")]
-    Output { path: PathBuf, reason: String },
+    Output {
+        /// The file that could not be written (empty for an in-memory conversion).
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
 }
 
 impl Error {

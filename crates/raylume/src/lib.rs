@@ -1,7 +1,7 @@
 //! raylume: GPU path tracing in Rust and WGSL, with a mirrored CPU path.
 //!
 //! This facade ties the workspace together: a [`Tracer`] takes a loaded
-//! [`Scene`](raylume_scene::Scene), builds its BVH (`raylume-bvh`), traces it in batches of rays
+//! [`Scene`], builds its BVH (`raylume-bvh`), traces it in batches of rays
 //! per pixel on the GPU (WGSL kernels through wgpu) or on the CPU (the same functions in Rust,
 //! with rayon) (`raylume-kernels`), runs the scene's post effects (`raylume-post`), and returns
 //! a [`Render`]: linear HDR pixels and honest [`RenderStats`].
@@ -63,6 +63,8 @@
 //!
 //! **Architecture invariant:** the facade owns policy (which backend, batch sizes, what to
 //! time, where files go), never kernels: every ray computation lives in `raylume-kernels`.
+
+#![warn(missing_docs)]
 
 mod auto;
 mod build;

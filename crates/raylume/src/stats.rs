@@ -36,7 +36,9 @@ pub struct RenderStats {
     pub adapter: String,
     /// Why this backend was chosen (for `Auto`).
     pub backend_reason: String,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
     /// Samples per pixel traced: the scene's, or with a target error where the render stopped.
     pub spp: u32,
@@ -54,10 +56,15 @@ pub struct RenderStats {
     /// last may hold fewer; an image too large for one batch splits each into pixel ranges,
     /// counted once): the number of batch means the estimate used.
     pub batches: Option<u32>,
+    /// Bounces after the camera ray.
     pub max_bounces: u32,
+    /// Samples per pixel per batch, after fitting the adapter.
     pub batch_spp: u32,
+    /// The seed the random numbers were drawn with.
     pub seed: u32,
+    /// Triangles in the scene.
     pub triangles: usize,
+    /// Spheres in the scene.
     pub spheres: usize,
     /// The scene's features (what the kernels were specialised on).
     pub features: Vec<&'static str>,
@@ -80,6 +87,7 @@ pub struct RenderStats {
     /// Samples dropped because their radiance was not finite, or so large that summing them
     /// could overflow (`raylume_kernels::math::MAX_SAMPLE_RADIANCE`).
     pub dropped_samples: u64,
+    /// Seconds per phase.
     pub seconds: StageSeconds,
     /// Millions of rays per second over the `trace` phase.
     pub mrays_per_s: f64,

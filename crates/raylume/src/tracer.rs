@@ -100,10 +100,13 @@ pub const MAX_BOUNCES: u32 = 1024;
 /// A finished render: linear HDR radiance per pixel (after bloom, before tone mapping).
 #[derive(Clone, Debug)]
 pub struct Render {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
     /// Row-major, top row first, mean linear radiance per pixel.
     pub pixels: Vec<[f32; 3]>,
+    /// What ran, on what, and how long it took.
     pub stats: RenderStats,
     /// How [`Render::save`] turns radiance into 8-bit sRGB.
     pub tone: raylume_post::ToneMap,
@@ -147,12 +150,14 @@ type StartFn = Box<dyn FnMut(&RenderStats) + Send>;
 /// The batched tracer. Configure the public fields, then call [`Tracer::render`]; a GPU
 /// context, once created, is kept for later renders.
 pub struct Tracer {
+    /// Where rays are traced (the argument of [`Tracer::new`]).
     pub backend: Backend,
     /// Samples per pixel per batch (the paper used 20). Reduced automatically to fit the
     /// adapter's buffer limits.
     pub batch_spp: u32,
     /// Overrides the scene's seed.
     pub seed: Option<u32>,
+    /// Ray reordering between bounces (default [`ReorderPolicy::Off`]).
     pub reorder: ReorderPolicy,
     /// How [`ReorderPolicy::On`] sorts: [`ReorderMode::SortIndex`] (the default) or
     /// [`ReorderMode::SortPermute`]. (`Auto` measures both.)
@@ -160,6 +165,8 @@ pub struct Tracer {
     /// The top bits of the 30-bit key that `On` and `Auto` sort by (1..=30, default 30: the
     /// paper's whole key; 16 takes half the radix passes). See [`Reorder::key_bits`].
     pub reorder_key_bits: u32,
+    /// The GPU schedule (default [`Schedule::Megakernel`]: all bounces in registers;
+    /// [`Schedule::Wavefront`]: the paper's kernels, one per bounce). The CPU ignores it.
     pub schedule: Schedule,
     /// The estimator: next-event estimation with multiple importance sampling
     /// ([`Estimator::Nee`], the default: far less noise per sample where emitters light the
@@ -196,6 +203,7 @@ pub struct Tracer {
     /// `batches`, `spp` (done) and `spp_cap`. Must be finite and above 0
     /// ([`Error::TargetError`]); on the GPU every batch's image is read back to estimate it.
     pub target_error: Option<f32>,
+    /// The BVH build preset (default [`BvhQuality::default`]).
     pub bvh_quality: BvhQuality,
     /// Run the scene's bloom, if it has one (`--no-bloom` clears this).
     pub bloom: bool,

@@ -1,4 +1,4 @@
-//! The raylume TOML scene format (the contract in `DESIGN.md`). Every key is parsed; unknown
+//! The raylume TOML scene format (the contract in `docs/SCENE_FORMAT.md`). Every key is parsed; unknown
 //! keys, keys that do not apply to a material's type, wrong types and bad values are errors
 //! with `file:line:column`.
 //!
@@ -13,8 +13,8 @@
 //! front faces of its surfaces only (a quad's `u x v` side, a mesh's counter-clockwise side, a
 //! sphere's outside) unless it says `two_sided = true`.
 //!
-//! Beyond the keys in `DESIGN.md`: `texture = "file.png"` on a diffuse or metal material is an
-//! albedo texture (png/jpg, sRGB; multiplied with `albedo`).
+//! `texture = "file.png"` on a diffuse, metal or plastic material is an albedo texture
+//! (png/jpg, sRGB; multiplied with `albedo`).
 //!
 //! Geometry conventions: a `[[quad]]` becomes the triangles (corner, corner+u, corner+u+v) and
 //! (corner, corner+u+v, corner+v), so its front side is `u x v`; `[[mesh]]` `rotate` is in
