@@ -133,6 +133,11 @@ fn gpu_render_writes_exr_and_stats() {
     let o = run(&args);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("on GPU"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("raylume: rendering scenes/cornell-box.toml: backend GPU ("),
+        "the settings line names the GPU backend and its adapter: {}",
+        stderr(&o)
+    );
     let img = image::open(&exr).unwrap().into_rgb32f();
     assert_eq!(img.dimensions(), (24, 16));
     // Linear radiance: the light's own pixels exceed 1 (its emission is 17, 12, 4); a PNG
