@@ -244,6 +244,8 @@ fn run(args: Args) -> Result<(), String> {
         let secs = p.elapsed.as_secs_f64();
         let estimate = secs * f64::from(p.total_spp) / f64::from(p.done_spp);
         match *last {
+            // One batch is the whole render: nothing to estimate.
+            None if p.done_spp >= p.total_spp => *last = Some(p.elapsed),
             None => {
                 // After the first batch: what the whole trace will cost.
                 let line = format!(
@@ -378,8 +380,11 @@ fn ensure_runtime_dir() {
     }
     #[cfg(unix)]
     {
+        // Fails unless this user owns the folder: then leave the variable alone.
         use std::os::unix::fs::PermissionsExt;
-        let _ = std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700));
+        if std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o700)).is_err() {
+            return;
+        }
     }
     // SAFETY: called first thing in `main`, before any other thread exists, so nothing reads
     // the environment concurrently.
