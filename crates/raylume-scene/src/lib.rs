@@ -85,7 +85,7 @@ mod gltf;
 mod image_io;
 mod obj;
 mod toml;
-mod transform;
+pub mod transform;
 mod tungsten;
 mod validate;
 

@@ -4,9 +4,12 @@ use glam::{DMat3, DVec3, Mat3, Mat4, Vec3};
 
 use crate::model::{Bounds, Camera, Triangle};
 
-/// An affine transform of points, with the matching normal transform.
+/// An affine transform of points, with the matching normal transform: what the loaders apply
+/// to meshes (TOML `[[mesh]]`, glTF nodes, Tungsten transforms), public so that scenes built
+/// in code (`raylume::SceneBuilder`) place meshes exactly as a file does.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(crate) struct Xform {
+pub struct Xform {
+    /// The point transform.
     pub m: Mat4,
     /// Inverse transpose of the linear part; `None` when the linear part is singular (then
     /// every triangle is degenerate anyway and shading normals are dropped).
@@ -17,12 +20,14 @@ pub(crate) struct Xform {
 }
 
 impl Xform {
+    /// No change.
     pub const IDENTITY: Xform = Xform {
         m: Mat4::IDENTITY,
         normal: Some(Mat3::IDENTITY),
         mirrors: false,
     };
 
+    /// The transform of `m`, its normal matrix and whether it mirrors.
     pub fn from_mat4(m: Mat4) -> Self {
         let linear = Mat3::from_mat4(m);
         let det = linear.determinant();

@@ -2,7 +2,8 @@
 
 use std::path::Path;
 
-use glam::{DMat3, DVec3, Mat3, Mat4, Vec3};
+use glam::{Mat4, Vec3};
+use raylume_scene::transform::Xform;
 use raylume_scene::{
     Bloom, Camera, Environment, Material, RenderSettings, Scene, SceneError, Sphere, Triangle,
 };
@@ -73,77 +74,15 @@ impl Transform {
         }
     }
 
-    /// The matrix: `translate * rotate * scale`.
+    /// The matrix: `translate * rotate * scale` (raylume-scene's own `[[mesh]]` transform,
+    /// [`Xform::from_srt`]).
     pub fn matrix(&self) -> Mat4 {
-        let d = self.rotate.as_dvec3();
-        let r = (rot_z(d.z) * rot_y(d.y) * rot_x(d.x)).as_mat3();
-        Mat4::from_translation(self.translate) * Mat4::from_mat3(r) * Mat4::from_scale(self.scale)
+        self.xform().m
     }
 
-    /// Transforms a triangle: positions, shading normals (renormalised; dropped when the
-    /// transform is singular), winding (swapped under mirroring).
-    fn apply(&self, m: Mat4, t: &mut Triangle) {
-        for p in &mut t.positions {
-            *p = m.transform_point3(*p);
-        }
-        let linear = Mat3::from_mat4(m);
-        let det = linear.determinant();
-        let normal = (det != 0.0 && det.is_finite())
-            .then(|| linear.inverse().transpose())
-            .filter(|n| n.is_finite());
-        match (normal, t.normals.as_mut()) {
-            (Some(nm), Some(ns)) => {
-                for n in ns.iter_mut() {
-                    *n = (nm * *n).normalize_or_zero();
-                }
-                if ns.contains(&Vec3::ZERO) {
-                    t.normals = None;
-                }
-            }
-            (None, Some(_)) => t.normals = None,
-            _ => {}
-        }
-        if det < 0.0 {
-            t.positions.swap(1, 2);
-            if let Some(n) = t.normals.as_mut() {
-                n.swap(1, 2);
-            }
-            if let Some(uv) = t.uvs.as_mut() {
-                uv.swap(1, 2);
-            }
-        }
+    fn xform(&self) -> Xform {
+        Xform::from_srt(self.scale, self.rotate, self.translate)
     }
-}
-
-/// Sine and cosine of an angle in degrees, exact at multiples of 90 degrees.
-fn sin_cos_deg(deg: f64) -> (f64, f64) {
-    let r = deg.rem_euclid(360.0);
-    if r % 90.0 == 0.0 {
-        match (r / 90.0) as i32 {
-            0 => (0.0, 1.0),
-            1 => (1.0, 0.0),
-            2 => (0.0, -1.0),
-            _ => (-1.0, 0.0),
-        }
-    } else {
-        let x = deg.to_radians();
-        (x.sin(), x.cos())
-    }
-}
-
-fn rot_x(deg: f64) -> DMat3 {
-    let (s, c) = sin_cos_deg(deg);
-    DMat3::from_cols(DVec3::X, DVec3::new(0.0, c, s), DVec3::new(0.0, -s, c))
-}
-
-fn rot_y(deg: f64) -> DMat3 {
-    let (s, c) = sin_cos_deg(deg);
-    DMat3::from_cols(DVec3::new(c, 0.0, -s), DVec3::Y, DVec3::new(s, 0.0, c))
-}
-
-fn rot_z(deg: f64) -> DMat3 {
-    let (s, c) = sin_cos_deg(deg);
-    DMat3::from_cols(DVec3::new(c, s, 0.0), DVec3::new(-s, c, 0.0), DVec3::Z)
 }
 
 /// Builds a [`Scene`] in code: the camera, materials, quads, boxes, spheres, triangles, meshes
@@ -346,12 +285,10 @@ impl SceneBuilder {
                 }));
             self.scene.textures.extend(mesh.textures);
         }
-        let m = transform.matrix();
+        let xform = transform.xform();
         self.scene.triangles.reserve(mesh.triangles.len());
         for mut t in mesh.triangles {
-            if m != Mat4::IDENTITY {
-                transform.apply(m, &mut t);
-            }
+            xform.apply(&mut t);
             t.material = match material {
                 Some(id) => id.0,
                 None => t.material + material_base,
