@@ -138,6 +138,25 @@ fn next_event_estimation_has_less_noise_at_equal_samples() {
     assert!(e_nee * 2.0 < e_plain, "plain {e_plain}, nee {e_nee}");
 }
 
+/// The red channel's image mean of 16 one-bounce 8x8 renders (seeds `seed0..seed0 + 16`) of
+/// `scene` at `spp`, and its standard error.
+fn one_bounce_stats(scene: &Scene, estimator: Estimator, spp: u32, seed0: u32) -> (f64, f64) {
+    let v: Vec<f64> = (0..16)
+        .map(|k| {
+            let s = TraceSettings {
+                seed: seed0 + k,
+                ..settings(8, 8, spp, 1, Schedule::Megakernel)
+            };
+            let mut t = CpuTracer::new(scene, &bvh(scene)).unwrap();
+            t.set_estimator(estimator);
+            mean(&t.render(&s, &mut |_, _| {}).unwrap().radiance)[0]
+        })
+        .collect();
+    let m = v.iter().sum::<f64>() / 16.0;
+    let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / 15.0;
+    (m, (var / 16.0).sqrt())
+}
+
 #[test]
 fn next_event_estimation_on_glossy_floors_converges_to_the_plain_estimate() {
     // Direct light only (one bounce, black sky): a lamp above a glossy floor whose highlight
@@ -182,23 +201,7 @@ fn next_event_estimation_on_glossy_floors_converges_to_the_plain_estimate() {
             triangles,
             ..Default::default()
         };
-        let one_bounce = |estimator, spp, seed| {
-            let s = TraceSettings {
-                seed,
-                ..settings(8, 8, spp, 1, Schedule::Megakernel)
-            };
-            let mut t = CpuTracer::new(&scene, &bvh(&scene)).unwrap();
-            t.set_estimator(estimator);
-            mean(&t.render(&s, &mut |_, _| {}).unwrap().radiance)[0]
-        };
-        let stats = |estimator, spp| {
-            let v: Vec<f64> = (0..16)
-                .map(|k| one_bounce(estimator, spp, 200 + k))
-                .collect();
-            let m = v.iter().sum::<f64>() / 16.0;
-            let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / 15.0;
-            (m, (var / 16.0).sqrt())
-        };
+        let stats = |estimator, spp| one_bounce_stats(&scene, estimator, spp, 200);
         let ((mp, sp), (mn, sn)) = (stats(Estimator::Plain, 1024), stats(Estimator::Nee, 256));
         let se = (sp * sp + sn * sn).sqrt();
         eprintln!("{name}: plain {mp:.5} ± {sp:.5}, nee {mn:.5} ± {sn:.5}");
@@ -352,23 +355,7 @@ fn next_event_estimation_through_rough_glass_converges_to_the_plain_estimate() {
                 .features()
                 .contains(raylume_scene::Feature::RoughGlass)
         );
-        let one_bounce = |estimator, spp, seed| {
-            let s = TraceSettings {
-                seed,
-                ..settings(8, 8, spp, 1, Schedule::Megakernel)
-            };
-            let mut t = CpuTracer::new(&scene, &bvh(&scene)).unwrap();
-            t.set_estimator(estimator);
-            mean(&t.render(&s, &mut |_, _| {}).unwrap().radiance)[0]
-        };
-        let stats = |estimator, spp| {
-            let v: Vec<f64> = (0..16)
-                .map(|k| one_bounce(estimator, spp, 400 + k))
-                .collect();
-            let m = v.iter().sum::<f64>() / 16.0;
-            let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / 15.0;
-            (m, (var / 16.0).sqrt())
-        };
+        let stats = |estimator, spp| one_bounce_stats(&scene, estimator, spp, 400);
         let ((mp, sp), (mn, sn)) = (stats(Estimator::Plain, 1024), stats(Estimator::Nee, 256));
         let se = (sp * sp + sn * sn).sqrt();
         eprintln!("rough glass {alpha_roughness}: plain {mp:.5} ± {sp:.5}, nee {mn:.5} ± {sn:.5}");
