@@ -190,19 +190,23 @@ pub fn zsobol_sample_index(m: u32, log2_spp: u32, key: u32) -> u32 {
 
 /// Sobol' dimension 1 of index `a` (the Pascal matrix mod 2; dimension 0 is
 /// `a.reverse_bits()`), as 32 bits, the first bit the most significant.
+///
+/// The matrix's column for index bit `j` has output bit `i` (from the top) set when
+/// `C(j, i)` is odd, which by Lucas' theorem is when `i & j == i`: output bit `i` is the xor
+/// of the index bits `j` whose positions are supersets of `i`'s. Five shift-mask-xor steps
+/// compute that superset sum for all 32 positions at once (each step folds in the positions
+/// that differ in one bit of the position number); reversing puts bit `i` at the top. The
+/// same numbers as multiplying by the matrix column by column (tested against it), in 5
+/// steps instead of up to 32.
 #[inline]
 pub fn sobol_dim1(a: u32) -> u32 {
-    let mut v = 0u32;
-    let mut c = 0x8000_0000u32;
-    let mut a = a;
-    while a != 0 {
-        if a & 1 == 1 {
-            v ^= c;
-        }
-        c ^= c >> 1;
-        a >>= 1;
-    }
-    v
+    let mut y = a;
+    y ^= (y >> 1) & 0x5555_5555;
+    y ^= (y >> 2) & 0x3333_3333;
+    y ^= (y >> 4) & 0x0f0f_0f0f;
+    y ^= (y >> 8) & 0x00ff_00ff;
+    y ^= (y >> 16) & 0x0000_ffff;
+    y.reverse_bits()
 }
 
 /// pbrt-v4's `FastOwenScrambler` (after Laine & Karras 2011 and Burley 2020): a nested

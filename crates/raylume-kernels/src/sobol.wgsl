@@ -65,18 +65,15 @@ fn zsobol_sample_index(m: u32, log2_spp: u32, key: u32) -> u32 {
     return out;
 }
 
-fn sobol_dim1(a_in: u32) -> u32 {
-    var v = 0u;
-    var c = 0x80000000u;
-    var a = a_in;
-    while (a != 0u) {
-        if ((a & 1u) == 1u) {
-            v ^= c;
-        }
-        c ^= c >> 1u;
-        a >>= 1u;
-    }
-    return v;
+// sobol.rs `sobol_dim1`: the Pascal matrix as a superset sum over bit positions (Lucas).
+fn sobol_dim1(a: u32) -> u32 {
+    var y = a;
+    y ^= (y >> 1u) & 0x55555555u;
+    y ^= (y >> 2u) & 0x33333333u;
+    y ^= (y >> 4u) & 0x0f0f0f0fu;
+    y ^= (y >> 8u) & 0x00ff00ffu;
+    y ^= (y >> 16u) & 0x0000ffffu;
+    return reverseBits(y);
 }
 
 fn fast_owen(v_in: u32, seed: u32) -> u32 {
