@@ -47,14 +47,16 @@ pub const SHADING_HAS_UVS: u32 = 2;
 /// to the front. The WGSL constant comes from raylume-sort's `MORTON_WGSL`.
 pub const DEAD_RAY_KEY: u32 = raylume_sort::DEAD_RAY_KEY;
 
-/// Random-number dimension (a group of 4 numbers) of the camera ray's pixel jitter.
+/// Random-number dimension (a group of 4 numbers) of the camera ray's pixel jitter. It uses x
+/// and y only: under ZSobol its z and w are not drawn (0; `shade::path_rand4`).
 pub const DIM_CAMERA: u32 = 0;
 /// Random-number dimension of the scattering decision at a hit.
 pub const DIM_SCATTER: u32 = 1;
 /// Random-number dimension of next-event estimation at a hit: the light, then the point on it.
 pub const DIM_LIGHT: u32 = 2;
 
-/// Random-number dimension of the Russian-roulette decision after a hit.
+/// Random-number dimension of the Russian-roulette decision after a hit (x only; under ZSobol
+/// z and w are 0, as for [`DIM_CAMERA`]).
 pub const DIM_ROULETTE: u32 = 3;
 
 /// `GpuLight::kind`: an emissive triangle.

@@ -36,15 +36,15 @@ use crate::bsdf::{
     sample_rough_dielectric, sample_rough_plastic,
 };
 use crate::gpu_types::{
-    DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE, GpuMaterial, LIGHT_ENVIRONMENT,
-    LIGHT_SPHERE, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL, MATERIAL_PLASTIC,
-    MATERIAL_TWO_SIDED, RAY_ALIVE, RR_MAX_SURVIVAL, RayState, SAMPLER_ZSOBOL, SHADOW_T_SCALE,
-    SceneUniforms, T_MAX,
+    DIM_CAMERA, DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE, GpuMaterial,
+    LIGHT_ENVIRONMENT, LIGHT_SPHERE, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL,
+    MATERIAL_PLASTIC, MATERIAL_TWO_SIDED, RAY_ALIVE, RR_MAX_SURVIVAL, RayState, SAMPLER_ZSOBOL,
+    SHADOW_T_SCALE, SceneUniforms, T_MAX,
 };
 use crate::math::{INV_PI, PI};
 use crate::rng::rand4;
 use crate::sampling::{sample_diffuse, sample_sphere_cap, sphere_cap_pdf};
-use crate::sobol::sobol4;
+use crate::sobol::{sobol2, sobol4};
 use crate::surface::{
     Globals, SurfaceHit, environment_pdf, environment_radiance, material_at, offset_ray_origin,
     sample_environment, surface_at,
@@ -206,6 +206,18 @@ pub fn shade_hit(
 pub fn path_rand4(scene: &SceneUniforms, pixel: u32, sample: u32, bounce: u32, dim: u32) -> Vec4 {
     if scene.sampler == SAMPLER_ZSOBOL {
         let xy = glam::UVec2::new(pixel % scene.width, pixel / scene.width);
+        if dim == DIM_CAMERA || dim == DIM_ROULETTE {
+            // These use x and y only (`DIM_CAMERA`, `DIM_ROULETTE`): their second pair is not
+            // computed, and z, w are 0.
+            let v = sobol2(
+                scene.seed,
+                xy,
+                sample,
+                scene.spp,
+                bounce * DIMS_PER_BOUNCE + dim,
+            );
+            return Vec4::new(v.x, v.y, 0.0, 0.0);
+        }
         return sobol4(
             scene.seed,
             xy,

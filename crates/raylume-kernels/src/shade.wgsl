@@ -63,6 +63,10 @@ fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, 
 fn path_rand4(pixel: u32, sample: u32, bounce: u32, dim: u32) -> vec4<f32> {
     if (scene.sampler == SAMPLER_ZSOBOL) {
         let xy = vec2<u32>(pixel % scene.width, pixel / scene.width);
+        if (dim == DIM_CAMERA || dim == DIM_ROULETTE) {
+            let v = sobol2(scene.seed, xy, sample, scene.spp, bounce * DIMS_PER_BOUNCE + dim);
+            return vec4<f32>(v.x, v.y, 0.0, 0.0);
+        }
         return sobol4(scene.seed, xy, sample, scene.spp, bounce * DIMS_PER_BOUNCE + dim);
     }
     return rand4(scene.seed, pixel, sample, bounce, dim);

@@ -291,6 +291,20 @@ pub fn sobol4(seed: u32, pixel: UVec2, sample: u32, spp: u32, dim: u32) -> Vec4 
     Vec4::new(f(a[0]), f(a[1]), f(b[0]), f(b[1]))
 }
 
+/// The first pair of [`sobol4`] alone, `(x, y)`, at half its cost: for the dimensions that
+/// use two numbers or fewer (the camera's jitter, the roulette decision).
+#[inline]
+pub fn sobol2(seed: u32, pixel: UVec2, sample: u32, spp: u32, dim: u32) -> glam::Vec2 {
+    debug_assert!(sample < spp.max(1), "sample {sample} of {spp}");
+    let log2_spp = sobol_log2_spp(spp);
+    let (seed, pixel) = zsobol_tile(seed, pixel, log2_spp);
+    let s = sobol_scrambles(seed, dim);
+    let k = sobol_keys(seed, dim);
+    let a = zsobol_pair_bits(pixel, sample, log2_spp, k[0], s[0], s[1]);
+    let f = |x: u32| rand_f32(x).min(SOBOL_ONE_MINUS_EPSILON);
+    glam::Vec2::new(f(a[0]), f(a[1]))
+}
+
 /// The WGSL source of the functions above (it uses `pcg4d` and `rand_f32` from `rng.wgsl`).
 pub const SOBOL_WGSL: &str = include_str!("sobol.wgsl");
 
@@ -513,6 +527,16 @@ mod tests {
                         .unwrap_or_else(|e| panic!("spp {spp}, prefix {n}: {e}"));
                 }
             }
+        }
+    }
+
+    #[test]
+    fn sobol2_is_the_first_pair_of_sobol4() {
+        for i in 0..20_000u32 {
+            let (px, spp) = (UVec2::new(i % 700, (i * 7) % 900), 1 + (i * 13) % 4096);
+            let (sample, dim) = (i % spp, i % 37);
+            let four = sobol4(i, px, sample, spp, dim);
+            assert_eq!(sobol2(i, px, sample, spp, dim), four.truncate().truncate());
         }
     }
 

@@ -137,3 +137,13 @@ fn sobol4(seed_in: u32, pixel_in: vec2<u32>, sample: u32, spp: u32, dim: u32) ->
         min(rand_f32(b.y), SOBOL_ONE_MINUS_EPSILON),
     );
 }
+
+// sobol.rs `sobol2`: the first pair of sobol4 alone.
+fn sobol2(seed_in: u32, pixel_in: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec2<f32> {
+    let log2_spp = sobol_log2_spp(spp);
+    let tile = zsobol_tile(seed_in, pixel_in, log2_spp);
+    let s = sobol_scrambles(tile.seed, dim);
+    let k = sobol_keys(tile.seed, dim);
+    let a = zsobol_pair_bits(tile.pixel, sample, log2_spp, k.x, s.x, s.y);
+    return vec2<f32>(min(rand_f32(a.x), SOBOL_ONE_MINUS_EPSILON), min(rand_f32(a.y), SOBOL_ONE_MINUS_EPSILON));
+}

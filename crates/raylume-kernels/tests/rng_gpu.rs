@@ -1,11 +1,11 @@
 //! The WGSL random numbers equal the Rust mirror's bit for bit: pcg4d's four words and the
 //! four floats of `rand4`, for 100 000 keys (consecutive pixels and samples, as the tracer
-//! uses them, and random keys with every bit pattern); and ZSobol's `sobol4`, large images
+//! uses them, and random keys with every bit pattern); and ZSobol's `sobol4` and `sobol2`, large images
 //! split into tiles included.
 
 use raylume_gpu::wgpu;
 use raylume_kernels::rng::{RNG_WGSL, pcg4d, rand4, rng_key};
-use raylume_kernels::sobol::{SOBOL_WGSL, sobol4};
+use raylume_kernels::sobol::{SOBOL_WGSL, sobol2, sobol4};
 
 const KERNEL: &str = r#"
 @group(0) @binding(0) var<storage, read> keys: array<u32>;
@@ -148,10 +148,13 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let k = SOBOL_KEY_WORDS * i;
     let f = sobol4(keys[k], vec2<u32>(keys[k + 1u], keys[k + 2u]), keys[k + 3u], keys[k + 4u], keys[k + 5u]);
-    out[4u * i] = bitcast<u32>(f.x);
-    out[4u * i + 1u] = bitcast<u32>(f.y);
-    out[4u * i + 2u] = bitcast<u32>(f.z);
-    out[4u * i + 3u] = bitcast<u32>(f.w);
+    let g = sobol2(keys[k], vec2<u32>(keys[k + 1u], keys[k + 2u]), keys[k + 3u], keys[k + 4u], keys[k + 5u]);
+    out[6u * i] = bitcast<u32>(f.x);
+    out[6u * i + 1u] = bitcast<u32>(f.y);
+    out[6u * i + 2u] = bitcast<u32>(f.z);
+    out[6u * i + 3u] = bitcast<u32>(f.w);
+    out[6u * i + 4u] = bitcast<u32>(g.x);
+    out[6u * i + 5u] = bitcast<u32>(g.y);
 }
 "#;
 
@@ -200,12 +203,16 @@ fn wgsl_sobol_equals_rust_bit_for_bit() {
     }
     let flat: Vec<u32> = keys.iter().flatten().copied().collect();
     let wgsl = format!("{RNG_WGSL}\n{SOBOL_WGSL}\n{SOBOL_KERNEL}");
-    let out = run(ctx, &wgsl, &flat, keys.len() * 4);
+    let out = run(ctx, &wgsl, &flat, keys.len() * 6);
     for (i, k) in keys.iter().enumerate() {
         let [seed, px, py, sample, spp, dim] = *k;
         let f = sobol4(seed, glam::UVec2::new(px, py), sample, spp, dim)
             .to_array()
             .map(f32::to_bits);
-        assert_eq!(&out[4 * i..4 * i + 4], &f, "sobol4 of key {k:?}");
+        assert_eq!(&out[6 * i..6 * i + 4], &f, "sobol4 of key {k:?}");
+        let g = sobol2(seed, glam::UVec2::new(px, py), sample, spp, dim)
+            .to_array()
+            .map(f32::to_bits);
+        assert_eq!(&out[6 * i + 4..6 * i + 6], &g, "sobol2 of key {k:?}");
     }
 }
