@@ -141,14 +141,14 @@ fn emit_leaf(
 ) -> (Aabb, u32, u32) {
     let leaf = &bvh.nodes[id];
     let start = primitives.len();
-    let mut seen: Vec<u32> = Vec::with_capacity(leaf.prim_count as usize);
     let mut full = Aabb::empty();
-    for k in leaf.first_index..leaf.first_index + leaf.prim_count {
-        let p = bvh.primitive_indices[k as usize];
-        if seen.contains(&p) {
+    let ids = &bvh.primitive_indices
+        [leaf.first_index as usize..(leaf.first_index + leaf.prim_count) as usize];
+    for (k, &p) in ids.iter().enumerate() {
+        // A second copy of one triangle (spatial splits) is merged into the first.
+        if ids[..k].contains(&p) {
             continue;
         }
-        seen.push(p);
         let prim = source[p as usize];
         full = full.union(&primitive_aabb(&prim));
         primitives.push(prim);

@@ -59,6 +59,8 @@ pub mod gpu_types;
 pub mod intersect;
 pub mod traverse;
 
+#[doc(hidden)]
+pub use builder::BuildProfile;
 pub use error::BvhError;
 pub use gpu_bvh::GpuBvh;
 pub use gpu_types::{
