@@ -98,6 +98,10 @@ pub struct RenderStats {
     /// True when the BVH came from the tracer's cache (the same geometry as the last render:
     /// `seconds.bvh` is then the time to recognise it).
     pub bvh_cached: bool,
+    /// The BVH preset the tree was built with (`"fast"` or `"quality"`: `Tracer::bvh_quality`).
+    pub bvh_preset: String,
+    /// Who built it: `"obvhs PLOC on the CPU, N threads"` (a cached tree: who built it then).
+    pub bvh_builder: String,
     /// The post-processing passes that ran, in order (`bloom_threshold`, `bloom_h`, ...).
     /// Empty when the scene calls for no post effect: then none is scheduled at all.
     pub post_passes: Vec<&'static str>,

@@ -575,6 +575,11 @@ impl Tracer {
         };
         stats.seconds.bvh = t.elapsed().as_secs_f64();
         stats.bvh_nodes = bvh.nodes.len();
+        stats.bvh_preset = self.bvh_quality.name().into();
+        stats.bvh_builder = format!(
+            "obvhs PLOC on the CPU, {} threads",
+            rayon::current_num_threads()
+        );
 
         let mut progress = self.progress.take();
         let t_trace = Instant::now();

@@ -43,6 +43,15 @@ fn check_stats(v: &serde_json::Value, backend: &str) {
     assert_eq!(v["spp"], 3);
     assert_eq!(v["max_bounces"], 2);
     assert_eq!(v["triangles"], 36);
+    // Which preset and builder made the tree (issue 19: the stats did not say).
+    assert_eq!(v["bvh_preset"], "quality");
+    assert!(
+        v["bvh_builder"]
+            .as_str()
+            .is_some_and(|b| b.starts_with("obvhs PLOC on the CPU")),
+        "{}",
+        v["bvh_builder"]
+    );
     let features: Vec<&str> = v["features"]
         .as_array()
         .unwrap()

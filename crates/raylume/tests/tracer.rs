@@ -258,6 +258,13 @@ fn bvh_is_cached_per_geometry() {
     let mut scene = cornell(12, 12, 1);
     let first = t.render(&scene).unwrap();
     assert!(!first.stats.bvh_cached);
+    // The stats say which preset and which builder made the tree.
+    assert_eq!(first.stats.bvh_preset, "quality");
+    assert!(
+        first.stats.bvh_builder.starts_with("obvhs PLOC on the CPU"),
+        "{}",
+        first.stats.bvh_builder
+    );
     scene.render.spp = 2;
     scene.materials[0].albedo *= 0.5; // materials do not shape the tree
     let second = t.render(&scene).unwrap();
@@ -275,8 +282,7 @@ fn bvh_is_cached_per_geometry() {
     let third = t.render(&moved).unwrap();
     assert!(!third.stats.bvh_cached, "one vertex moved by 1e-3: rebuilt");
     t.bvh_quality = raylume::BvhQuality::Fast;
-    assert!(
-        !t.render(&moved).unwrap().stats.bvh_cached,
-        "another preset: rebuilt"
-    );
+    let fast = t.render(&moved).unwrap();
+    assert!(!fast.stats.bvh_cached, "another preset: rebuilt");
+    assert_eq!(fast.stats.bvh_preset, "fast");
 }
