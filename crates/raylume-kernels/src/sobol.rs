@@ -275,20 +275,47 @@ pub fn zsobol_tile(seed: u32, pixel: UVec2, log2_spp: u32) -> (u32, UVec2) {
     (tile_seed, UVec2::new(pixel.x & mask, pixel.y & mask))
 }
 
+/// What both pairs of pair group `dim` share: `log2(spp)`, the pixel in its tile and the
+/// tile's Owen seeds ([`sobol_scrambles`]) and digit-permutation keys ([`sobol_keys`]).
+#[derive(Clone, Copy, Debug)]
+pub struct ZSobolSetup {
+    pub log2_spp: u32,
+    pub pixel: UVec2,
+    pub scrambles: [u32; 4],
+    pub keys: [u32; 2],
+}
+
+/// [`ZSobolSetup`] for (seed, pixel, spp, dim), tiles included ([`zsobol_tile`]).
+#[inline]
+pub fn zsobol_setup(seed: u32, pixel: UVec2, spp: u32, dim: u32) -> ZSobolSetup {
+    let log2_spp = sobol_log2_spp(spp);
+    let (seed, pixel) = zsobol_tile(seed, pixel, log2_spp);
+    ZSobolSetup {
+        log2_spp,
+        pixel,
+        scrambles: sobol_scrambles(seed, dim),
+        keys: sobol_keys(seed, dim),
+    }
+}
+
+/// Pair `which` (0 or 1) of `z` at `sample`, as floats in `[0, 1)`.
+#[inline]
+pub fn zsobol_pair(z: &ZSobolSetup, sample: u32, which: usize) -> glam::Vec2 {
+    let (sx, sy) = (z.scrambles[2 * which], z.scrambles[2 * which + 1]);
+    let a = zsobol_pair_bits(z.pixel, sample, z.log2_spp, z.keys[which], sx, sy);
+    let f = |x: u32| rand_f32(x).min(SOBOL_ONE_MINUS_EPSILON);
+    glam::Vec2::new(f(a[0]), f(a[1]))
+}
+
 /// Four numbers in `[0, 1)` for (seed, pixel (x, y), sample in `0..spp`, dim): `(x, y)` is
 /// ZSobol pair `2 * dim`, `(z, w)` pair `2 * dim + 1`. Images too large for the 32-bit index
 /// at this spp are split into tiles ([`zsobol_tile`]).
 #[inline]
 pub fn sobol4(seed: u32, pixel: UVec2, sample: u32, spp: u32, dim: u32) -> Vec4 {
     debug_assert!(sample < spp.max(1), "sample {sample} of {spp}");
-    let log2_spp = sobol_log2_spp(spp);
-    let (seed, pixel) = zsobol_tile(seed, pixel, log2_spp);
-    let s = sobol_scrambles(seed, dim);
-    let k = sobol_keys(seed, dim);
-    let a = zsobol_pair_bits(pixel, sample, log2_spp, k[0], s[0], s[1]);
-    let b = zsobol_pair_bits(pixel, sample, log2_spp, k[1], s[2], s[3]);
-    let f = |x: u32| rand_f32(x).min(SOBOL_ONE_MINUS_EPSILON);
-    Vec4::new(f(a[0]), f(a[1]), f(b[0]), f(b[1]))
+    let z = zsobol_setup(seed, pixel, spp, dim);
+    let (a, b) = (zsobol_pair(&z, sample, 0), zsobol_pair(&z, sample, 1));
+    Vec4::new(a.x, a.y, b.x, b.y)
 }
 
 /// The first pair of [`sobol4`] alone, `(x, y)`, at half its cost: for the dimensions that
@@ -296,13 +323,7 @@ pub fn sobol4(seed: u32, pixel: UVec2, sample: u32, spp: u32, dim: u32) -> Vec4 
 #[inline]
 pub fn sobol2(seed: u32, pixel: UVec2, sample: u32, spp: u32, dim: u32) -> glam::Vec2 {
     debug_assert!(sample < spp.max(1), "sample {sample} of {spp}");
-    let log2_spp = sobol_log2_spp(spp);
-    let (seed, pixel) = zsobol_tile(seed, pixel, log2_spp);
-    let s = sobol_scrambles(seed, dim);
-    let k = sobol_keys(seed, dim);
-    let a = zsobol_pair_bits(pixel, sample, log2_spp, k[0], s[0], s[1]);
-    let f = |x: u32| rand_f32(x).min(SOBOL_ONE_MINUS_EPSILON);
-    glam::Vec2::new(f(a[0]), f(a[1]))
+    zsobol_pair(&zsobol_setup(seed, pixel, spp, dim), sample, 0)
 }
 
 /// The WGSL source of the functions above (it uses `pcg4d` and `rand_f32` from `rng.wgsl`).

@@ -121,29 +121,40 @@ fn zsobol_tile(seed: u32, pixel: vec2<u32>, log2_spp: u32) -> ZSobolTile {
     return ZSobolTile(tile_seed, pixel & vec2<u32>(mask));
 }
 
-fn sobol4(seed_in: u32, pixel_in: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec4<f32> {
+// sobol.rs `ZSobolSetup` / `zsobol_setup`: what both pairs of a pair group share.
+struct ZSobolSetup {
+    log2_spp: u32,
+    pixel: vec2<u32>,
+    scrambles: vec4<u32>,
+    keys: vec2<u32>,
+}
+
+fn zsobol_setup(seed: u32, pixel: vec2<u32>, spp: u32, dim: u32) -> ZSobolSetup {
     let log2_spp = sobol_log2_spp(spp);
-    let tile = zsobol_tile(seed_in, pixel_in, log2_spp);
-    let seed = tile.seed;
-    let pixel = tile.pixel;
-    let s = sobol_scrambles(seed, dim);
-    let k = sobol_keys(seed, dim);
-    let a = zsobol_pair_bits(pixel, sample, log2_spp, k.x, s.x, s.y);
-    let b = zsobol_pair_bits(pixel, sample, log2_spp, k.y, s.z, s.w);
-    return vec4<f32>(
-        min(rand_f32(a.x), SOBOL_ONE_MINUS_EPSILON),
-        min(rand_f32(a.y), SOBOL_ONE_MINUS_EPSILON),
-        min(rand_f32(b.x), SOBOL_ONE_MINUS_EPSILON),
-        min(rand_f32(b.y), SOBOL_ONE_MINUS_EPSILON),
-    );
+    let tile = zsobol_tile(seed, pixel, log2_spp);
+    return ZSobolSetup(log2_spp, tile.pixel, sobol_scrambles(tile.seed, dim), sobol_keys(tile.seed, dim));
+}
+
+// sobol.rs `zsobol_pair`: pair `which` (0 or 1) as floats in [0, 1).
+fn zsobol_pair(z: ZSobolSetup, sample: u32, which: u32) -> vec2<f32> {
+    var sx = z.scrambles.x;
+    var sy = z.scrambles.y;
+    var key = z.keys.x;
+    if (which == 1u) {
+        sx = z.scrambles.z;
+        sy = z.scrambles.w;
+        key = z.keys.y;
+    }
+    let a = zsobol_pair_bits(z.pixel, sample, z.log2_spp, key, sx, sy);
+    return vec2<f32>(min(rand_f32(a.x), SOBOL_ONE_MINUS_EPSILON), min(rand_f32(a.y), SOBOL_ONE_MINUS_EPSILON));
+}
+
+fn sobol4(seed: u32, pixel: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec4<f32> {
+    let z = zsobol_setup(seed, pixel, spp, dim);
+    return vec4<f32>(zsobol_pair(z, sample, 0u), zsobol_pair(z, sample, 1u));
 }
 
 // sobol.rs `sobol2`: the first pair of sobol4 alone.
-fn sobol2(seed_in: u32, pixel_in: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec2<f32> {
-    let log2_spp = sobol_log2_spp(spp);
-    let tile = zsobol_tile(seed_in, pixel_in, log2_spp);
-    let s = sobol_scrambles(tile.seed, dim);
-    let k = sobol_keys(tile.seed, dim);
-    let a = zsobol_pair_bits(tile.pixel, sample, log2_spp, k.x, s.x, s.y);
-    return vec2<f32>(min(rand_f32(a.x), SOBOL_ONE_MINUS_EPSILON), min(rand_f32(a.y), SOBOL_ONE_MINUS_EPSILON));
+fn sobol2(seed: u32, pixel: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec2<f32> {
+    return zsobol_pair(zsobol_setup(seed, pixel, spp, dim), sample, 0u);
 }
