@@ -17,9 +17,13 @@ use raylume_scene::{Scene, Sphere, Triangle};
 
 use crate::bounds::primitive_aabb;
 use crate::flatten::{Flat, flatten};
-use crate::median::build_median;
+use crate::median::{LEAF_SIZE, build_median};
 use crate::stats::{BvhStats, Fallback};
-use crate::{BvhError, BvhQuality, GpuBvh, INVALID_INDEX, MAX_STACK_DEPTH, Primitive};
+use crate::wide::{WideFlat, to_wide, wide_stats};
+use crate::{
+    BvhError, BvhLayout, BvhQuality, GpuBvh, INVALID_INDEX, MAX_STACK_DEPTH, Primitive,
+    WIDE_STACK_SIZE,
+};
 
 /// The largest count a `u32` index may address: `u32::MAX` is [`INVALID_INDEX`].
 const MAX_U32_COUNT: usize = INVALID_INDEX as usize;
@@ -28,6 +32,15 @@ impl GpuBvh {
     /// Builds one BVH over a scene's triangles and spheres.
     pub fn from_scene(scene: &Scene, quality: BvhQuality) -> Result<GpuBvh, BvhError> {
         GpuBvh::build(&scene.triangles, &scene.spheres, quality)
+    }
+
+    /// [`GpuBvh::from_scene`] in a chosen [`BvhLayout`].
+    pub fn from_scene_with_layout(
+        scene: &Scene,
+        quality: BvhQuality,
+        layout: BvhLayout,
+    ) -> Result<GpuBvh, BvhError> {
+        GpuBvh::build_with_layout(&scene.triangles, &scene.spheres, quality, layout)
     }
 
     /// Builds one BVH over `triangles` and `spheres` together and flattens it into the GPU
@@ -42,12 +55,29 @@ impl GpuBvh {
     /// than [`MAX_STACK_DEPTH`] coincident primitives (on which PLOC builds a chain, slowly),
     /// the builder falls back to balanced object-median splits and says so in
     /// [`BvhStats::fallback`].
+    ///
+    /// The tree is in [`BvhLayout::default`]; [`GpuBvh::build_with_layout`] chooses.
     pub fn build(
         triangles: &[Triangle],
         spheres: &[Sphere],
         quality: BvhQuality,
     ) -> Result<GpuBvh, BvhError> {
-        GpuBvh::build_with_params(triangles, spheres, quality, quality.params())
+        GpuBvh::build_with_layout(triangles, spheres, quality, BvhLayout::default())
+    }
+
+    /// [`GpuBvh::build`] in a chosen [`BvhLayout`]. Both layouts come from the same build
+    /// (PLOC, SAH reinsertion, pre-splits for `Quality`); [`BvhLayout::Binary`] then collapses
+    /// leaves by SAH and reinserts again, [`BvhLayout::Wide`] hands the one-primitive-leaf
+    /// tree to obvhs' eight-wide converter. A wide tree deeper than [`WIDE_STACK_SIZE`] falls
+    /// back to the balanced median build as a binary one deeper than [`MAX_STACK_DEPTH`] does.
+    pub fn build_with_layout(
+        triangles: &[Triangle],
+        spheres: &[Sphere],
+        quality: BvhQuality,
+        layout: BvhLayout,
+    ) -> Result<GpuBvh, BvhError> {
+        GpuBvh::build_profiled(triangles, spheres, quality, quality.params(), layout)
+            .map(|(bvh, _)| bvh)
     }
 
     /// [`GpuBvh::build`] with any obvhs parameters, for measuring presets against each other
@@ -59,7 +89,8 @@ impl GpuBvh {
         quality: BvhQuality,
         params: BvhBuildParams,
     ) -> Result<GpuBvh, BvhError> {
-        GpuBvh::build_profiled(triangles, spheres, quality, params).map(|(bvh, _)| bvh)
+        GpuBvh::build_profiled(triangles, spheres, quality, params, BvhLayout::default())
+            .map(|(bvh, _)| bvh)
     }
 
     /// [`GpuBvh::build_with_params`], also returning the wall time of each stage (the
@@ -70,6 +101,7 @@ impl GpuBvh {
         spheres: &[Sphere],
         quality: BvhQuality,
         params: BvhBuildParams,
+        layout: BvhLayout,
     ) -> Result<(GpuBvh, BuildProfile), BvhError> {
         let start = Instant::now();
         let mut profile = BuildProfile::default();
@@ -102,12 +134,18 @@ impl GpuBvh {
 
         let coincident = largest_coincident_group(&aabbs);
         profile.coincident_check = lap.next();
+        if layout == BvhLayout::Wide {
+            return build_wide(
+                triangles, spheres, &source, &aabbs, coincident, quality, params, profile, lap,
+                start,
+            );
+        }
         let mut fallback = None;
         let mut flat = if coincident > MAX_COINCIDENT {
             fallback = Some(Fallback::CoincidentBoxes { count: coincident });
-            flatten(&build_median(&aabbs), &source)
+            flatten(&build_median(&aabbs, LEAF_SIZE), &source)
         } else {
-            match build_obvhs(triangles, &aabbs, params, &mut profile, &mut lap)? {
+            match build_obvhs(triangles, &aabbs, params, true, &mut profile, &mut lap)? {
                 Ok(bvh2) => {
                     let flat = flatten(&bvh2, &source);
                     profile.flatten = lap.next();
@@ -115,7 +153,7 @@ impl GpuBvh {
                 }
                 Err(depth) => {
                     fallback = Some(Fallback::TooDeep { depth });
-                    flatten(&build_median(&aabbs), &source)
+                    flatten(&build_median(&aabbs, LEAF_SIZE), &source)
                 }
             }
         };
@@ -123,7 +161,7 @@ impl GpuBvh {
             fallback = Some(Fallback::TooDeep {
                 depth: flat.max_depth,
             });
-            flat = flatten(&build_median(&aabbs), &source);
+            flat = flatten(&build_median(&aabbs, LEAF_SIZE), &source);
         }
         BvhError::check_depth(flat.max_depth)?;
         check_output(&flat)?;
@@ -134,7 +172,9 @@ impl GpuBvh {
             max_depth,
         } = flat;
         let mut bvh = GpuBvh {
+            layout: BvhLayout::Binary,
             nodes,
+            wide_nodes: Vec::new(),
             primitives,
             triangle_count: triangles.len() as u32,
             sphere_count: spheres.len() as u32,
@@ -145,6 +185,97 @@ impl GpuBvh {
         profile.stats = lap.next();
         Ok((bvh, profile))
     }
+}
+
+/// The wide layout's half of [`GpuBvh::build_profiled`]: the binary build without its leaf
+/// collapse, converted; the median fallback (one primitive a leaf) for coincident boxes, a
+/// PLOC chain, or a wide tree deeper than [`WIDE_STACK_SIZE`].
+#[allow(clippy::too_many_arguments)]
+fn build_wide(
+    triangles: &[Triangle],
+    spheres: &[Sphere],
+    source: &[Primitive],
+    aabbs: &[Aabb],
+    coincident: usize,
+    quality: BvhQuality,
+    params: BvhBuildParams,
+    mut profile: BuildProfile,
+    mut lap: Lap,
+    start: Instant,
+) -> Result<(GpuBvh, BuildProfile), BvhError> {
+    let median = || to_wide(build_median(aabbs, 1), source);
+    let mut fallback = None;
+    let mut flat = if coincident > MAX_COINCIDENT {
+        fallback = Some(Fallback::CoincidentBoxes { count: coincident });
+        median()
+    } else {
+        match build_obvhs(triangles, aabbs, params, false, &mut profile, &mut lap)? {
+            Ok(bvh2) => {
+                let flat = to_wide(bvh2, source);
+                profile.flatten = lap.next();
+                flat
+            }
+            Err(depth) => {
+                fallback = Some(Fallback::TooDeep { depth });
+                median()
+            }
+        }
+    };
+    if fallback.is_none() && flat.max_depth > WIDE_STACK_SIZE {
+        fallback = Some(Fallback::TooDeep {
+            depth: flat.max_depth,
+        });
+        flat = median();
+    }
+    if flat.max_depth > WIDE_STACK_SIZE {
+        return Err(BvhError::TooDeep {
+            depth: flat.max_depth,
+            max: WIDE_STACK_SIZE,
+        });
+    }
+    let WideFlat {
+        nodes,
+        primitives,
+        max_depth,
+    } = flat;
+    for (what, count) in [
+        ("primitives (after spatial splits)", primitives.len()),
+        ("nodes", nodes.len()),
+    ] {
+        if count > MAX_U32_COUNT {
+            return Err(BvhError::TooManyPrimitives {
+                what,
+                count,
+                limit: MAX_U32_COUNT,
+            });
+        }
+    }
+    lap.next();
+    let (leaf_count, max_leaf_size, sah_cost) = wide_stats(&nodes);
+    let stats = BvhStats {
+        quality,
+        fallback,
+        node_count: nodes.len(),
+        leaf_count,
+        max_depth,
+        max_leaf_size,
+        primitive_refs: primitives.len(),
+        sah_cost,
+        build_time: start.elapsed(),
+    };
+    profile.stats = lap.next();
+    Ok((
+        GpuBvh {
+            layout: BvhLayout::Wide,
+            nodes: Vec::new(),
+            wide_nodes: nodes,
+            primitives,
+            triangle_count: triangles.len() as u32,
+            sphere_count: spheres.len() as u32,
+            stats,
+        },
+        profile,
+    ))
 }
 
 /// Wall time of each stage of one [`GpuBvh::build_profiled`]; stages that did not run are
@@ -269,6 +400,7 @@ fn build_obvhs(
     triangles: &[Triangle],
     aabbs: &[Aabb],
     params: BvhBuildParams,
+    collapse_leaves: bool,
     profile: &mut BuildProfile,
     lap: &mut Lap,
 ) -> Result<Result<Bvh2, usize>, BvhError> {
@@ -338,6 +470,9 @@ fn build_obvhs(
     let mut reinsertion = ReinsertionOptimizer::default();
     reinsertion.run(&mut bvh2, params.reinsertion_batch_ratio, None);
     profile.reinsertion = lap.next();
+    if !collapse_leaves {
+        return Ok(Ok(bvh2));
+    }
     collapse(
         &mut bvh2,
         params.max_prims_per_leaf.clamp(1, 255),

@@ -153,19 +153,25 @@ fn emit_leaf(
         full = full.union(&primitive_aabb(&prim));
         primitives.push(prim);
     }
-    let b = if contains(leaf.aabb(), &full) {
-        full
-    } else {
-        // Pieces of split triangles: obvhs' box, widened for rounding, never past `full`.
-        let slack = split_slack(&full);
-        let widened = Aabb::new(leaf.aabb().min - slack, leaf.aabb().max + slack);
-        let b = widened.intersection(&full);
-        debug_assert!(b.min.cmple(b.max).all(), "split leaf box is empty");
-        b
-    };
+    let b = leaf_box(leaf.aabb(), &full);
     let count = (primitives.len() - start) as u32;
     debug_assert!(count > 0);
     (b, start as u32, count)
+}
+
+/// The box a leaf of obvhs' box `built` over primitives whose bounds are `full` gets: `full`
+/// when `built` contains it; for pieces of split triangles, `built` widened for the rounding
+/// of the clipped polygon, never past `full`.
+pub(crate) fn leaf_box(built: &Aabb, full: &Aabb) -> Aabb {
+    if contains(built, full) {
+        *full
+    } else {
+        let slack = split_slack(full);
+        let widened = Aabb::new(built.min - slack, built.max + slack);
+        let b = widened.intersection(full);
+        debug_assert!(b.min.cmple(b.max).all(), "split leaf box is empty");
+        b
+    }
 }
 
 /// How far a split leaf's box is widened: 8 ulp of the largest vertex magnitude per axis.

@@ -1,16 +1,23 @@
 //! [`GpuBvh`]: the flattened tree and its primitives, ready to upload.
 
 use crate::stats::BvhStats;
-use crate::{BvhNode, Primitive};
+use crate::{BvhLayout, BvhNode, Primitive, WideNode};
 
 /// A BVH over a scene's triangles and spheres in the layout the WGSL kernels read.
 ///
-/// Upload `nodes` and `primitives` unchanged (`bytemuck::cast_slice`) as the storage buffers
-/// `bvh_nodes` and `bvh_primitives` that [`TRAVERSE_WGSL`](crate::TRAVERSE_WGSL) expects.
+/// Upload [`GpuBvh::node_bytes`] and `primitives` unchanged as the storage buffers
+/// `bvh_nodes` and `bvh_primitives` that [`GpuBvh::traverse_wgsl`] (for the tree's
+/// [`layout`](GpuBvh::layout)) expects.
 #[derive(Clone, Debug)]
 pub struct GpuBvh {
-    /// Inner nodes in depth-first order; node 0 is the root. Never empty.
+    /// Which of the two node arrays below holds the tree.
+    pub layout: BvhLayout,
+    /// [`BvhLayout::Binary`]: inner nodes in depth-first order; node 0 is the root. Never
+    /// empty in that layout, empty in the other.
     pub nodes: Vec<BvhNode>,
+    /// [`BvhLayout::Wide`]: the compressed eight-wide nodes; node 0 is the root. Never empty
+    /// in that layout, empty in the other.
+    pub wide_nodes: Vec<WideNode>,
     /// Primitives in leaf order: `primitives[i]` is the i-th primitive met leaf by leaf. With
     /// spatial splits one scene triangle may have copies in several leaves; each copy carries
     /// its kind and scene index.
@@ -21,4 +28,21 @@ pub struct GpuBvh {
     pub sphere_count: u32,
     /// What the build produced and cost.
     pub stats: BvhStats,
+}
+
+impl GpuBvh {
+    /// The tree's nodes as bytes, to upload as `bvh_nodes`.
+    pub fn node_bytes(&self) -> &[u8] {
+        match self.layout {
+            BvhLayout::Binary => bytemuck::cast_slice(&self.nodes),
+            BvhLayout::Wide => bytemuck::cast_slice(&self.wide_nodes),
+        }
+    }
+
+    /// The traversal WGSL for this tree's layout: [`TRAVERSE_WGSL`](crate::TRAVERSE_WGSL) or
+    /// [`WIDE_TRAVERSE_WGSL`](crate::WIDE_TRAVERSE_WGSL). Both define `TraversalNode` (the
+    /// element type of `bvh_nodes`), `Hit`, `trace_closest` and `trace_any`.
+    pub fn traverse_wgsl(&self) -> &'static str {
+        crate::traverse_wgsl(self.layout)
+    }
 }

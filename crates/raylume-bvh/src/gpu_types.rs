@@ -81,6 +81,99 @@ impl Primitive {
     }
 }
 
+/// Depth of the wide traversal's stack of node groups ([`WideNode`]s): wide trees deeper than
+/// this are never handed to the kernels (the builder falls back to a balanced tree). An
+/// eight-wide tree of a binary one [`MAX_STACK_DEPTH`] deep is at most that deep, and
+/// ordinary scenes' wide trees are 5 to 12 deep.
+pub const WIDE_STACK_SIZE: usize = 32;
+
+/// The two BVH layouts the kernels traverse; both over the same [`Primitive`] records.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum BvhLayout {
+    /// Two children per node, both boxes in full precision: [`BvhNode`], 64 bytes
+    /// (Aila & Laine 2009). The reference layout.
+    #[default]
+    Binary,
+    /// Up to eight children per node, boxes quantised to 8 bits against the node's own grid:
+    /// [`WideNode`], 80 bytes (Ylitie, Karras & Laine, *Efficient Incoherent Ray Traversal on
+    /// GPUs Through Compressed Wide BVHs*, HPG 2017). Leaves of up to three primitives.
+    Wide,
+}
+
+impl BvhLayout {
+    /// Lower-case name for logs, flags and stats ("binary", "wide").
+    pub const fn name(self) -> &'static str {
+        match self {
+            BvhLayout::Binary => "binary",
+            BvhLayout::Wide => "wide",
+        }
+    }
+}
+
+impl std::str::FromStr for BvhLayout {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "binary" => Ok(BvhLayout::Binary),
+            "wide" => Ok(BvhLayout::Wide),
+            other => Err(format!(
+                "unknown BVH layout '{other}' (expected binary or wide)"
+            )),
+        }
+    }
+}
+
+/// A compressed eight-wide BVH node (Ylitie, Karras & Laine 2017), byte for byte obvhs'
+/// `CwBvhNode`, so that obvhs' converter builds it.
+///
+/// `repr(C)`, `Pod`, 80 bytes. WGSL: `WideNode` (the byte arrays read there as `u32`
+/// words, little-endian: `child_meta` as a `vec2<u32>`, each `q_*` as a `vec4<u32>`).
+///
+/// - `p`: the node's grid origin (the minimum corner of its box); `e_imask[0..3]`: the
+///   exponents of the grid's cell size per axis (the cell is `f32::from_bits(e << 23)`, a
+///   power of two); `e_imask[3]`: bit `i` set when child slot `i` is an inner node.
+/// - Child slot `i` spans cells `q_x[i] ..= q_x[8 + i]` on x (likewise y, z): the box
+///   `p + q * cell`, rounded outward by the builder.
+/// - `child_meta[i]`: 0 for an empty slot; for an inner child `0b001_11sss` (`24 + i` in the low
+///   five bits), the node being `nodes[child_base + r]` with `r` the number of inner slots
+///   before `i`; for a leaf the number of its primitives in unary in the high three bits
+///   (`0b001`, `0b011`, `0b111`) and their offset from `prim_base` in the low five.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct WideNode {
+    pub p: [f32; 3],
+    pub e_imask: [u8; 4],
+    pub child_base: u32,
+    pub prim_base: u32,
+    pub child_meta: [u8; 8],
+    pub q_x: [u8; 16],
+    pub q_y: [u8; 16],
+    pub q_z: [u8; 16],
+}
+
+impl WideNode {
+    /// Bit `i` set when child slot `i` is an inner node.
+    pub fn imask(&self) -> u8 {
+        self.e_imask[3]
+    }
+
+    /// The grid's cell size per axis (a power of two each).
+    pub fn cell(&self) -> [f32; 3] {
+        [0, 1, 2].map(|k| f32::from_bits(u32::from(self.e_imask[k]) << 23))
+    }
+}
+
+const _: () = assert!(size_of::<WideNode>() == 80);
+const _: () = assert!(std::mem::offset_of!(WideNode, e_imask) == 12);
+const _: () = assert!(std::mem::offset_of!(WideNode, child_base) == 16);
+const _: () = assert!(std::mem::offset_of!(WideNode, prim_base) == 20);
+const _: () = assert!(std::mem::offset_of!(WideNode, child_meta) == 24);
+const _: () = assert!(std::mem::offset_of!(WideNode, q_x) == 32);
+const _: () = assert!(std::mem::offset_of!(WideNode, q_y) == 48);
+const _: () = assert!(std::mem::offset_of!(WideNode, q_z) == 64);
+const _: () = assert!(size_of::<obvhs::cwbvh::node::CwBvhNode>() == size_of::<WideNode>());
+
 const _: () = assert!(size_of::<BvhNode>() == 64);
 const _: () = assert!(std::mem::offset_of!(BvhNode, left_index) == 12);
 const _: () = assert!(std::mem::offset_of!(BvhNode, left_count) == 28);

@@ -54,17 +54,20 @@ mod median;
 mod quality;
 mod stats;
 mod validate;
+mod wide;
 
 pub mod gpu_types;
 pub mod intersect;
 pub mod traverse;
+pub mod wide_traverse;
 
 #[doc(hidden)]
 pub use builder::BuildProfile;
 pub use error::BvhError;
 pub use gpu_bvh::GpuBvh;
 pub use gpu_types::{
-    BvhNode, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE, PRIM_TRIANGLE, Primitive,
+    BvhLayout, BvhNode, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE, PRIM_TRIANGLE, Primitive,
+    WIDE_STACK_SIZE, WideNode,
 };
 pub use intersect::{
     AABB_T_FAR_SCALE, Ray, ShearedRay, T_MISS, intersect_aabb, intersect_primitive,
@@ -73,6 +76,7 @@ pub use intersect::{
 pub use quality::BvhQuality;
 pub use stats::{BvhStats, Fallback, SAH_NODE_COST, SAH_PRIMITIVE_COST};
 pub use traverse::{Hit, T_MAX_LIMIT, trace_any, trace_closest};
+pub use wide_traverse::{WIDE_INV_DIR_LIMIT, WIDE_QUANT_PAD, WIDE_T_FAR_SCALE};
 
 /// The WGSL of [`traverse`]: the structs [`BvhNode`], [`Primitive`], `Hit`, `Ray`, the
 /// constants (`INVALID_INDEX`, `MAX_STACK_DEPTH`, `PRIM_TRIANGLE`, `PRIM_SPHERE`, `T_MISS`,
@@ -95,5 +99,28 @@ pub const TRAVERSE_WGSL: &str = concat!(
     "\n",
     include_str!("intersect.wgsl"),
     "\n",
+    include_str!("hit.wgsl"),
+    "\n",
     include_str!("traverse.wgsl"),
 );
+
+/// The WGSL of [`wide_traverse`]: as [`TRAVERSE_WGSL`], with `trace_closest` and `trace_any`
+/// over [`WideNode`]s (`bvh_nodes: array<TraversalNode>`, `TraversalNode` being `WideNode`
+/// here), filled with [`GpuBvh::wide_nodes`] of a tree built with [`BvhLayout::Wide`].
+pub const WIDE_TRAVERSE_WGSL: &str = concat!(
+    include_str!("gpu_types.wgsl"),
+    "\n",
+    include_str!("intersect.wgsl"),
+    "\n",
+    include_str!("hit.wgsl"),
+    "\n",
+    include_str!("wide_traverse.wgsl"),
+);
+
+/// [`TRAVERSE_WGSL`] or [`WIDE_TRAVERSE_WGSL`], by layout.
+pub const fn traverse_wgsl(layout: BvhLayout) -> &'static str {
+    match layout {
+        BvhLayout::Binary => TRAVERSE_WGSL,
+        BvhLayout::Wide => WIDE_TRAVERSE_WGSL,
+    }
+}

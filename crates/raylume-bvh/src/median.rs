@@ -11,12 +11,13 @@ use obvhs::{
     bvh2::{Bvh2, node::Bvh2Node},
 };
 
-/// Primitives per leaf.
-const LEAF_SIZE: usize = 4;
+/// Primitives per leaf of the binary layout's fallback (the wide layout's converter wants one
+/// per leaf and merges them itself).
+pub(crate) const LEAF_SIZE: usize = 4;
 
 /// A `Bvh2` in obvhs' layout (root at 0, children in adjacent pairs) over `aabbs`, whose
 /// `primitive_indices` index `aabbs`.
-pub(crate) fn build_median(aabbs: &[Aabb]) -> Bvh2 {
+pub(crate) fn build_median(aabbs: &[Aabb], leaf_size: usize) -> Bvh2 {
     let n = aabbs.len();
     let mut indices: Vec<u32> = (0..n as u32).collect();
     if n == 0 {
@@ -35,7 +36,7 @@ pub(crate) fn build_median(aabbs: &[Aabb]) -> Bvh2 {
             bounds = bounds.union(&aabbs[i as usize]);
             centres.extend(aabbs[i as usize].center());
         }
-        if end - start <= LEAF_SIZE {
+        if end - start <= leaf_size.max(1) {
             nodes[id] = Bvh2Node::new(bounds, (end - start) as u32, start as u32);
             continue;
         }
@@ -77,7 +78,7 @@ mod tests {
     #[test]
     fn coincident_boxes_give_a_balanced_tree() {
         let b = Aabb::new(Vec3A::ZERO, Vec3A::ONE);
-        let bvh = build_median(&vec![b; 10_000]);
+        let bvh = build_median(&vec![b; 10_000], LEAF_SIZE);
         // 10_000 / 4 = 2500 leaves: 12 levels of inner nodes above them, 13 in obvhs' count.
         assert_eq!(depth(&bvh, 0), 13);
         let mut seen: Vec<u32> = bvh.primitive_indices.clone();

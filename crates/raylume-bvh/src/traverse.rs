@@ -10,7 +10,7 @@ use glam::Vec3;
 use crate::intersect::{
     AABB_T_FAR_SCALE, Ray, ShearedRay, T_MISS, intersect_aabb, intersect_primitive, shear_ray,
 };
-use crate::{BvhNode, GpuBvh, INVALID_INDEX, MAX_STACK_DEPTH, Primitive};
+use crate::{BvhLayout, BvhNode, GpuBvh, INVALID_INDEX, MAX_STACK_DEPTH, Primitive};
 
 /// Traversal clamps `t_max` to this (2^127) so that `t_max * AABB_T_FAR_SCALE` stays finite
 /// and below [`T_MISS`]. WGSL: `T_MAX_LIMIT`.
@@ -245,14 +245,24 @@ pub fn trace_any(
 }
 
 impl GpuBvh {
-    /// The closest hit with `t_min < t < t_max`, if any. See [`trace_closest`].
+    /// The closest hit with `t_min < t < t_max`, if any, in whichever layout the tree has. See
+    /// [`trace_closest`] and [`wide_traverse::trace_closest`](crate::wide_traverse::trace_closest).
+    #[inline]
     pub fn trace_closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        let hit = trace_closest(&self.nodes, &self.primitives, ray, t_min, t_max);
+        let hit = match self.layout {
+            BvhLayout::Binary => trace_closest(&self.nodes, &self.primitives, ray, t_min, t_max),
+            BvhLayout::Wide => self.wide_trace_closest(ray, t_min, t_max),
+        };
         (hit.prim != INVALID_INDEX).then_some(hit)
     }
 
-    /// True if anything is hit with `t_min < t < t_max`. See [`trace_any`].
+    /// True if anything is hit with `t_min < t < t_max`. See [`trace_any`] and
+    /// [`wide_traverse::trace_any`](crate::wide_traverse::trace_any).
+    #[inline]
     pub fn trace_any(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        trace_any(&self.nodes, &self.primitives, ray, t_min, t_max)
+        match self.layout {
+            BvhLayout::Binary => trace_any(&self.nodes, &self.primitives, ray, t_min, t_max),
+            BvhLayout::Wide => self.wide_trace_any(ray, t_min, t_max),
+        }
     }
 }

@@ -1,24 +1,16 @@
 // raylume-bvh: BVH traversal, the WGSL mirror of traverse.rs (same names, constants and
-// operation order). The last part of TRAVERSE_WGSL, after gpu_types.wgsl and intersect.wgsl.
+// operation order). The last part of TRAVERSE_WGSL, after gpu_types.wgsl, intersect.wgsl and
+// hit.wgsl.
 //
 // Contract: this file declares no bindings. The including shader declares, at module scope
 // and with bindings of its choosing,
-//     var<storage, read> bvh_nodes: array<BvhNode>;         // GpuBvh::nodes
+//     var<storage, read> bvh_nodes: array<TraversalNode>;   // GpuBvh::nodes
 //     var<storage, read> bvh_primitives: array<Primitive>;  // GpuBvh::primitives
 // and must not define the names below. Node 0 is the root. Rays must have a non-zero
 // direction; t_min must be below T_MISS.
 
-// 2^127: traversal clamps t_max to this so that t_max * AABB_T_FAR_SCALE stays below T_MISS.
-const T_MAX_LIMIT: f32 = 0x1p+127f;
-
-// 16 bytes. prim indexes bvh_primitives; u, v: barycentrics of v1, v2 (0 for spheres).
-// A miss has prim == INVALID_INDEX.
-struct Hit {
-    t: f32,
-    prim: u32,
-    u: f32,
-    v: f32,
-}
+// The node type the kernels bind as `bvh_nodes` (wide_traverse.wgsl binds WideNode).
+alias TraversalNode = BvhNode;
 
 fn intersect_leaf_closest(ray: ShearedRay, first: u32, count: u32, t_min: f32,
                           hit: ptr<function, Hit>) {

@@ -4,7 +4,9 @@ use glam::Vec3A;
 use obvhs::aabb::Aabb;
 
 use crate::bounds::{contains, primitive_aabb};
-use crate::{GpuBvh, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE, PRIM_TRIANGLE};
+use crate::{
+    BvhLayout, GpuBvh, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE, PRIM_TRIANGLE, Primitive,
+};
 
 /// Barycentric grid resolution of the coverage check for split triangles.
 const COVERAGE_STEPS: u32 = 8;
@@ -23,7 +25,15 @@ impl GpuBvh {
     ///   contains its primitives' bounds; a triangle copied into several leaves by spatial
     ///   splits need only be covered by the union of its leaves' boxes (checked on its
     ///   vertices and a barycentric grid of points).
+    ///
+    /// A tree of [`BvhLayout::Wide`] is checked by its own rules (`wide.rs`, `validate_wide`).
     pub fn validate(&self) -> Result<(), String> {
+        if self.layout == BvhLayout::Wide {
+            return self.validate_wide();
+        }
+        if !self.wide_nodes.is_empty() {
+            return Err("a binary tree holds wide nodes too".into());
+        }
         let n_nodes = self.nodes.len();
         let n_prims = self.primitives.len();
         if n_nodes == 0 {
@@ -167,26 +177,38 @@ impl GpuBvh {
                 continue;
             }
             let p = &self.primitives[copy_of[scene]];
-            let v = [p.a, p.b, p.c].map(|x| Vec3A::new(x[0], x[1], x[2]));
-            let steps = COVERAGE_STEPS;
-            for i in 0..=steps {
-                for j in 0..=steps - i {
-                    let (a, b) = (i as f32 / steps as f32, j as f32 / steps as f32);
-                    // The exact point lies in the triangle's box; rounding may push the
-                    // computed one out (e.g. off an axis-aligned triangle's plane).
-                    let full = primitive_aabb(p);
-                    let point =
-                        (v[0] * (1.0 - a - b) + v[1] * a + v[2] * b).clamp(full.min, full.max);
-                    if !boxes.iter().any(|bx| bx.contains_point(point)) {
-                        return Err(format!(
-                            "triangle {scene} is split over {} leaves whose boxes miss its \
-                             point {point} (barycentrics {a}, {b})",
-                            boxes.len()
-                        ));
-                    }
-                }
-            }
+            check_split_coverage(p, scene, boxes.len(), |point| {
+                boxes.iter().any(|bx| bx.contains_point(point))
+            })?;
         }
         Ok(())
     }
+}
+
+/// Checks that a triangle split over `leaves` leaves is covered: `covered` must hold for its
+/// vertices and a barycentric grid of [`COVERAGE_STEPS`] steps (`p` is one of its copies).
+pub(crate) fn check_split_coverage(
+    p: &Primitive,
+    scene: usize,
+    leaves: usize,
+    covered: impl Fn(Vec3A) -> bool,
+) -> Result<(), String> {
+    let v = [p.a, p.b, p.c].map(|x| Vec3A::new(x[0], x[1], x[2]));
+    let steps = COVERAGE_STEPS;
+    // The exact point lies in the triangle's box; rounding may push the computed one out
+    // (e.g. off an axis-aligned triangle's plane).
+    let full = primitive_aabb(p);
+    for i in 0..=steps {
+        for j in 0..=steps - i {
+            let (a, b) = (i as f32 / steps as f32, j as f32 / steps as f32);
+            let point = (v[0] * (1.0 - a - b) + v[1] * a + v[2] * b).clamp(full.min, full.max);
+            if !covered(point) {
+                return Err(format!(
+                    "triangle {scene} is split over {leaves} leaves whose boxes miss its \
+                     point {point} (barycentrics {a}, {b})"
+                ));
+            }
+        }
+    }
+    Ok(())
 }

@@ -1,15 +1,16 @@
 //! BVH traversal against brute force (every primitive tested) on fixture scenes, 100,000
-//! queries each, with both build presets; any-hit against closest-hit's existence.
+//! queries each, with both build presets in both layouts; any-hit against closest-hit's
+//! existence.
 
 mod support;
 
-use raylume_bvh::{BvhQuality, GpuBvh};
+use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh};
 use rayon::prelude::*;
 use support::{Fixture, SceneHit, brute_force, check_against_brute_force, queries};
 
 const QUERIES: usize = 100_000;
 
-/// Builds `f` with both presets, validates, and compares 100,000 queries with brute force.
+/// Builds `f` with both presets in both layouts, validates, and compares 100,000 queries with brute force.
 fn check_fixture(f: Fixture, seed: u64) {
     let qs = queries(&f, QUERIES, seed);
     let reference: Vec<Option<SceneHit>> = qs.par_iter().map(|q| brute_force(&f, q)).collect();
@@ -30,15 +31,19 @@ fn check_fixture(f: Fixture, seed: u64) {
         "{}: only {hits} of {QUERIES} queries hit",
         f.name
     );
-    for quality in [BvhQuality::Fast, BvhQuality::Quality] {
-        let bvh = GpuBvh::build(&f.triangles, &f.spheres, quality).unwrap();
+    for (quality, layout) in [BvhQuality::Fast, BvhQuality::Quality]
+        .into_iter()
+        .flat_map(|q| [(q, BvhLayout::Binary), (q, BvhLayout::Wide)])
+    {
+        let bvh = GpuBvh::build_with_layout(&f.triangles, &f.spheres, quality, layout).unwrap();
+        assert_eq!(bvh.layout, layout);
         bvh.validate()
-            .unwrap_or_else(|e| panic!("{} {quality:?}: {e}", f.name));
+            .unwrap_or_else(|e| panic!("{} {quality:?} {layout:?}: {e}", f.name));
         let got = check_against_brute_force(&f, &bvh, &qs, &reference);
         assert_eq!(got, hits);
         eprintln!(
-            "{} {quality:?}: {} primitives -> {} refs, {} nodes, depth {}, SAH {:.1}; \
-             {hits}/{QUERIES} queries hit",
+            "{} {quality:?} {layout:?}: {} primitives -> {} refs, {} nodes, depth {}, \
+             SAH {:.1}; {hits}/{QUERIES} queries hit",
             f.name,
             f.primitive_count(),
             bvh.stats.primitive_refs,

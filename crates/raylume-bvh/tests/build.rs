@@ -5,8 +5,8 @@ mod support;
 
 use glam::Vec3;
 use raylume_bvh::{
-    BvhError, BvhQuality, Fallback, GpuBvh, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE,
-    PRIM_TRIANGLE, Ray,
+    BvhError, BvhLayout, BvhQuality, Fallback, GpuBvh, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE,
+    PRIM_TRIANGLE, Ray, WIDE_STACK_SIZE,
 };
 use raylume_scene::{Scene, Sphere, Triangle};
 use support::{Fixture, brute_force, check_against_brute_force, queries};
@@ -342,15 +342,147 @@ fn builds_are_deterministic_on_a_thread_pool() {
                 .num_threads(threads)
                 .build()
                 .unwrap()
-                .install(|| GpuBvh::from_scene(&scene, quality).unwrap())
+                .install(|| {
+                    [BvhLayout::Binary, BvhLayout::Wide]
+                        .map(|l| GpuBvh::from_scene_with_layout(&scene, quality, l).unwrap())
+                })
         };
         let first = build(2);
         for threads in [1, 2, 3, 2] {
             let again = build(threads);
-            assert!(
-                again.nodes == first.nodes && again.primitives == first.primitives,
-                "{quality:?}: the tree on {threads} threads differs"
-            );
+            for (a, b) in again.iter().zip(&first) {
+                assert!(
+                    a.nodes == b.nodes
+                        && a.wide_nodes == b.wide_nodes
+                        && a.primitives == b.primitives,
+                    "{quality:?} {:?}: the tree on {threads} threads differs",
+                    a.layout
+                );
+            }
         }
     }
+}
+
+/// The wide layout's tiny trees: no primitive gives a root with no child (every query
+/// misses); one primitive, a root with one leaf slot.
+#[test]
+fn wide_trees_of_zero_and_one_primitive() {
+    for quality in QUALITIES {
+        let empty = GpuBvh::build_with_layout(&[], &[], quality, BvhLayout::Wide).unwrap();
+        empty.validate().unwrap();
+        assert_eq!((empty.wide_nodes.len(), empty.nodes.len()), (1, 0));
+        assert_eq!(empty.wide_nodes[0].child_meta, [0; 8]);
+        let ray = Ray::new(Vec3::new(0.0, 0.0, -1.0), Vec3::Z);
+        assert_eq!(empty.trace_closest(&ray, 0.0, f32::INFINITY), None);
+        assert!(!empty.trace_any(&ray, 0.0, f32::INFINITY));
+        assert_eq!(empty.stats.leaf_count, 0);
+
+        let one =
+            GpuBvh::build_with_layout(&[unit_triangle()], &[], quality, BvhLayout::Wide).unwrap();
+        one.validate().unwrap();
+        assert_eq!(one.wide_nodes.len(), 1);
+        assert_eq!(one.wide_nodes[0].imask(), 0);
+        assert_eq!(
+            one.wide_nodes[0]
+                .child_meta
+                .iter()
+                .filter(|&&m| m != 0)
+                .count(),
+            1
+        );
+        let ray = Ray::new(Vec3::new(0.25, 0.25, -1.0), Vec3::Z);
+        let hit = one.trace_closest(&ray, 0.0, f32::INFINITY).unwrap();
+        assert_eq!((hit.prim, hit.t), (0, 1.0));
+        assert!(!one.trace_any(&ray, 0.0, 0.5));
+        let beside = Ray::new(Vec3::new(5.0, 5.0, -1.0), Vec3::Z);
+        assert_eq!(one.trace_closest(&beside, 0.0, f32::INFINITY), None);
+        assert_eq!(one.stats.leaf_count, 1);
+    }
+}
+
+/// The wide layout on degenerate input: coincident boxes give the median tree (one
+/// primitive a leaf before the conversion); 400 chains of 64 coincident triangles, which the
+/// binary layout must abandon (over [`MAX_STACK_DEPTH`] deep after its leaf collapse), are
+/// under [`WIDE_STACK_SIZE`] deep as wide trees (each wide level takes about three binary
+/// ones). Both within the stack and tracing like brute force.
+#[test]
+fn wide_trees_of_degenerate_input() {
+    let t = Triangle::flat(
+        [
+            Vec3::new(0.1, 0.2, 0.3),
+            Vec3::new(1.0, 0.2, 0.4),
+            Vec3::new(0.3, 1.5, 0.2),
+        ],
+        0,
+    );
+    let coincident = Fixture {
+        name: "5000 coincident triangles",
+        triangles: vec![t; 5000],
+        spheres: Vec::new(),
+    };
+    let k = MAX_STACK_DEPTH;
+    let chains = Fixture {
+        name: "400 x 64 coincident triangles",
+        triangles: (0..400 * k)
+            .map(|i| {
+                let o = Vec3::new((i / k) as f32 * 0.0025, 0.0, 0.0);
+                Triangle::flat(t.positions.map(|p| p + o), 0)
+            })
+            .collect(),
+        spheres: Vec::new(),
+    };
+    for (f, fallback) in [
+        (coincident, Some(Fallback::CoincidentBoxes { count: 5000 })),
+        (chains, None),
+    ] {
+        let bvh =
+            GpuBvh::build_with_layout(&f.triangles, &f.spheres, BvhQuality::Fast, BvhLayout::Wide)
+                .unwrap();
+        bvh.validate().unwrap();
+        eprintln!("{}: {:?}", f.name, bvh.stats);
+        assert_eq!(bvh.stats.fallback, fallback, "{}", f.name);
+        assert!(bvh.stats.max_depth <= WIDE_STACK_SIZE);
+        let qs = queries(&f, 2000, 16);
+        let reference: Vec<_> = qs.iter().map(|q| brute_force(&f, q)).collect();
+        check_against_brute_force(&f, &bvh, &qs, &reference);
+    }
+}
+
+#[test]
+fn wide_stats_describe_the_tree() {
+    let f = support::icosphere_on_plane();
+    let bvh =
+        GpuBvh::build_with_layout(&f.triangles, &f.spheres, BvhQuality::Fast, BvhLayout::Wide)
+            .unwrap();
+    let s = bvh.stats;
+    assert_eq!(s.node_count, bvh.wide_nodes.len());
+    assert_eq!(s.primitive_refs, bvh.primitives.len());
+    // Every node's leaf slots and the unary counts in their meta bytes.
+    let (mut leaves, mut prims, mut largest) = (0, 0, 0);
+    for n in &bvh.wide_nodes {
+        for slot in 0..8 {
+            if n.child_meta[slot] != 0 && n.imask() & (1 << slot) == 0 {
+                let count = (n.child_meta[slot] >> 5).count_ones() as usize;
+                leaves += 1;
+                prims += count;
+                largest = largest.max(count);
+            }
+        }
+    }
+    assert_eq!(s.leaf_count, leaves);
+    assert_eq!(prims, bvh.primitives.len());
+    assert_eq!(s.max_leaf_size, largest);
+    assert!(largest <= 3, "wide leaves hold at most 3 primitives");
+    // Eight-wide: fewer nodes and levels than the binary tree of the same build.
+    let binary = GpuBvh::build_with_layout(
+        &f.triangles,
+        &f.spheres,
+        BvhQuality::Fast,
+        BvhLayout::Binary,
+    )
+    .unwrap();
+    assert!(s.node_count < binary.stats.node_count && s.max_depth < binary.stats.max_depth);
+    assert!(s.max_depth >= (bvh.primitives.len() as f32).log(8.0).ceil() as usize - 1);
+    assert!(s.sah_cost > 1.0 && s.sah_cost.is_finite());
+    assert_eq!(s.fallback, None);
 }

@@ -1,11 +1,10 @@
-//! `TRAVERSE_WGSL` on the GPU (lavapipe in CI) against the CPU traversal of the same tree:
-//! ~50,000 queries of the brute-force test's five kinds on a scene of triangles and spheres.
+//! `TRAVERSE_WGSL` and `WIDE_TRAVERSE_WGSL` on the GPU (lavapipe in CI) against the CPU
+//! traversal of the same tree: ~50,000 queries of the brute-force test's five kinds on a scene
+//! of triangles and spheres, in each layout.
 
 mod support;
 
-use raylume_bvh::{
-    BvhQuality, GpuBvh, Hit, INVALID_INDEX, Primitive, TRAVERSE_WGSL, trace_any, trace_closest,
-};
+use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh, Hit, INVALID_INDEX, Primitive, wide_traverse};
 use raylume_gpu::{GpuContext, GpuError, testing::context_or_skip, wgpu};
 
 /// One query as the test kernel reads it. `repr(C)`, `Pod`, 32 bytes.
@@ -19,7 +18,7 @@ struct GpuQuery {
 }
 
 const KERNEL: &str = r#"
-@group(0) @binding(0) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(0) var<storage, read> bvh_nodes: array<TraversalNode>;
 @group(0) @binding(1) var<storage, read> bvh_primitives: array<Primitive>;
 
 struct GpuQuery {
@@ -51,7 +50,7 @@ fn trace_on_gpu(
     bvh: &GpuBvh,
     queries: &[GpuQuery],
 ) -> Result<(Vec<Hit>, Vec<u32>), GpuError> {
-    let source = format!("{TRAVERSE_WGSL}\n{KERNEL}");
+    let source = format!("{}\n{KERNEL}", bvh.traverse_wgsl());
     let module = ctx.scoped("compiling traverse_test", || {
         ctx.device
             .create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -71,7 +70,7 @@ fn trace_on_gpu(
             })
     })?;
     let none = wgpu::BufferUsages::empty();
-    let nodes = ctx.storage_buffer("bvh_nodes", &bvh.nodes, none)?;
+    let nodes = ctx.storage_buffer("bvh_nodes", bvh.node_bytes(), none)?;
     let primitives = ctx.storage_buffer("bvh_primitives", &bvh.primitives, none)?;
     let query_buf = ctx.storage_buffer("queries", queries, none)?;
     let n = queries.len();
@@ -125,18 +124,48 @@ fn wgsl_traversal_matches_the_cpu_traversal() {
     let Some(ctx) = context_or_skip("wgsl_traversal_matches_the_cpu_traversal") else {
         return;
     };
-    check_scene(
-        ctx,
-        support::spheres_and_triangles(),
-        BvhQuality::Quality,
-        21,
-    );
-    check_scene(ctx, support::icosphere_on_plane(), BvhQuality::Fast, 22);
+    for layout in [BvhLayout::Binary, BvhLayout::Wide] {
+        check_scene(
+            ctx,
+            support::spheres_and_triangles(),
+            BvhQuality::Quality,
+            layout,
+            21,
+        );
+        check_scene(
+            ctx,
+            support::icosphere_on_plane(),
+            BvhQuality::Fast,
+            layout,
+            22,
+        );
+    }
+}
+
+/// The CPU traversal of `bvh`'s layout: (closest hit, any hit).
+fn trace_on_cpu(bvh: &GpuBvh, q: &support::Query) -> (Hit, bool) {
+    let (r, t0, t1) = (&q.ray, q.t_min, q.t_max);
+    match bvh.layout {
+        BvhLayout::Binary => (
+            raylume_bvh::trace_closest(&bvh.nodes, &bvh.primitives, r, t0, t1),
+            raylume_bvh::trace_any(&bvh.nodes, &bvh.primitives, r, t0, t1),
+        ),
+        BvhLayout::Wide => (
+            wide_traverse::trace_closest(&bvh.wide_nodes, &bvh.primitives, r, t0, t1),
+            wide_traverse::trace_any(&bvh.wide_nodes, &bvh.primitives, r, t0, t1),
+        ),
+    }
 }
 
 /// Traces 50,000 queries on `f` on the GPU and the CPU and compares them.
-fn check_scene(ctx: &GpuContext, f: support::Fixture, quality: BvhQuality, seed: u64) {
-    let bvh = GpuBvh::build(&f.triangles, &f.spheres, quality).unwrap();
+fn check_scene(
+    ctx: &GpuContext,
+    f: support::Fixture,
+    quality: BvhQuality,
+    layout: BvhLayout,
+    seed: u64,
+) {
+    let bvh = GpuBvh::build_with_layout(&f.triangles, &f.spheres, quality, layout).unwrap();
     bvh.validate().unwrap();
     let queries = support::queries(&f, 50_000, seed);
     let gpu_queries: Vec<GpuQuery> = queries
@@ -158,9 +187,8 @@ fn check_scene(ctx: &GpuContext, f: support::Fixture, quality: BvhQuality, seed:
     let (mut t_apart, mut other_prim, mut hit_vs_miss, mut any_differs) = (0, 0, 0, 0);
     let (mut disagreements, mut not_identical) = (Vec::new(), Vec::new());
     for (i, q) in queries.iter().enumerate() {
-        let cpu = trace_closest(&bvh.nodes, &bvh.primitives, &q.ray, q.t_min, q.t_max);
+        let (cpu, cpu_any) = trace_on_cpu(&bvh, q);
         let gpu = gpu_hits[i];
-        let cpu_any = trace_any(&bvh.nodes, &bvh.primitives, &q.ray, q.t_min, q.t_max);
         let any_ok = cpu_any == (gpu_any[i] == 1);
         hits += usize::from(cpu.prim != INVALID_INDEX);
         if bytemuck::bytes_of(&cpu) == bytemuck::bytes_of(&gpu) && any_ok {
@@ -204,7 +232,7 @@ fn check_scene(ctx: &GpuContext, f: support::Fixture, quality: BvhQuality, seed:
     }
     let n = queries.len();
     eprintln!(
-        "{} on {} ({quality:?}): of {n} queries {identical} bit-identical, {same} same \
+        "{} on {} ({quality:?}, {layout:?}): of {n} queries {identical} bit-identical, {same} same \
          primitive with t within 1e-5 of max(t, size), {ties} ties (another primitive at the \
          same t), {hits} hit; beyond ties: {t_apart} same primitive with t further apart, \
          {other_prim} another primitive, {hit_vs_miss} a hit against a miss, {any_differs} \

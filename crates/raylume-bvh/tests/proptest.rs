@@ -5,7 +5,7 @@ mod support;
 
 use glam::Vec3;
 use proptest::prelude::*;
-use raylume_bvh::{BvhQuality, GpuBvh};
+use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh};
 use raylume_scene::{Sphere, Triangle};
 use support::{Fixture, Rng, brute_force, check_against_brute_force, queries};
 
@@ -126,10 +126,13 @@ proptest! {
         let qs = queries(&f, 300, seed ^ 0x5eed);
         let reference: Vec<_> = qs.iter().map(|q| brute_force(&f, q)).collect();
         for quality in [BvhQuality::Fast, BvhQuality::Quality] {
-            let bvh = GpuBvh::build(&f.triangles, &f.spheres, quality)
-                .map_err(|e| TestCaseError::fail(format!("{quality:?}: {e}")))?;
-            bvh.validate().map_err(|e| TestCaseError::fail(format!("{quality:?}: {e}")))?;
-            check_against_brute_force(&f, &bvh, &qs, &reference);
+            for layout in [BvhLayout::Binary, BvhLayout::Wide] {
+                let bvh = GpuBvh::build_with_layout(&f.triangles, &f.spheres, quality, layout)
+                    .map_err(|e| TestCaseError::fail(format!("{quality:?} {layout:?}: {e}")))?;
+                bvh.validate()
+                    .map_err(|e| TestCaseError::fail(format!("{quality:?} {layout:?}: {e}")))?;
+                check_against_brute_force(&f, &bvh, &qs, &reference);
+            }
         }
     }
 }

@@ -10,7 +10,7 @@ mod support;
 
 use std::path::PathBuf;
 
-use raylume_bvh::{BvhQuality, GpuBvh};
+use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh};
 use raylume_scene::Scene;
 use rayon::prelude::*;
 use support::{Fixture, SceneHit, TIE_RELATIVE, brute_force, check_against_brute_force, queries};
@@ -86,6 +86,14 @@ fn check_real_scene(name: &'static str, file: &str, seed: u64) {
     let reference: Vec<_> = sample.par_iter().map(|q| brute_force(&f, q)).collect();
     let hits = check_against_brute_force(&f, &fast, sample, &reference);
     check_against_brute_force(&f, &quality, sample, &reference);
+    // The wide layout of both presets: valid, and the same hits as brute force.
+    for preset in [BvhQuality::Fast, BvhQuality::Quality] {
+        let wide = GpuBvh::from_scene_with_layout(&scene, preset, BvhLayout::Wide).unwrap();
+        wide.validate()
+            .unwrap_or_else(|e| panic!("{name} {preset:?} wide: {e}"));
+        eprintln!("{name} wide: {:?}", wide.stats);
+        check_against_brute_force(&f, &wide, sample, &reference);
+    }
     assert!(hits > BRUTE_FORCE_QUERIES / 5, "{name}: only {hits} hits");
 }
 

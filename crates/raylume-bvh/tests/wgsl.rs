@@ -1,18 +1,20 @@
-//! `TRAVERSE_WGSL` without a GPU: it parses and validates with naga (the compiler wgpu uses)
-//! inside a shader that declares the two globals it expects, its structs have the Rust
-//! layouts, its constants the Rust values, and it has every function the Rust side names.
+//! `TRAVERSE_WGSL` and `WIDE_TRAVERSE_WGSL` without a GPU: each parses and validates with naga
+//! (the compiler wgpu uses) inside a shader that declares the two globals it expects, its
+//! structs have the Rust layouts, its constants the Rust values, and it has every function
+//! the Rust side names.
 
 use std::mem::{offset_of, size_of};
 
 use raylume_bvh::{
     AABB_T_FAR_SCALE, BvhNode, Hit, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE, PRIM_TRIANGLE,
-    Primitive, T_MAX_LIMIT, T_MISS, TRAVERSE_WGSL,
+    Primitive, T_MAX_LIMIT, T_MISS, TRAVERSE_WGSL, WIDE_INV_DIR_LIMIT, WIDE_QUANT_PAD,
+    WIDE_STACK_SIZE, WIDE_T_FAR_SCALE, WIDE_TRAVERSE_WGSL, WideNode,
 };
 use raylume_gpu::wgpu::naga;
 
 /// The smallest shader that includes `TRAVERSE_WGSL` as its contract asks.
 const KERNEL: &str = r#"
-@group(0) @binding(0) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(0) var<storage, read> bvh_nodes: array<TraversalNode>;
 @group(0) @binding(1) var<storage, read> bvh_primitives: array<Primitive>;
 @group(0) @binding(2) var<storage, read_write> out: array<Hit>;
 
@@ -28,10 +30,134 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 "#;
 
 fn parse() -> (naga::Module, String) {
-    let src = format!("{TRAVERSE_WGSL}\n{KERNEL}");
+    parse_with(TRAVERSE_WGSL)
+}
+
+fn parse_with(traverse: &str) -> (naga::Module, String) {
+    let src = format!("{traverse}\n{KERNEL}");
     match naga::front::wgsl::parse_str(&src) {
         Ok(m) => (m, src),
         Err(e) => panic!("{}", e.emit_to_string(&src)),
+    }
+}
+
+fn validate(module: &naga::Module, src: &str) {
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::empty(),
+    )
+    .validate(module)
+    .unwrap_or_else(|e| panic!("{}", e.emit_to_string(src)));
+}
+
+fn has_function(module: &naga::Module, f: &str) -> bool {
+    module
+        .functions
+        .iter()
+        .any(|(_, g)| g.name.as_deref() == Some(f))
+}
+
+#[test]
+fn wide_traverse_wgsl_validates_inside_a_kernel() {
+    let (module, src) = parse_with(WIDE_TRAVERSE_WGSL);
+    validate(&module, &src);
+    // The same names as wide_traverse.rs.
+    for f in [
+        "intersect_primitive",
+        "wide_ray",
+        "wide_overlap4",
+        "intersect_wide_node",
+        "wide_child_index",
+        "wide_walk",
+        "trace_closest",
+        "trace_any",
+    ] {
+        assert!(
+            has_function(&module, f),
+            "WIDE_TRAVERSE_WGSL has no function {f}"
+        );
+    }
+    let mut globals: Vec<_> = module
+        .global_variables
+        .iter()
+        .filter_map(|(_, g)| g.name.clone())
+        .collect();
+    globals.sort();
+    assert_eq!(globals, ["bvh_nodes", "bvh_primitives", "out"]);
+    // The wide layout's struct and constants as Rust has them.
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).expect("layout");
+    check_struct(
+        &module,
+        &layouter,
+        "WideNode",
+        size_of::<WideNode>(),
+        &[
+            ("p", offset_of!(WideNode, p)),
+            ("e_imask", offset_of!(WideNode, e_imask)),
+            ("child_base", offset_of!(WideNode, child_base)),
+            ("prim_base", offset_of!(WideNode, prim_base)),
+            ("child_meta", offset_of!(WideNode, child_meta)),
+            ("q_x", offset_of!(WideNode, q_x)),
+            ("q_y", offset_of!(WideNode, q_y)),
+            ("q_z", offset_of!(WideNode, q_z)),
+        ],
+    );
+    let value = |name: &str| constant(&module, name);
+    assert_eq!(
+        value("WIDE_STACK_SIZE"),
+        naga::Literal::U32(WIDE_STACK_SIZE as u32)
+    );
+    assert_eq!(value("WIDE_QUANT_PAD"), naga::Literal::F32(WIDE_QUANT_PAD));
+    assert_eq!(
+        value("WIDE_T_FAR_SCALE"),
+        naga::Literal::F32(WIDE_T_FAR_SCALE)
+    );
+    assert_eq!(
+        value("WIDE_INV_DIR_LIMIT"),
+        naga::Literal::F32(WIDE_INV_DIR_LIMIT)
+    );
+    assert_eq!(value("T_MAX_LIMIT"), naga::Literal::F32(T_MAX_LIMIT));
+}
+
+/// Asserts that WGSL struct `name` has Rust's size and (member, offset) list.
+fn check_struct(
+    module: &naga::Module,
+    layouter: &naga::proc::Layouter,
+    name: &str,
+    size: usize,
+    fields: &[(&str, usize)],
+) {
+    let (handle, ty) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("WGSL has no struct {name}"));
+    let naga::TypeInner::Struct { members, span } = &ty.inner else {
+        panic!("{name} is not a struct in WGSL");
+    };
+    assert_eq!(*span as usize, size, "size of {name}");
+    assert_eq!(
+        layouter[handle].size as usize, size,
+        "layout size of {name}"
+    );
+    let wgsl: Vec<(&str, usize)> = members
+        .iter()
+        .map(|m| (m.name.as_deref().unwrap_or(""), m.offset as usize))
+        .collect();
+    assert_eq!(wgsl, fields, "members and offsets of {name}");
+}
+
+/// The literal value of WGSL constant `name`.
+fn constant(module: &naga::Module, name: &str) -> naga::Literal {
+    let (_, c) = module
+        .constants
+        .iter()
+        .find(|(_, c)| c.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("WGSL has no constant {name}"));
+    match module.global_expressions[c.init] {
+        naga::Expression::Literal(l) => l,
+        ref e => panic!("{name} is not a literal: {e:?}"),
     }
 }
 

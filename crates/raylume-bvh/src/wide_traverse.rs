@@ -1,0 +1,301 @@
+//! CPU traversal of the compressed eight-wide layout ([`WideNode`]): the reference that
+//! `wide_traverse.wgsl` mirrors function for function. The traversal is Ylitie, Karras &
+//! Laine's (*Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs*, HPG
+//! 2017) as obvhs writes it (`cwbvh::traverse_macro`), without triangle postponing: a stack of
+//! node groups (a node's first child and the bits of its children still to visit), children
+//! visited in an order fixed by the ray's octant, the primitives of a node's hit leaves
+//! tested when the node is.
+//!
+//! # The box test, and why it never loses a hit
+//!
+//! A child's box is `p + q * cell` per axis, with `q` a byte and `cell` a power of two; the
+//! ray meets the plane at cell `q` at `t = q * a + b`, with `a = cell / dir` and
+//! `b = (p - origin) / dir`. Two things can make the computed box smaller than the true one:
+//!
+//! - The builder's rounding (obvhs floors and ceils `(child - p) / cell` after one rounded
+//!   subtraction): a plane can sit up to `2^-16` cells inside the child's true box.
+//! - The test's own arithmetic: `b`, `q * a` and their sum are each off by a few units in the
+//!   last place of `|q * a| + |b|`, at most `~9 * 2^-24 * (|q * cell| + |p - origin|) / |dir|`.
+//!
+//! Every box is therefore widened by [`WIDE_QUANT_PAD`] cells (`2^-6`) per side, folded into
+//! `b`. Where the origin is within `2^15` cells of the node's corner `p`, the pad alone covers
+//! both errors (`9 * 2^-24 * (255 + 2^15) < 2^-6`). Farther out, `|t|` is within 1 % of
+//! `|p - origin| / |dir|`, so each of the near and far distances is off by under
+//! `10 * 2^-24` of itself, and comparing the near one with the far one times
+//! [`WIDE_T_FAR_SCALE`] (`1 + 2^-18 > 1 + 20 * 2^-24`) covers that, as
+//! [`AABB_T_FAR_SCALE`](crate::AABB_T_FAR_SCALE) does for the binary layout's exact boxes.
+//!
+//! A zero direction component would make `a` and `b` infinite and their sum `inf - inf`; `1 /
+//! dir` is clamped to `±2^80` ([`WIDE_INV_DIR_LIMIT`]) instead. That tests a ray tilted by at
+//! most `2^-80` per unit of `t` on that axis: it can leave a slab it should stay in only
+//! where the true ray runs within `2^-80 t` of the slab's face, that is (for `t < 2^40`) an
+//! origin on the face plane of a box whose cell is under `2^-34`: a box flat on that axis,
+//! whose contents lie in the face plane, parallel to the ray, which the watertight triangle
+//! test never hits (its determinant is 0).
+//!
+//! The box test only culls: which primitive is the closest hit (ties to the first found, in
+//! an order fixed by the octant alone) does not depend on how the distances round, so the
+//! CPU and the GPU find the same hits even where one fuses a multiply-add and the other not.
+
+use glam::{UVec2, UVec4, Vec3, Vec4};
+
+use crate::intersect::{Ray, ShearedRay, intersect_primitive, shear_ray};
+use crate::traverse::{Hit, T_MAX_LIMIT};
+use crate::{GpuBvh, INVALID_INDEX, Primitive, WIDE_STACK_SIZE, WideNode};
+
+/// Cells by which every child box is widened on each side (see the module docs). WGSL:
+/// `WIDE_QUANT_PAD`.
+pub const WIDE_QUANT_PAD: f32 = 1.0 / 64.0;
+
+/// The wide box test accepts a child when `t_near <= t_far * WIDE_T_FAR_SCALE`
+/// (`1 + 2^-18`; see the module docs). WGSL: `WIDE_T_FAR_SCALE`.
+pub const WIDE_T_FAR_SCALE: f32 = 1.0 + 1.0 / 262_144.0;
+
+/// `|1 / dir|` is clamped to this (`2^80`; see the module docs). WGSL: `WIDE_INV_DIR_LIMIT`.
+pub const WIDE_INV_DIR_LIMIT: f32 = f32::from_bits((127 + 80) << 23);
+
+/// A ray prepared for [`intersect_wide_node`]. WGSL: `WideRay`.
+#[derive(Clone, Copy, Debug)]
+pub struct WideRay {
+    pub origin: Vec3,
+    /// `1 / dir`, clamped to `±WIDE_INV_DIR_LIMIT`.
+    pub inv_dir: Vec3,
+    /// The ray's octant, inverted, in every byte: bit 2 x, bit 1 y, bit 0 z, set for a
+    /// non-negative component (obvhs' `ray_get_octant_inv4`).
+    pub oct_inv4: u32,
+}
+
+/// The four bytes of `w`, low first (WGSL's `unpack4xU8`).
+#[inline(always)]
+fn unpack4x_u8(w: u32) -> UVec4 {
+    UVec4::new(w & 0xff, (w >> 8) & 0xff, (w >> 16) & 0xff, w >> 24)
+}
+
+#[inline(always)]
+fn word(bytes: &[u8], i: usize) -> u32 {
+    u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]])
+}
+
+#[inline(always)]
+pub fn wide_ray(ray: &Ray) -> WideRay {
+    let inv = (Vec3::ONE / ray.dir).clamp(
+        Vec3::splat(-WIDE_INV_DIR_LIMIT),
+        Vec3::splat(WIDE_INV_DIR_LIMIT),
+    );
+    let oct = (if ray.dir.x < 0.0 { 0 } else { 0x0404_0404 })
+        | (if ray.dir.y < 0.0 { 0 } else { 0x0202_0202 })
+        | (if ray.dir.z < 0.0 { 0 } else { 0x0101_0101 });
+    WideRay {
+        origin: ray.origin,
+        inv_dir: inv,
+        oct_inv4: oct,
+    }
+}
+
+/// Four child slots' boxes against the ray: lane `j` true when slot `j`'s padded box
+/// overlaps `[t_min, t_max]`. `near_*`, `far_*`: the four slots' near and far planes (a
+/// byte each) per axis.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn wide_overlap4(
+    near_x: u32,
+    far_x: u32,
+    near_y: u32,
+    far_y: u32,
+    near_z: u32,
+    far_z: u32,
+    a: Vec3,
+    b_near: Vec3,
+    b_far: Vec3,
+    t_min: f32,
+    t_max: f32,
+) -> [bool; 4] {
+    let q = |w: u32| unpack4x_u8(w).as_vec4();
+    let tnx = q(near_x) * a.x + Vec4::splat(b_near.x);
+    let tny = q(near_y) * a.y + Vec4::splat(b_near.y);
+    let tnz = q(near_z) * a.z + Vec4::splat(b_near.z);
+    let tfx = q(far_x) * a.x + Vec4::splat(b_far.x);
+    let tfy = q(far_y) * a.y + Vec4::splat(b_far.y);
+    let tfz = q(far_z) * a.z + Vec4::splat(b_far.z);
+    let t_near = tnx.max(tny).max(tnz.max(Vec4::splat(t_min)));
+    let t_far = tfx.min(tfy).min(tfz.min(Vec4::splat(t_max)));
+    let hit = t_near.cmple(t_far * WIDE_T_FAR_SCALE);
+    [hit.test(0), hit.test(1), hit.test(2), hit.test(3)]
+}
+
+/// The hit mask of `node` (obvhs' `CwBvhNode::intersect_ray`): bits 24..32 the hit inner
+/// children, each at bit `24 + (slot ^ octant)` so that the highest set bit is the child to
+/// visit first; bits 0..24 the primitives (offsets from `prim_base`) of the hit leaves.
+#[inline(always)]
+pub fn intersect_wide_node(node: &WideNode, r: &WideRay, t_min: f32, t_max: f32) -> u32 {
+    let cell = Vec3::from_array(node.cell());
+    // t of the plane at cell q is q * a + b.
+    let a = cell * r.inv_dir;
+    let b = (Vec3::from_array(node.p) - r.origin) * r.inv_dir;
+    let pad = WIDE_QUANT_PAD * a.abs();
+    let b_near = b - pad;
+    let b_far = b + pad;
+    // A negative direction meets the upper plane first. Per axis: (lower, upper) words of
+    // slots 0..4 and 4..8.
+    let planes = |q: &[u8; 16], neg: bool| {
+        let (lo, hi) = (
+            UVec2::new(word(q, 0), word(q, 4)),
+            UVec2::new(word(q, 8), word(q, 12)),
+        );
+        if neg { (hi, lo) } else { (lo, hi) }
+    };
+    let (near_x, far_x) = planes(&node.q_x, r.inv_dir.x < 0.0);
+    let (near_y, far_y) = planes(&node.q_y, r.inv_dir.y < 0.0);
+    let (near_z, far_z) = planes(&node.q_z, r.inv_dir.z < 0.0);
+    let lo = wide_overlap4(
+        near_x.x, far_x.x, near_y.x, far_y.x, near_z.x, far_z.x, a, b_near, b_far, t_min, t_max,
+    );
+    let hi = wide_overlap4(
+        near_x.y, far_x.y, near_y.y, far_y.y, near_z.y, far_z.y, a, b_near, b_far, t_min, t_max,
+    );
+    // Per slot: the bits to set (1 for an inner child, the unary primitive count for a leaf)
+    // and where (24 + slot ^ octant for an inner child, the primitive offset for a leaf).
+    let m = UVec2::new(word(&node.child_meta, 0), word(&node.child_meta, 4));
+    let inner = (m & (m << 1u32)) & UVec2::splat(0x1010_1010);
+    let inner_bytes = (inner >> 4u32) * 0xff;
+    let bit_index = (m ^ (UVec2::splat(r.oct_inv4) & inner_bytes)) & UVec2::splat(0x1f1f_1f1f);
+    let child_bits = (m >> 5u32) & UVec2::splat(0x0707_0707);
+    let mut bits = 0u32;
+    for (hit, cb, bi) in [
+        (lo, child_bits.x, bit_index.x),
+        (hi, child_bits.y, bit_index.y),
+    ] {
+        let (cb, bi) = (unpack4x_u8(cb), unpack4x_u8(bi));
+        for j in 0..4 {
+            if hit[j] {
+                bits |= cb[j] << bi[j];
+            }
+        }
+    }
+    bits
+}
+
+/// The index of the inner child that `bit` (24..32) of a node group stands for: the group
+/// (x: the node's `child_base`, y: its hit mask's inner bits | its imask) counts the inner
+/// slots before that slot.
+#[inline(always)]
+pub fn wide_child_index(group: UVec2, bit: u32, oct_inv4: u32) -> u32 {
+    let slot = (bit - 24) ^ (oct_inv4 & 0xff);
+    group.x + (group.y & !(u32::MAX << slot)).count_ones()
+}
+
+/// The highest set bit of a non-zero `x` (WGSL's `firstLeadingBit` on `u32`).
+#[inline(always)]
+fn first_leading_bit(x: u32) -> u32 {
+    31 - x.leading_zeros()
+}
+
+/// The walk both queries share (Ylitie et al.'s traversal without triangle postponing): a
+/// node group (x: first child node, y: bits 24..32 the children still to visit | imask) is
+/// entered child by child, the highest bit first, the rest of the group pushed; the
+/// primitives of a node's hit leaves are tested when the node is. The closest hit with
+/// `t_min < t < t_max`, or with `any_hit` the first one found; a miss has
+/// `prim == INVALID_INDEX` and `t == min(t_max, T_MAX_LIMIT)`. The stack holds at most
+/// `depth - 1` groups, which `validate` bounds by [`WIDE_STACK_SIZE`].
+#[inline(always)]
+pub fn wide_walk(
+    nodes: &[WideNode],
+    primitives: &[Primitive],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    any_hit: bool,
+) -> Hit {
+    let wr = wide_ray(ray);
+    let sheared: ShearedRay = shear_ray(ray);
+    let mut hit = Hit {
+        t: t_max.min(T_MAX_LIMIT),
+        prim: INVALID_INDEX,
+        u: 0.0,
+        v: 0.0,
+    };
+    let mut stack = [UVec2::ZERO; WIDE_STACK_SIZE];
+    let mut sp = 0usize;
+    // The root as the only child of a group.
+    let mut group = UVec2::new(0, 0x8000_0000);
+    loop {
+        if group.y & 0xff00_0000 != 0 {
+            let bit = first_leading_bit(group.y);
+            let index = wide_child_index(group, bit, wr.oct_inv4);
+            group.y &= !(1 << bit);
+            if group.y & 0xff00_0000 != 0 {
+                debug_assert!(sp < WIDE_STACK_SIZE);
+                stack[sp] = group;
+                sp += 1;
+            }
+            let node = &nodes[index as usize];
+            let mask = intersect_wide_node(node, &wr, t_min, hit.t);
+            group = UVec2::new(
+                node.child_base,
+                (mask & 0xff00_0000) | u32::from(node.imask()),
+            );
+            let mut prims = mask & 0x00ff_ffff;
+            while prims != 0 {
+                let k = first_leading_bit(prims);
+                prims &= !(1 << k);
+                let i = node.prim_base + k;
+                let r = intersect_primitive(&primitives[i as usize], &sheared, t_min, hit.t);
+                if r.x < hit.t {
+                    hit = Hit {
+                        t: r.x,
+                        prim: i,
+                        u: r.y,
+                        v: r.z,
+                    };
+                    if any_hit {
+                        return hit;
+                    }
+                }
+            }
+        }
+        if group.y & 0xff00_0000 == 0 {
+            if sp == 0 {
+                break;
+            }
+            sp -= 1;
+            group = stack[sp];
+        }
+    }
+    hit
+}
+
+/// The closest hit with `t_min < t < t_max` in the wide tree `nodes` over `primitives`, or a
+/// miss (`prim == INVALID_INDEX`, `t == min(t_max, T_MAX_LIMIT)`).
+pub fn trace_closest(
+    nodes: &[WideNode],
+    primitives: &[Primitive],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Hit {
+    wide_walk(nodes, primitives, ray, t_min, t_max, false)
+}
+
+/// True if anything is hit with `t_min < t < t_max`: [`wide_walk`] returning at the first
+/// primitive hit (a shadow ray).
+pub fn trace_any(
+    nodes: &[WideNode],
+    primitives: &[Primitive],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> bool {
+    wide_walk(nodes, primitives, ray, t_min, t_max, true).prim != INVALID_INDEX
+}
+
+impl GpuBvh {
+    /// [`trace_closest`] over [`GpuBvh::wide_nodes`], for a tree of [`BvhLayout::Wide`](crate::BvhLayout::Wide).
+    pub(crate) fn wide_trace_closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Hit {
+        trace_closest(&self.wide_nodes, &self.primitives, ray, t_min, t_max)
+    }
+
+    /// [`trace_any`] over [`GpuBvh::wide_nodes`].
+    pub(crate) fn wide_trace_any(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        trace_any(&self.wide_nodes, &self.primitives, ray, t_min, t_max)
+    }
+}
