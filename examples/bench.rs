@@ -66,13 +66,25 @@ struct Args {
     /// Comma-separated schedules `off` is timed with (megakernel, wavefront).
     #[arg(long, default_value = "megakernel", value_delimiter = ',')]
     schedule: Vec<Schedule>,
+    /// Comma-separated BVH layouts every configuration is timed with (binary, wide); the
+    /// first is the library's default when not given.
+    #[arg(long, value_delimiter = ',')]
+    bvh: Vec<raylume::BvhLayout>,
     /// Samples per pixel per batch.
     #[arg(long)]
     batch_spp: Option<u32>,
     /// Estimator: plain (the paper's, the default here) or nee (next-event estimation with
-    /// MIS). Either way with independent random numbers and no Russian roulette, as the paper.
+    /// MIS). By default with independent random numbers and no Russian roulette, as the paper
+    /// (`--sampler`, `--rr-depth` change that).
     #[arg(long, default_value = "plain")]
     estimator: raylume::Estimator,
+    /// Random numbers: independent (the paper's, the default here) or zsobol.
+    #[arg(long, default_value = "independent")]
+    sampler: raylume::Sampler,
+    /// Russian roulette from this path segment on (Mitsuba 3's `path` starts at 5), or off
+    /// (the paper's, the default here).
+    #[arg(long, default_value = "off", value_parser = parse_rr_depth)]
+    rr_depth: RrDepth,
     /// Best of at least this many runs per cell (see --min-seconds).
     #[arg(long, default_value_t = 3)]
     repeat: u32,
@@ -93,6 +105,20 @@ struct Args {
     images: Option<PathBuf>,
 }
 
+/// `--rr-depth`: a segment number or `off`.
+#[derive(Clone, Copy, Debug)]
+struct RrDepth(Option<u32>);
+
+fn parse_rr_depth(s: &str) -> Result<RrDepth, String> {
+    match s.trim() {
+        "off" => Ok(RrDepth(None)),
+        d => d
+            .parse()
+            .map(|d| RrDepth(Some(d)))
+            .map_err(|_| format!("`{s}` is not a path segment number or `off`")),
+    }
+}
+
 fn parse_mode(s: &str) -> Result<ReorderMode, String> {
     match s {
         "index" | "sort-index" => Ok(ReorderMode::SortIndex),
@@ -108,20 +134,26 @@ struct Config {
     reorder: ReorderPolicy,
     mode: ReorderMode,
     key_bits: u32,
+    layout: raylume::BvhLayout,
 }
 
 impl Config {
-    /// Column name: `megakernel`, `wavefront`, `on sort-index`, `on sort-index/16`, `auto`.
+    /// Column name: `megakernel`, `wavefront`, `on sort-index`, `on sort-index/16`, `auto`,
+    /// with ` wide` after it for the wide BVH layout.
     fn name(&self) -> String {
         let bits = if self.key_bits == 30 {
             String::new()
         } else {
             format!("/{}", self.key_bits)
         };
-        match self.reorder {
+        let base = match self.reorder {
             ReorderPolicy::Off => self.schedule.name().to_string(),
             ReorderPolicy::On => format!("on {}{bits}", self.mode.name()),
             ReorderPolicy::Auto => format!("auto{bits}"),
+        };
+        match self.layout {
+            raylume::BvhLayout::Binary => base,
+            raylume::BvhLayout::Wide => format!("{base} wide"),
         }
     }
 }
@@ -160,6 +192,25 @@ struct Row {
 }
 
 fn configs(args: &Args) -> Vec<Config> {
+    let layouts = if args.bvh.is_empty() {
+        vec![raylume::BvhLayout::default()]
+    } else {
+        args.bvh.clone()
+    };
+    layouts
+        .into_iter()
+        .flat_map(|layout| {
+            configs_of_layout(args)
+                .into_iter()
+                .map(move |c| Config { layout, ..c })
+        })
+        .collect()
+}
+
+/// The configurations of `--reorder`, `--schedule`, `--reorder-mode` and `--reorder-bits`
+/// (in the default layout; [`configs`] sets each layout).
+fn configs_of_layout(args: &Args) -> Vec<Config> {
+    let layout = raylume::BvhLayout::default();
     let first = args.schedule.first().copied().unwrap_or_default();
     let first_bits = args.reorder_bits.first().copied().unwrap_or(30);
     let mut out = Vec::new();
@@ -170,6 +221,7 @@ fn configs(args: &Args) -> Vec<Config> {
                 reorder,
                 mode: ReorderMode::Off,
                 key_bits: 30,
+                layout,
             })),
             ReorderPolicy::On => {
                 for &key_bits in &args.reorder_bits {
@@ -178,6 +230,7 @@ fn configs(args: &Args) -> Vec<Config> {
                         reorder,
                         mode,
                         key_bits,
+                        layout,
                     }))
                 }
             }
@@ -186,6 +239,7 @@ fn configs(args: &Args) -> Vec<Config> {
                 reorder,
                 mode: ReorderMode::SortIndex,
                 key_bits: first_bits,
+                layout,
             }),
         }
     }
@@ -218,6 +272,7 @@ fn apply(tracer: &mut Tracer, config: &Config) {
         tracer.reorder_mode = config.mode;
     }
     tracer.reorder_key_bits = config.key_bits;
+    tracer.bvh_layout = config.layout;
 }
 
 fn run(args: Args) -> Result<(), String> {
@@ -230,10 +285,12 @@ fn run(args: Args) -> Result<(), String> {
     let mut rows = Vec::new();
     let mut tracer = Tracer::new(args.backend);
     // The paper's estimator (plain, independent numbers, no Russian roulette), not the
-    // library's defaults: Table 1 compares with the paper. `--estimator nee` changes only the
-    // estimator.
+    // library's defaults: Table 1 compares with the paper. `--estimator`, `--sampler` and
+    // `--rr-depth` change one part each (Mitsuba's `path`: nee, independent, 5).
     tracer.paper_estimator();
     tracer.estimator = args.estimator;
+    tracer.sampler = args.sampler;
+    tracer.russian_roulette = args.rr_depth.0;
     if let Some(b) = args.batch_spp {
         tracer.batch_spp = b;
     }

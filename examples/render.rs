@@ -65,6 +65,10 @@ struct Args {
     /// GPU schedule: megakernel (bounces in registers) or wavefront (the paper's kernels).
     #[arg(long)]
     schedule: Option<Schedule>,
+    /// BVH node layout: binary (two children a node) or wide (eight, compressed); the
+    /// library's default when not given.
+    #[arg(long)]
+    bvh: Option<raylume::BvhLayout>,
     /// Estimator: nee (the default: next-event estimation with multiple importance sampling,
     /// a shadow ray to an emitter at every reflecting hit; far less noise per sample under
     /// small lights) or plain (the paper's).
@@ -208,6 +212,9 @@ fn run(args: Args) -> Result<(), String> {
     if let Some(s) = args.schedule {
         tracer.schedule = s;
     }
+    if let Some(l) = args.bvh {
+        tracer.bvh_layout = l;
+    }
     // A bar on a terminal; plain lines (no escape codes) when stderr is piped or redirected.
     let terminal = std::io::stderr().is_terminal();
     let bar = if args.quiet || !terminal {
@@ -296,13 +303,14 @@ fn run(args: Args) -> Result<(), String> {
         s.reorder
     );
     eprintln!(
-        "raylume: trace {:.3} s, {:.1} Mrays/s, total {:.3} s (load {:.3}, bvh {:.3} {}{}, upload {:.3}, post {:.3})",
+        "raylume: trace {:.3} s, {:.1} Mrays/s, total {:.3} s (load {:.3}, bvh {:.3} {} {}{}, upload {:.3}, post {:.3})",
         s.seconds.trace,
         s.mrays_per_s,
         s.seconds.total,
         s.seconds.load,
         s.seconds.bvh,
         s.bvh_preset,
+        s.bvh_layout,
         if s.bvh_cached { " cached" } else { "" },
         s.seconds.upload,
         s.seconds.post
@@ -336,7 +344,8 @@ fn settings_line(scene: &str, s: &raylume::RenderStats, capped: bool) -> String 
     };
     format!(
         "rendering {scene}: backend {} ({}; {}), size {}x{}, spp {}{}, bounces {}, batch {} spp, \
-         estimator {}, sampler {}, roulette {roulette}, reorder {}, schedule {}, lights {}",
+         estimator {}, sampler {}, roulette {roulette}, reorder {}, schedule {}, bvh {} {}, \
+         lights {}",
         s.backend.to_uppercase(),
         s.adapter,
         s.backend_reason,
@@ -350,6 +359,8 @@ fn settings_line(scene: &str, s: &raylume::RenderStats, capped: bool) -> String 
         s.sampler,
         s.reorder,
         s.schedule,
+        s.bvh_preset,
+        s.bvh_layout,
         s.lights.describe(),
     )
 }

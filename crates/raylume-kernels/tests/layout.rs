@@ -4,6 +4,7 @@
 
 use std::mem::{offset_of, size_of};
 
+use raylume_bvh::BvhLayout;
 use raylume_gpu::wgpu::naga;
 use raylume_kernels::gpu::tracer_source;
 use raylume_kernels::gpu_types::*;
@@ -15,7 +16,11 @@ macro_rules! rust_layout {
 }
 
 fn parse() -> naga::Module {
-    let src = tracer_source(65535);
+    parse_layout(BvhLayout::Binary)
+}
+
+fn parse_layout(layout: BvhLayout) -> naga::Module {
+    let src = tracer_source(65535, layout);
     match naga::front::wgsl::parse_str(&src) {
         Ok(m) => m,
         Err(e) => panic!("{}", e.emit_to_string(&src)),
@@ -24,8 +29,14 @@ fn parse() -> naga::Module {
 
 #[test]
 fn tracer_shader_validates() {
-    let module = parse();
-    let src = tracer_source(65535);
+    for layout in [BvhLayout::Binary, BvhLayout::Wide] {
+        validate_tracer(layout);
+    }
+}
+
+fn validate_tracer(layout: BvhLayout) {
+    let module = parse_layout(layout);
+    let src = tracer_source(65535, layout);
     naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::all(),
@@ -89,7 +100,7 @@ fn layout_matches_wgsl() {
 
 #[test]
 fn shared_constants_reach_the_shader() {
-    let src = tracer_source(65535);
+    let src = tracer_source(65535, BvhLayout::Binary);
     for line in [
         format!("const MATERIAL_GLASS: u32 = {MATERIAL_GLASS}u;"),
         format!("const NO_TEXTURE: u32 = {NO_TEXTURE}u;"),

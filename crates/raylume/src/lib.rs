@@ -81,7 +81,7 @@ pub use output::{ImageFormat, save_exr, save_png};
 pub use stats::{DepthSeconds, LightStats, NO_LIGHT_WARNING, RenderStats, StageSeconds};
 pub use tracer::{Backend, Progress, Render, ReorderPolicy, Tracer};
 
-pub use raylume_bvh::BvhQuality;
+pub use raylume_bvh::{BvhLayout, BvhQuality};
 pub use raylume_kernels::{BatchPlan, Estimator, Reorder, ReorderMode, Sampler, Schedule};
 pub use raylume_scene::{Feature, Features, RenderSettings, Scene};
 

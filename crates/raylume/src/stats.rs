@@ -93,13 +93,15 @@ pub struct RenderStats {
     pub mrays_per_s: f64,
     /// Finer per-kernel timings (`raygen`, `propagate`, `trace_paths`, `resolve`, ...).
     pub kernel_seconds: Vec<(String, f64)>,
-    /// BVH nodes.
+    /// BVH nodes (of the tree's layout: two or up to eight children each).
     pub bvh_nodes: usize,
     /// True when the BVH came from the tracer's cache (the same geometry as the last render:
     /// `seconds.bvh` is then the time to recognise it).
     pub bvh_cached: bool,
     /// The BVH preset the tree was built with (`"fast"` or `"quality"`: `Tracer::bvh_quality`).
     pub bvh_preset: String,
+    /// The BVH's node layout (`"binary"` or `"wide"`: `Tracer::bvh_layout`).
+    pub bvh_layout: String,
     /// Who built it: `"obvhs PLOC on the CPU, N threads"` (a cached tree: who built it then).
     pub bvh_builder: String,
     /// The post-processing passes that ran, in order (`bloom_threshold`, `bloom_h`, ...).

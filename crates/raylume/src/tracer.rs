@@ -4,7 +4,7 @@ use std::collections::HashMap;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-use raylume_bvh::{BvhQuality, GpuBvh};
+use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, GpuError};
 use raylume_kernels::batches::{RoundHook, RoundSums};
 use raylume_kernels::{
@@ -205,6 +205,10 @@ pub struct Tracer {
     pub target_error: Option<f32>,
     /// The BVH build preset (default [`BvhQuality::default`]).
     pub bvh_quality: BvhQuality,
+    /// The BVH's node layout (default [`BvhLayout::default`]): the binary one or the
+    /// compressed eight-wide one. The two find the same hits; which is faster depends on the
+    /// scene and the device (`docs/RESULTS.md`).
+    pub bvh_layout: BvhLayout,
     /// Run the scene's bloom, if it has one (`--no-bloom` clears this).
     pub bloom: bool,
     /// Exposure, tone curve and encoding for `.png` output.
@@ -218,10 +222,16 @@ pub struct Tracer {
     gpu_workspace: Option<GpuWorkspace>,
     /// `Auto`'s measurements and decisions, by [`fingerprint`].
     auto: HashMap<u64, AutoState>,
-    /// The last BVH built, for the geometry it was built from: rendering the same scene
-    /// again (another spp, size, seed, or a benchmark's repeats) skips the build.
-    bvh_cache: Option<BvhCacheEntry>,
+    /// The last BVHs built (at most [`BVH_CACHE_ENTRIES`], the latest first), each for the
+    /// geometry, preset and layout it was built from: rendering the same scene again (another
+    /// spp, size, seed, or a benchmark's repeats, also alternating the two layouts) skips the
+    /// build.
+    bvh_cache: Vec<BvhCacheEntry>,
 }
+
+/// BVHs the tracer keeps: two, so that a benchmark alternating layouts or presets on one
+/// scene builds each tree once.
+const BVH_CACHE_ENTRIES: usize = 2;
 
 /// A built BVH and the exact geometry it was built from.
 struct BvhCacheEntry {
@@ -230,8 +240,8 @@ struct BvhCacheEntry {
 }
 
 /// What a BVH depends on: every triangle vertex and sphere, bit for bit (a 64-bit hash plus
-/// the counts and bounds), and the build preset. Materials, camera and settings do not
-/// matter to it.
+/// the counts and bounds), the build preset and the layout. Materials, camera and settings do
+/// not matter to it.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 struct GeometryKey {
     hash: u64,
@@ -239,10 +249,11 @@ struct GeometryKey {
     spheres: usize,
     bounds: [u32; 6],
     quality: BvhQuality,
+    layout: BvhLayout,
 }
 
 impl GeometryKey {
-    fn of(scene: &Scene, quality: BvhQuality) -> Self {
+    fn of(scene: &Scene, quality: BvhQuality, layout: BvhLayout) -> Self {
         // A multiply-rotate hash over the raw bits (FxHash's step): ~1 ms for 140k triangles.
         let mut h: u64 = 0x243f_6a88_85a3_08d3;
         let mut eat = |w: u32| {
@@ -269,6 +280,7 @@ impl GeometryKey {
             spheres: scene.spheres.len(),
             bounds,
             quality,
+            layout,
         }
     }
 }
@@ -318,6 +330,7 @@ impl Tracer {
             russian_roulette: Some(Self::DEFAULT_RUSSIAN_ROULETTE),
             target_error: None,
             bvh_quality: BvhQuality::default(),
+            bvh_layout: BvhLayout::default(),
             bloom: true,
             tone: raylume_post::ToneMap::default(),
             progress: None,
@@ -326,7 +339,7 @@ impl Tracer {
             gpu_bloom: None,
             gpu_workspace: None,
             auto: HashMap::new(),
-            bvh_cache: None,
+            bvh_cache: Vec::new(),
         }
     }
 
@@ -361,7 +374,7 @@ impl Tracer {
     /// builds them again; `auto`'s decisions and the GPU context are kept.
     pub fn release_memory(&mut self) {
         self.gpu_workspace = None;
-        self.bvh_cache = None;
+        self.bvh_cache.clear();
     }
 
     /// Uses an existing GPU context (and its adapter) for GPU renders.
@@ -394,8 +407,9 @@ impl Tracer {
             scene,
             &self.trace_settings(scene),
             &format!(
-                "{:?} {} {} {} {:?}",
+                "{:?} {:?} {} {} {} {:?}",
                 self.bvh_quality,
+                self.bvh_layout,
                 self.reorder_key_bits,
                 self.estimator.name(),
                 self.sampler.name(),
@@ -561,21 +575,26 @@ impl Tracer {
                 .warnings
                 .push(crate::stats::NO_LIGHT_WARNING.to_string());
         }
+        stats.bvh_preset = self.bvh_quality.name().into();
+        stats.bvh_layout = self.bvh_layout.name().into();
         if let Some(f) = self.on_start.as_mut() {
             f(&stats);
         }
 
         let t = Instant::now();
-        let key = GeometryKey::of(scene, self.bvh_quality);
-        let cached = self.bvh_cache.take().filter(|c| c.key == key);
+        let key = GeometryKey::of(scene, self.bvh_quality, self.bvh_layout);
+        let cached = self
+            .bvh_cache
+            .iter()
+            .position(|c| c.key == key)
+            .map(|i| self.bvh_cache.remove(i));
         stats.bvh_cached = cached.is_some();
         let bvh = match cached {
             Some(c) => c.bvh,
-            None => GpuBvh::from_scene(scene, self.bvh_quality)?,
+            None => GpuBvh::from_scene_with_layout(scene, self.bvh_quality, self.bvh_layout)?,
         };
         stats.seconds.bvh = t.elapsed().as_secs_f64();
-        stats.bvh_nodes = bvh.nodes.len();
-        stats.bvh_preset = self.bvh_quality.name().into();
+        stats.bvh_nodes = bvh.stats.node_count;
         stats.bvh_builder = format!(
             "obvhs PLOC on the CPU, {} threads",
             rayon::current_num_threads()
@@ -627,7 +646,8 @@ impl Tracer {
             )
         };
         self.progress = progress;
-        self.bvh_cache = Some(BvhCacheEntry { key, bvh });
+        self.bvh_cache.insert(0, BvhCacheEntry { key, bvh });
+        self.bvh_cache.truncate(BVH_CACHE_ENTRIES);
         if result.as_ref().is_err_and(Error::is_device_lost) {
             // A lost device stays lost: the next render starts over on a new one.
             self.gpu = None;

@@ -5,7 +5,7 @@
 // dynamic offset, one entry per wavefront bounce.
 
 @group(0) @binding(0) var<uniform> scene: SceneUniforms;
-@group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(1) var<storage, read> bvh_nodes: array<TraversalNode>;
 @group(0) @binding(2) var<storage, read> bvh_primitives: array<Primitive>;
 @group(0) @binding(3) var<storage, read> materials: array<GpuMaterial>;
 @group(0) @binding(4) var<storage, read> prim_materials: array<u32>;

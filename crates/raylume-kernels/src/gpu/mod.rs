@@ -18,7 +18,7 @@ pub use shader::{pipeline_constants, tracer_source};
 use std::collections::HashMap;
 use std::time::Instant;
 
-use raylume_bvh::{BvhNode, GpuBvh, Primitive};
+use raylume_bvh::{BvhLayout, BvhNode, GpuBvh, Primitive, WideNode};
 use raylume_gpu::{GpuContext, wgpu};
 use raylume_scene::{Feature, Features, Scene};
 use raylume_sort::RadixSorter;
@@ -158,7 +158,10 @@ impl<'a> GpuTracer<'a> {
                 mapped_at_creation: false,
             })
         })?;
-        let nodes = upload::<BvhNode>(ctx, "BVH nodes", &bvh.nodes)?;
+        let nodes = match bvh.layout {
+            BvhLayout::Binary => upload::<BvhNode>(ctx, "BVH nodes", &bvh.nodes)?,
+            BvhLayout::Wide => upload::<WideNode>(ctx, "BVH nodes", &bvh.wide_nodes)?,
+        };
         let primitives = upload::<Primitive>(ctx, "BVH primitives", &bvh.primitives)?;
         let materials = upload::<GpuMaterial>(ctx, "materials", &data.materials)?;
         let prim_materials =
@@ -259,7 +262,7 @@ impl<'a> GpuTracer<'a> {
                     });
                 let module = ctx.shader_module(
                     "raylume tracer",
-                    &tracer_source(ctx.limits.max_compute_workgroups_per_dimension),
+                    &tracer_source(ctx.limits.max_compute_workgroups_per_dimension, bvh.layout),
                 );
                 (
                     bind_group,

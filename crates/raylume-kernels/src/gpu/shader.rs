@@ -2,6 +2,7 @@
 //! BVH traversal from raylume-bvh, the ray sort key from raylume-sort, the bindings, and the two schedules' entry points, in one
 //! source; and the pipeline-override constants that specialise it on a scene's features.
 
+use raylume_bvh::BvhLayout;
 use raylume_scene::{Feature, Features};
 
 use crate::gpu_types::{GPU_TYPES_WGSL, wgsl_constants};
@@ -25,13 +26,16 @@ const PARTS: [(&str, &str); 13] = [
 ];
 
 /// The complete shader source for a device whose dispatches may have at most
-/// `max_workgroups_per_dimension` workgroups along x.
-pub fn tracer_source(max_workgroups_per_dimension: u32) -> String {
+/// `max_workgroups_per_dimension` workgroups along x, over a BVH of `layout`.
+pub fn tracer_source(max_workgroups_per_dimension: u32, layout: BvhLayout) -> String {
     let mut s = String::from("// raylume-kernels: the tracer (assembled by gpu/shader.rs)\n");
     s += &wgsl_constants();
     s += &format!("const MAX_WORKGROUPS_PER_DIMENSION: u32 = {max_workgroups_per_dimension}u;\n");
-    s += "\n// ---- raylume-bvh: TRAVERSE_WGSL ----\n";
-    s += raylume_bvh::TRAVERSE_WGSL;
+    s += &format!(
+        "\n// ---- raylume-bvh: the traversal of the {} layout ----\n",
+        layout.name()
+    );
+    s += raylume_bvh::traverse_wgsl(layout);
     s += "\n// ---- raylume-sort: MORTON_WGSL ----\n";
     s += raylume_sort::MORTON_WGSL;
     for (name, src) in PARTS {

@@ -400,6 +400,10 @@ pub fn bvh(scene: &Scene) -> GpuBvh {
     GpuBvh::from_scene(scene, BvhQuality::Fast).expect("fixture BVH builds")
 }
 
+pub fn bvh_with_layout(scene: &Scene, layout: raylume_bvh::BvhLayout) -> GpuBvh {
+    GpuBvh::from_scene_with_layout(scene, BvhQuality::Fast, layout).expect("fixture BVH builds")
+}
+
 pub fn settings(w: u32, h: u32, spp: u32, max_bounces: u32, schedule: Schedule) -> TraceSettings {
     TraceSettings {
         width: w,
