@@ -303,16 +303,18 @@ fn run(args: Args) -> Result<(), String> {
         s.reorder
     );
     eprintln!(
-        "raylume: trace {:.3} s, {:.1} Mrays/s, total {:.3} s (load {:.3}, bvh {:.3} {} {}{}, upload {:.3}, post {:.3})",
+        "raylume: trace {:.3} s, {:.1} Mrays/s, total {:.3} s (load {:.3}, device {:.3}, bvh {:.3} {} {}{}, upload {:.3}, prepare {:.3}, post {:.3})",
         s.seconds.trace,
         s.mrays_per_s,
         s.seconds.total,
         s.seconds.load,
+        s.seconds.device,
         s.seconds.bvh,
         s.bvh_preset,
         s.bvh_layout,
         if s.bvh_cached { " cached" } else { "" },
         s.seconds.upload,
+        s.seconds.prepare,
         s.seconds.post
     );
     if let Some(target) = s.target_error {

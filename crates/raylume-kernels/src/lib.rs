@@ -190,7 +190,17 @@ pub enum Schedule {
     Megakernel,
     /// The paper's: `raygen`, then one `propagate` launch per bounce over the live rays.
     Wavefront,
+    /// `trace_paths_persistent`: the megakernel with path regeneration. At most
+    /// [`PERSISTENT_THREADS`] threads take pixel samples from a counter one bounce at a time,
+    /// so a thread whose path ended starts the next sample while the other lanes of its warp
+    /// trace on. The same paths and image as [`Schedule::Megakernel`] (the CPU mirror runs
+    /// both alike).
+    Persistent,
 }
+
+/// Threads the persistent schedule launches at most: more than an H200 keeps resident (132
+/// multiprocessors x 2048), fewer than the samples of a large batch.
+pub const PERSISTENT_THREADS: u32 = 1 << 20;
 
 impl Schedule {
     /// Lower-case name for logs and stats.
@@ -198,20 +208,29 @@ impl Schedule {
         match self {
             Schedule::Megakernel => "megakernel",
             Schedule::Wavefront => "wavefront",
+            Schedule::Persistent => "persistent",
         }
     }
+
+    /// Every schedule, for benchmarks and tests.
+    pub const ALL: [Schedule; 3] = [
+        Schedule::Megakernel,
+        Schedule::Wavefront,
+        Schedule::Persistent,
+    ];
 }
 
 impl std::str::FromStr for Schedule {
     type Err = String;
 
-    /// `megakernel` or `wavefront`.
+    /// `megakernel`, `wavefront` or `persistent`.
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
             "megakernel" => Ok(Schedule::Megakernel),
             "wavefront" => Ok(Schedule::Wavefront),
+            "persistent" => Ok(Schedule::Persistent),
             _ => Err(format!(
-                "unknown schedule `{s}`: use megakernel or wavefront"
+                "unknown schedule `{s}`: use megakernel, wavefront or persistent"
             )),
         }
     }
@@ -440,11 +459,12 @@ impl TraceSettings {
                 raylume_sort::RAY_KEY_BITS
             ));
         }
-        if self.schedule == Schedule::Megakernel && self.reorder.sorts_any(self.max_bounces) {
+        if self.schedule != Schedule::Wavefront && self.reorder.sorts_any(self.max_bounces) {
             return bad(format!(
-                "reordering ({}) needs the wavefront schedule: the megakernel keeps each path \
-                 in registers and cannot sort rays",
-                self.reorder.describe(self.max_bounces)
+                "reordering ({}) needs the wavefront schedule: the {} keeps each path in \
+                 registers and cannot sort rays",
+                self.reorder.describe(self.max_bounces),
+                self.schedule.name()
             ));
         }
         Ok(())
@@ -467,7 +487,9 @@ pub struct TraceOutput {
     /// Samples whose radiance was not finite or above [`math::MAX_SAMPLE_RADIANCE`] (so bright
     /// that summing them could overflow): written as zero and counted here.
     pub dropped_samples: u64,
-    /// Seconds per stage: "upload", then "raygen" + "propagate" (wavefront, with "sort" for
+    /// Seconds per stage: "upload", "prepare" (GPU: work buffers, pipelines compiled on first
+    /// use, ray sorters, one warm-up dispatch each; before the batch loop), then "raygen" +
+    /// "propagate" (wavefront, with "sort" for
     /// the `sort_keys` passes and "permute_rays" when rays were reordered) or "trace_paths"
     /// (megakernel), "resolve", and "trace", the whole batch loop (the paper's ray-tracing
     /// phase without the upload). GPU stages come from timestamps when the adapter has them.

@@ -1,4 +1,5 @@
-//! The GPU schedules and their plumbing: megakernel and wavefront give the same image,
+//! The GPU schedules and their plumbing: megakernel, wavefront and persistent give the same
+//! image,
 //! specialised pipelines the same image as the unspecialised one, batching does not change
 //! the image, non-finite samples are dropped and counted alike on both backends, and bad
 //! input comes back as typed errors.
@@ -42,6 +43,24 @@ fn megakernel_and_wavefront_trace_the_same_paths() {
         assert!(e < 1e-6, "{name}: relative RMSE {e}");
         assert_eq!(mk.rays_traced, wf.rays_traced, "{name}");
         assert!(mk.timing("trace_paths").is_some() && wf.timing("propagate").is_some());
+        // Persistent threads: the same functions per sample, only another thread traces it.
+        // With 192 threads each takes 6 samples from the counter, starting them at every
+        // bounce depth as others end (few enough for lavapipe's loop limit).
+        tracer.set_persistent_threads(Some(192));
+        let ps = tracer
+            .render(
+                &TraceSettings {
+                    schedule: Schedule::Persistent,
+                    ..s
+                },
+                &mut |_, _| {},
+            )
+            .unwrap();
+        tracer.set_persistent_threads(None);
+        let e = relative_rmse(&ps.radiance, &mk.radiance);
+        assert!(e < 1e-6, "{name} persistent: relative RMSE {e}");
+        assert_eq!(mk.rays_traced, ps.rays_traced, "{name} persistent");
+        assert!(ps.timing("trace_paths").is_some());
 
         // After the last bounce every ray has ended: its keys are all DEAD_RAY_KEY and the
         // output queue is empty.
@@ -116,7 +135,8 @@ fn batching_does_not_change_the_image() {
         "progress after each batch"
     );
     tracer.set_batch_ray_limit(Some(100));
-    for schedule in [Schedule::Megakernel, Schedule::Wavefront] {
+    tracer.set_persistent_threads(Some(16));
+    for schedule in Schedule::ALL {
         let mut last = (0, 0);
         let chunked = tracer
             .render(&TraceSettings { schedule, ..base }, &mut |d, t| {
@@ -155,7 +175,7 @@ fn non_finite_samples_are_dropped_and_counted_on_both_backends() {
     ) else {
         return;
     };
-    for schedule in [Schedule::Megakernel, Schedule::Wavefront] {
+    for schedule in Schedule::ALL {
         let gpu = render_gpu(ctx, &scene, &TraceSettings { schedule, ..s });
         assert_eq!(gpu.dropped_samples, cpu.dropped_samples, "{schedule:?}");
         assert!(gpu.radiance.iter().flatten().all(|x| x.is_finite()));

@@ -1,6 +1,6 @@
 //! `--reorder auto`: choosing the schedule and the ray sorting of a scene from measurement.
 //!
-//! The candidates are the schedule `off` would run, the other schedule, and the wavefront
+//! The candidates are the schedule `off` would run, the other schedules, and the wavefront
 //! sorting before every bounce in each [`ReorderMode`]. **A trial is a whole render**: every
 //! batch of an exploring render runs the same candidate, and the tracer prepares that
 //! candidate alone (its buffers, pipelines and sorter), so a trial render is exactly the render
@@ -98,18 +98,18 @@ pub(crate) struct AutoState {
 
 impl AutoState {
     /// A fresh state: `off_schedule` first (so a first render runs what `off` runs), then the
-    /// other schedule, then the wavefront sorted before every bounce by the top `key_bits` of
+    /// other schedules, then the wavefront sorted before every bounce by the top `key_bits` of
     /// the key, in each mode.
     pub fn new(off_schedule: Schedule, max_bounces: u32, key_bits: u32) -> Self {
         let plain = |schedule| BatchPlan {
             schedule,
             reorder: Reorder::OFF,
         };
-        let other = match off_schedule {
-            Schedule::Megakernel => Schedule::Wavefront,
-            Schedule::Wavefront => Schedule::Megakernel,
-        };
-        let mut queue = VecDeque::from([plain(off_schedule), plain(other)]);
+        // `off_schedule` first, then the other schedules.
+        let mut queue: VecDeque<BatchPlan> = std::iter::once(off_schedule)
+            .chain(Schedule::ALL.into_iter().filter(|&s| s != off_schedule))
+            .map(plain)
+            .collect();
         if max_bounces > 0 {
             for mode in [ReorderMode::SortIndex, ReorderMode::SortPermute] {
                 queue.push_back(BatchPlan {
@@ -488,7 +488,7 @@ mod tests {
         fn timing(&self, index: usize, b: Batch, plan: BatchPlan, slowness: f64) -> BatchTiming {
             let mut stages = Vec::new();
             let mut wall = 0.0;
-            if plan.schedule == Schedule::Megakernel {
+            if plan.schedule != Schedule::Wavefront {
                 let s = self.mk * slowness;
                 stages.push(StageTime {
                     label: "trace_paths",

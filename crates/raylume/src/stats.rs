@@ -13,8 +13,13 @@ pub struct StageSeconds {
     pub load: f64,
     /// Building and flattening the BVH.
     pub bvh: f64,
-    /// Creating pipelines and uploading scene data to the GPU (0 on the CPU).
+    /// Creating the GPU device (0 on the CPU, and when the tracer already had one).
+    pub device: f64,
+    /// Uploading scene data to the GPU and compiling the shader module (0 on the CPU).
     pub upload: f64,
+    /// Preparing the batch loop on the GPU: work buffers, pipelines (compiled on first use),
+    /// ray sorters, warm-up dispatches (0 on the CPU).
+    pub prepare: f64,
     /// The ray-tracing phase.
     pub trace: f64,
     /// Ray sorting: the `sort_keys` passes (included in `trace`; 0 when no batch sorted).
@@ -231,6 +236,7 @@ impl RenderStats {
         for (name, secs) in timings {
             match *name {
                 "trace" => self.seconds.trace = *secs,
+                "prepare" => self.seconds.prepare = *secs,
                 "sort" => self.seconds.sort = *secs,
                 _ => {}
             }

@@ -508,7 +508,14 @@ impl Tracer {
             return Err(Error::TargetError(e));
         }
         scene.validate()?;
+        let t_device = Instant::now();
+        let had_device = self.gpu.is_some();
         let (use_gpu, reason) = self.choose_backend()?;
+        let device_seconds = if had_device {
+            0.0
+        } else {
+            t_device.elapsed().as_secs_f64()
+        };
         let r = scene.render;
         let mut settings = self.trace_settings(scene);
         // What the reorder policy runs: a fixed plan (the stats line says which), or `Auto`'s
@@ -535,8 +542,11 @@ impl Tracer {
                 if !plan.sorts(r.max_bounces) {
                     line += " (no bounce to sort)";
                 }
-                if self.schedule == Schedule::Megakernel {
-                    line += "; the megakernel cannot sort, so the wavefront ran";
+                if self.schedule != Schedule::Wavefront {
+                    line += &format!(
+                        "; the {} schedule cannot sort, so the wavefront ran",
+                        self.schedule.name()
+                    );
                 }
                 line
             }
@@ -575,6 +585,7 @@ impl Tracer {
                 .warnings
                 .push(crate::stats::NO_LIGHT_WARNING.to_string());
         }
+        stats.seconds.device = device_seconds;
         stats.bvh_preset = self.bvh_quality.name().into();
         stats.bvh_layout = self.bvh_layout.name().into();
         if let Some(f) = self.on_start.as_mut() {

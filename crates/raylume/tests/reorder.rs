@@ -80,7 +80,7 @@ fn reorder_on_renders_the_image_off_renders() {
             );
             // `--schedule megakernel --reorder on` runs the wavefront and says so.
             assert_eq!(
-                st.reorder.contains("the megakernel cannot sort"),
+                st.reorder.contains("the megakernel schedule cannot sort"),
                 schedule == Schedule::Megakernel,
                 "{}",
                 st.reorder

@@ -142,7 +142,8 @@ impl CpuTracer {
             slots.clear();
             slots.resize(n, [0.0; 3]);
             match settings.schedule {
-                Schedule::Megakernel => {
+                // The persistent schedule only changes which GPU thread traces a sample.
+                Schedule::Megakernel | Schedule::Persistent => {
                     let t = Instant::now();
                     let (traced, drops) = slots
                         .par_iter_mut()
@@ -220,7 +221,7 @@ impl CpuTracer {
         let trace = start.elapsed().as_secs_f64();
         let mut timings = vec![("upload", self.prepare_seconds)];
         match settings.schedule {
-            Schedule::Megakernel => timings.push(("trace_paths", t_paths)),
+            Schedule::Megakernel | Schedule::Persistent => timings.push(("trace_paths", t_paths)),
             Schedule::Wavefront => {
                 timings.push(("raygen", t_raygen));
                 timings.push(("propagate", t_propagate));

@@ -24,6 +24,9 @@ pub(crate) struct BatchRecorder<'r> {
     pub capture: Option<(u32, &'r CaptureBuffers)>,
     pub ray_groups: (u32, u32),
     pub pixel_groups: (u32, u32),
+    /// The persistent schedule's dispatch: the batch's samples, at most
+    /// [`crate::PERSISTENT_THREADS`] threads.
+    pub persistent_groups: (u32, u32),
 }
 
 impl<'r> BatchRecorder<'r> {
@@ -60,6 +63,25 @@ impl<'r> BatchRecorder<'r> {
             out.push(Stage::pass("trace_paths", None, move |pass| {
                 self.bind(pass, "trace_paths", 0, 0);
                 pass.dispatch_workgroups(rx, ry, 1);
+            }));
+            out.push(Stage::pass("resolve", None, resolve));
+            return out;
+        }
+        if plan.schedule == Schedule::Persistent {
+            let w = self.work;
+            let (tx, ty) = self.persistent_groups;
+            // The sample counter (queue_counts[3]) starts at 0 in every batch.
+            out.push(Stage {
+                label: "clear_counter",
+                depth: None,
+                submit_after: false,
+                record: Record::Untimed(Box::new(move |enc| {
+                    enc.clear_buffer(&w.queue_counts, 12, Some(4));
+                })),
+            });
+            out.push(Stage::pass("trace_paths", None, move |pass| {
+                self.bind(pass, "trace_paths_persistent", 0, 0);
+                pass.dispatch_workgroups(tx, ty, 1);
             }));
             out.push(Stage::pass("resolve", None, resolve));
             return out;

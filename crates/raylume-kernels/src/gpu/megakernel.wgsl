@@ -18,3 +18,54 @@ fn trace_paths(
     }
     flush_stats(local, traced, dropped);
 }
+
+// The persistent schedule (path regeneration): at most PERSISTENT_THREADS threads, each
+// taking pixel samples of the batch from a counter (queue_counts[3], zeroed before the
+// dispatch) one bounce at a time: a thread whose path has ended starts the next sample at the
+// top of the loop, so the lanes of a warp keep tracing while their paths end at different
+// depths, where trace_paths' lanes idle until the longest path of the warp ends. Each sample
+// is the same function calls in the same order as in trace_paths (trace_path's loop, unrolled
+// into the outer one) and lands in its own slot: the same image, bit for bit.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn trace_paths_persistent(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    let threads = nwg.x * nwg.y * WORKGROUP_SIZE;
+    // The first sample is the thread's own index, the next ones come from the counter.
+    var r = thread_index(wg, nwg, local);
+    var traced = 0u;
+    var dropped = 0u;
+    var busy = false;
+    var path = PathState(vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), vec3<f32>(0.0), vec3<f32>(0.0), false, 0.0);
+    var pixel = 0u;
+    var sample = 0u;
+    var depth = 0u;
+    var first = true;
+    loop {
+        if (!busy) {
+            if (!first) {
+                r = threads + atomicAdd(&queue_counts[3], 1u);
+            }
+            first = false;
+            if (r >= scene.rays_in_batch) {
+                break;
+            }
+            let ps = batch_ray(r);
+            pixel = ps.x;
+            sample = ps.y;
+            path = camera_path(pixel, sample);
+            depth = 0u;
+            busy = true;
+        }
+        trace_ray(&path, pixel, sample, depth);
+        traced += 1u;
+        depth += 1u;
+        if (!path.alive || depth > scene.max_bounces) {
+            dropped += write_sample(r, path.radiance);
+            busy = false;
+        }
+    }
+    flush_stats(local, traced, dropped);
+}

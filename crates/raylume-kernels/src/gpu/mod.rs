@@ -120,6 +120,8 @@ pub struct GpuTracer<'a> {
     last_batch: Option<Batch>,
     /// A cap on rays per batch below the adapter's own ([`GpuTracer::set_batch_ray_limit`]).
     batch_ray_limit: Option<u64>,
+    /// See [`GpuTracer::set_persistent_threads`].
+    persistent_threads: Option<u32>,
     upload_seconds: f64,
 }
 
@@ -297,6 +299,7 @@ impl<'a> GpuTracer<'a> {
             capture: None,
             last_batch: None,
             batch_ray_limit: None,
+            persistent_threads: None,
             upload_seconds: start.elapsed().as_secs_f64(),
         })
     }
@@ -307,6 +310,15 @@ impl<'a> GpuTracer<'a> {
     /// exceeds the cap. The image does not depend on it.
     pub fn set_batch_ray_limit(&mut self, limit: Option<u64>) {
         self.batch_ray_limit = limit;
+    }
+
+    /// Caps the threads of the persistent schedule below [`crate::PERSISTENT_THREADS`] (so
+    /// that each takes several samples even in a small render; `None` restores the default:
+    /// `PERSISTENT_THREADS` on a hardware adapter, one sample a thread on a software one,
+    /// whose loop limit would otherwise cut long-running threads short). The image does not
+    /// depend on it.
+    pub fn set_persistent_threads(&mut self, threads: Option<u32>) {
+        self.persistent_threads = threads.map(|t| t.max(1));
     }
 
     /// The estimator of the next renders (default: the paper's plain one).

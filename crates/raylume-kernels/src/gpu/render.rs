@@ -70,6 +70,7 @@ impl GpuTracer<'_> {
         mut hook: Option<&mut RoundHook<'_>>,
     ) -> Result<TraceStats, KernelError> {
         settings.validate()?;
+        let t_prepare = Instant::now();
         let ctx = self.ctx;
         let max_bounces = settings.max_bounces;
         let candidates = policy.candidates();
@@ -133,6 +134,7 @@ impl GpuTracer<'_> {
         for c in &candidates {
             stages.extend_from_slice(match c.schedule {
                 Schedule::Megakernel => &["trace_paths", "resolve"][..],
+                Schedule::Persistent => &["trace_paths_persistent", "resolve"][..],
                 Schedule::Wavefront => &["raygen", "prepare_propagate", "propagate", "resolve"],
             });
         }
@@ -202,6 +204,18 @@ impl GpuTracer<'_> {
         let mut timings_of_batches = Vec::with_capacity(batches.len());
         let mut depths: Vec<DepthTiming> = Vec::new();
         let full_rays = capacity;
+        // Lavapipe ends every loop of a shader once its invocations have run 65,535 loop
+        // iterations together (gallivm's LP_MAX_TGSI_LOOP_ITERATIONS, "shared between every
+        // loop"), silently: a persistent thread taking dozens of samples passes it and drops
+        // the rest (seen: 16 of 4,096 samples lost with 64 threads). On a software adapter the
+        // persistent schedule therefore runs one sample a thread unless told otherwise
+        // (`set_persistent_threads`; the tests keep each thread to a few samples).
+        let default_threads = if ctx.info.is_software {
+            u32::MAX
+        } else {
+            crate::PERSISTENT_THREADS
+        };
+        let prepare = t_prepare.elapsed().as_secs_f64();
         let start = Instant::now();
         for (bi, b) in batches.iter().enumerate() {
             let plan = policy.plan(bi, &batches);
@@ -232,6 +246,12 @@ impl GpuTracer<'_> {
                     .as_ref()
                     .and_then(|c| Some((c.depth, c.buffers.as_ref()?))),
                 ray_groups: dispatch_size(b.rays(), WORKGROUP_SIZE, max_dim),
+                persistent_groups: dispatch_size(
+                    b.rays()
+                        .min(self.persistent_threads.unwrap_or(default_threads)),
+                    WORKGROUP_SIZE,
+                    max_dim,
+                ),
                 pixel_groups: dispatch_size(b.pixel_count, WORKGROUP_SIZE, max_dim),
             }
             .stages(&plan, max_bounces);
@@ -306,7 +326,7 @@ impl GpuTracer<'_> {
             rays_traced += u64::from(s[0]) | (u64::from(s[1]) << 32);
             dropped_samples += u64::from(s[2]);
         }
-        let mut timings = vec![("upload", self.upload_seconds)];
+        let mut timings = vec![("upload", self.upload_seconds), ("prepare", prepare)];
         for (label, name) in [
             ("raygen", "raygen"),
             ("propagate", "propagate"),
@@ -398,7 +418,7 @@ impl GpuTracer<'_> {
             .sorters
             .iter()
             .any(|s| s.plan().key_bits == plan.reorder.key_bits && s.max_len() == capacity);
-        let ok = (plan.schedule == Schedule::Megakernel || wavefront)
+        let ok = (plan.schedule != Schedule::Wavefront || wavefront)
             && (!sorts || sorter)
             && (!sorts || plan.reorder.mode != ReorderMode::SortPermute || permute);
         if ok {

@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# The GPU-speed measurements of issue 13 in one device call: the paper's Table 1 (plain
+# estimator) and the equal-spp comparison with Mitsuba 3 (raylume with NEE + MIS + Russian roulette
+# from segment 5, Mitsuba's `path`), every schedule x BVH layout x reorder, and the living room
+# from file to a 10-spp PNG (raylume's `render`, Mitsuba's load + first render). See
+# tools/table1/README.md.
+#
+#   tools/table1/table1.sh stage                         # here: build, strip, fill .gpu/
+#   . .gl/on-device.sh && bash .gpu/table1-device.sh     # there (the device tool's run)
+#
+# Settings (environment): T1_SCENES (Table 1's scenes), T1_SPP (1,10,100), T1_SCHEDULES
+# (megakernel,wavefront,persistent), T1_BVH (binary,wide), T1_REORDER (off,on), T1_QUICK=1 (the
+# Cornell box and the living room only). Results: $OUT/table1.tgz.
+set -euo pipefail
+here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
+mode=${1:-}
+
+stage() {
+  local root; root=$(git -C "$here" rev-parse --show-toplevel)
+  cd "$root"
+  [ -d .gl ] || ../shared/gpu/prepare.sh
+  mkdir -p .gpu
+  cargo build --release -p raylume --example bench --example render
+  for b in bench render; do
+    cp target/release/examples/$b .gpu/$b && strip .gpu/$b && xz -f -T2 .gpu/$b
+  done
+  [ -f .gpu/mitsuba-trim.tar.xz ] || ../shared/peers/mitsuba/pack.sh
+  cp ../shared/peers/mitsuba/tungsten.py ../shared/peers/mitsuba/cornell.py .gpu/
+  cp "$here/mitsuba_table1.py" .gpu/
+  cp "$here/table1.sh" .gpu/table1-device.sh
+  git rev-parse --short HEAD > .gpu/commit.txt
+  git status --porcelain --untracked-files=no | grep -q . && echo "(uncommitted changes)" >> .gpu/commit.txt
+  du -sh .gpu
+}
+
+device() {
+  cd "$(dirname "$0")/.."
+  local T0 R m S
+  T0=$(date +%s)
+  el() { echo $(($(date +%s) - T0)); }
+  R=/tmp/t1; rm -rf $R; mkdir -p $R
+  trap 'tar czf "$OUT/table1.tgz" -C '$R' . ; echo "== done at $(el) s"' EXIT
+  for b in bench render; do xz -dc .gpu/$b.xz > /tmp/$b && chmod +x /tmp/$b; done
+  m=$(mktemp -d); tar -C "$m" -xJf .gpu/mitsuba-trim.tar.xz
+  export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
+  cp .gpu/commit.txt $R/
+  nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv | tee $R/gpu.txt
+  S=${T1_SCENES:-"scenes/cornell-box.toml scenes/living-room/scene.json scenes/teapot.toml scenes/glass-teapot.toml scenes/spheres.toml scenes/cornell-plus.toml"}
+  [ "${T1_QUICK:-0}" = 1 ] && S="scenes/cornell-box.toml scenes/living-room/scene.json"
+  local common="--backend gpu --spp ${T1_SPP:-1,10,100} --repeat 3 --schedule ${T1_SCHEDULES:-megakernel,wavefront,persistent} --reorder ${T1_REORDER:-off,on} --bvh ${T1_BVH:-binary,wide}"
+  echo "== Table 1, plain estimator (at $(el) s)"
+  timeout 300 /tmp/bench $common --json $R/plain.json $S > $R/plain.md 2> $R/plain.log || echo "bench plain: exit $?"
+  awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/plain.md
+  echo "== NEE + MIS + roulette from 5, independent sampler (at $(el) s)"
+  timeout 200 /tmp/bench $common --estimator nee --rr-depth 5 --json $R/nee.json \
+    scenes/cornell-box.toml scenes/living-room/scene.json > $R/nee.md 2> $R/nee.log || echo "bench nee: exit $?"
+  awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/nee.md
+  echo "== Mitsuba 3 (at $(el) s)"
+  PYTHONPATH=$m timeout 100 python3 .gpu/cornell.py $R cuda_ad_rgb 2>&1 | tail -3 || true
+  PYTHONPATH=$m timeout 200 python3 .gpu/mitsuba_table1.py scenes/living-room $R --tungsten .gpu/tungsten.py 2>&1 | tail -5 || true
+  echo "== the living room from file to a 10-spp PNG (at $(el) s)"
+  local l
+  for l in $(echo "${T1_BVH:-binary,wide}" | tr , ' '); do
+    TIMEFORMAT="raylume $l: process %R s"
+    time (timeout 60 /tmp/render scenes/living-room/scene.json -o /tmp/lr-$l.png --backend gpu \
+      --spp 10 --bvh $l --stats $R/render-lr-$l.json -q 2>&1 | grep -v wrote)
+  done
+  TIMEFORMAT="mitsuba (second process, kernel cache warm): process %R s"
+  time (PYTHONPATH=$m timeout 100 python3 .gpu/mitsuba_table1.py scenes/living-room /tmp/mi2 --tungsten .gpu/tungsten.py --spp 1 2>&1 | head -1)
+}
+
+case "$mode" in
+  stage) stage ;;
+  *) device ;;
+esac
