@@ -183,9 +183,24 @@ fn run(args: Args) -> Result<(), String> {
         check_output_path(s, "stats file", &["json"])?;
     }
 
-    let t_load = Instant::now();
-    let mut scene = Scene::load(&args.scene).map_err(|e| e.to_string())?;
-    let load_s = t_load.elapsed().as_secs_f64();
+    // The GPU device opens while the scene loads (each takes a fraction of a second on the
+    // H200: docs/RESULTS.md, time to the first image).
+    let t_start = Instant::now();
+    let mut tracer = Tracer::new(args.backend);
+    let ((loaded, load_s), device) = std::thread::scope(|threads| {
+        let load = threads.spawn(|| {
+            let t = Instant::now();
+            let scene = Scene::load(&args.scene);
+            (scene, t.elapsed().as_secs_f64())
+        });
+        let device = tracer.prepare_backend();
+        let loaded = load
+            .join()
+            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+        (loaded, device)
+    });
+    let mut scene = loaded.map_err(|e| e.to_string())?;
+    device.map_err(|e| e.to_string())?;
     if let Some((w, h)) = args.size {
         scene.render.width = w;
         scene.render.height = h;
@@ -197,7 +212,6 @@ fn run(args: Args) -> Result<(), String> {
         scene.render.max_bounces = b;
     }
 
-    let mut tracer = Tracer::new(args.backend);
     tracer.seed = args.seed;
     tracer.reorder = args.reorder;
     tracer.bloom = !args.no_bloom;
@@ -280,7 +294,10 @@ fn run(args: Args) -> Result<(), String> {
     let mut render = tracer.render(&scene).map_err(|e| e.to_string())?;
     bar.finish_and_clear();
     render.stats.seconds.load = load_s;
-    render.stats.seconds.total += load_s;
+    let t_save = Instant::now();
+    render.save(&args.output).map_err(|e| e.to_string())?;
+    render.stats.seconds.save = t_save.elapsed().as_secs_f64();
+    render.stats.seconds.total = t_start.elapsed().as_secs_f64();
 
     let s = &render.stats;
     let roulette = match s.russian_roulette {
@@ -303,7 +320,9 @@ fn run(args: Args) -> Result<(), String> {
         s.reorder
     );
     eprintln!(
-        "raylume: trace {:.3} s, {:.1} Mrays/s, total {:.3} s (load {:.3}, device {:.3}, bvh {:.3} {} {}{}, upload {:.3}, prepare {:.3}, post {:.3})",
+        "raylume: trace {:.3} s, {:.1} Mrays/s, total {:.3} s from the file to the image (load {:.3} \
+         and device {:.3} together, bvh {:.3} {} {}{} and pipelines {:.3}{} together, upload \
+         {:.3}, prepare {:.3}, post {:.3}, save {:.3})",
         s.seconds.trace,
         s.mrays_per_s,
         s.seconds.total,
@@ -313,9 +332,12 @@ fn run(args: Args) -> Result<(), String> {
         s.bvh_preset,
         s.bvh_layout,
         if s.bvh_cached { " cached" } else { "" },
+        s.seconds.pipelines,
+        if s.pipelines_cached { " cached" } else { "" },
         s.seconds.upload,
         s.seconds.prepare,
-        s.seconds.post
+        s.seconds.post,
+        s.seconds.save
     );
     if let Some(target) = s.target_error {
         eprintln!("raylume: {}", describe_target(s, target));
@@ -327,7 +349,6 @@ fn run(args: Args) -> Result<(), String> {
         );
     }
 
-    render.save(&args.output).map_err(|e| e.to_string())?;
     if let Some(path) = &args.stats {
         if let Err(e) = std::fs::write(path, render.stats.to_json()) {
             let _ = std::fs::remove_file(&args.output);

@@ -10,7 +10,8 @@
 #
 # Settings (environment): T1_SCENES (Table 1's scenes), T1_SPP (1,10,100), T1_SCHEDULES
 # (megakernel,wavefront,persistent), T1_BVH (binary,wide), T1_REORDER (off,on), T1_QUICK=1 (the
-# Cornell box and the living room only). Results: $OUT/table1.tgz.
+# Cornell box and the living room only), T1_PERSISTENT_THREADS (the persistent schedule's thread
+# counts tried besides the default, RAYLUME_PERSISTENT_THREADS). Results: $OUT/table1.tgz.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 mode=${1:-}
@@ -55,6 +56,15 @@ device() {
   timeout 200 /tmp/bench $common --estimator nee --rr-depth 5 --json $R/nee.json \
     scenes/cornell-box.toml scenes/living-room/scene.json > $R/nee.md 2> $R/nee.log || echo "bench nee: exit $?"
   awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/nee.md
+  echo "== the persistent schedule's thread count (NEE, wide, 100 spp; at $(el) s)"
+  local th
+  for th in ${T1_PERSISTENT_THREADS:-131072 262144 2097152}; do
+    RAYLUME_PERSISTENT_THREADS=$th timeout 60 /tmp/bench --backend gpu --spp 100 --repeat 3 \
+      --schedule persistent --reorder off --bvh wide --estimator nee --rr-depth 5 \
+      --json $R/persistent-$th.json scenes/cornell-box.toml scenes/living-room/scene.json \
+      > $R/persistent-$th.md 2>/dev/null || echo "bench persistent $th: exit $?"
+    echo "threads $th:"; grep -E '^\| scenes.* \| 100 \| [0-9.]+ \|$' $R/persistent-$th.md || true
+  done
   echo "== Mitsuba 3 (at $(el) s)"
   PYTHONPATH=$m timeout 100 python3 .gpu/cornell.py $R cuda_ad_rgb 2>&1 | tail -3 || true
   PYTHONPATH=$m timeout 200 python3 .gpu/mitsuba_table1.py scenes/living-room $R --tungsten .gpu/tungsten.py 2>&1 | tail -5 || true

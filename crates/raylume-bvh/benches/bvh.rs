@@ -20,7 +20,7 @@ use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
-use raylume_bvh::{BvhQuality, GpuBvh, Ray};
+use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh, Ray};
 use raylume_scene::{Camera, FovAxis, Scene, Sphere, Triangle};
 use rayon::prelude::*;
 
@@ -173,14 +173,18 @@ fn bench(c: &mut Criterion) {
         group.finish();
 
         let primary = camera_rays(&s.camera);
-        for q in QUALITIES {
-            let bvh = GpuBvh::build(&s.triangles, &s.spheres, q).unwrap();
+        for (q, layout) in QUALITIES
+            .into_iter()
+            .flat_map(|q| [(q, BvhLayout::Binary), (q, BvhLayout::Wide)])
+        {
+            let bvh = GpuBvh::build_with_layout(&s.triangles, &s.spheres, q, layout).unwrap();
             let st = bvh.stats;
             eprintln!(
-                "{} {}: {} primitives -> {} refs, {} nodes, {} leaves, depth {}, max leaf {}, \
+                "{} {} {}: {} primitives -> {} refs, {} nodes, {} leaves, depth {}, max leaf {}, \
                  SAH {:.2}, built in {:.1} ms",
                 s.name,
                 q.name(),
+                layout.name(),
                 s.triangles.len() + s.spheres.len(),
                 st.primitive_refs,
                 st.node_count,
@@ -191,7 +195,12 @@ fn bench(c: &mut Criterion) {
                 st.build_time.as_secs_f64() * 1e3
             );
             let secondary = secondary_rays(&bvh, &primary, 7);
-            let mut group = c.benchmark_group(format!("trace_closest/{}/{}", s.name, q.name()));
+            let mut group = c.benchmark_group(format!(
+                "trace_closest/{}/{}/{}",
+                s.name,
+                q.name(),
+                layout.name()
+            ));
             group.sample_size(10);
             group.measurement_time(Duration::from_secs(5));
             for (kind, rays, t_min) in [("primary", &primary, 0.0), ("secondary", &secondary, 1e-4)]

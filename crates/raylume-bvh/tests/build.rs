@@ -13,6 +13,15 @@ use support::{Fixture, brute_force, check_against_brute_force, queries};
 
 const QUALITIES: [BvhQuality; 2] = [BvhQuality::Fast, BvhQuality::Quality];
 
+/// The binary layout's tree (these tests read its `nodes`).
+fn build_binary(
+    triangles: &[Triangle],
+    spheres: &[Sphere],
+    quality: BvhQuality,
+) -> Result<GpuBvh, BvhError> {
+    GpuBvh::build_with_layout(triangles, spheres, quality, BvhLayout::Binary)
+}
+
 fn unit_triangle() -> Triangle {
     Triangle::flat([Vec3::ZERO, Vec3::X, Vec3::Y], 0)
 }
@@ -20,7 +29,7 @@ fn unit_triangle() -> Triangle {
 #[test]
 fn no_primitives_give_a_root_with_two_empty_slots() {
     for quality in QUALITIES {
-        let bvh = GpuBvh::build(&[], &[], quality).unwrap();
+        let bvh = build_binary(&[], &[], quality).unwrap();
         bvh.validate().unwrap();
         assert_eq!(bvh.nodes.len(), 1);
         assert!(bvh.primitives.is_empty());
@@ -58,7 +67,7 @@ fn one_primitive_is_a_left_leaf_with_an_empty_right_slot() {
                 3.0,
             ),
         ] {
-            let bvh = GpuBvh::build(&tris, &spheres, quality).unwrap();
+            let bvh = build_binary(&tris, &spheres, quality).unwrap();
             bvh.validate().unwrap();
             assert_eq!(bvh.nodes.len(), 1);
             let root = bvh.nodes[0];
@@ -192,7 +201,7 @@ fn coincident_triangles_give_a_usable_tree() {
     let qs = queries(&f, 2000, 9);
     let reference: Vec<_> = qs.iter().map(|q| brute_force(&f, q)).collect();
     for quality in QUALITIES {
-        let bvh = GpuBvh::build(&f.triangles, &f.spheres, quality).unwrap();
+        let bvh = build_binary(&f.triangles, &f.spheres, quality).unwrap();
         bvh.validate().unwrap();
         assert!(bvh.stats.max_depth <= MAX_STACK_DEPTH);
         assert_eq!(
@@ -218,8 +227,8 @@ fn coincident_triangles_give_a_usable_tree() {
 #[test]
 fn quality_splits_long_diagonal_triangles() {
     let f = support::slivers_in_soup();
-    let fast = GpuBvh::build(&f.triangles, &f.spheres, BvhQuality::Fast).unwrap();
-    let quality = GpuBvh::build(&f.triangles, &f.spheres, BvhQuality::Quality).unwrap();
+    let fast = build_binary(&f.triangles, &f.spheres, BvhQuality::Fast).unwrap();
+    let quality = build_binary(&f.triangles, &f.spheres, BvhQuality::Quality).unwrap();
     fast.validate().unwrap();
     quality.validate().unwrap();
     assert_eq!(fast.stats.primitive_refs, f.primitive_count());
@@ -243,7 +252,7 @@ fn quality_splits_long_diagonal_triangles() {
 #[test]
 fn stats_describe_the_tree() {
     let f = support::icosphere_on_plane();
-    let bvh = GpuBvh::build(&f.triangles, &f.spheres, BvhQuality::Fast).unwrap();
+    let bvh = build_binary(&f.triangles, &f.spheres, BvhQuality::Fast).unwrap();
     let s = bvh.stats;
     assert_eq!(s.node_count, bvh.nodes.len());
     assert_eq!(s.primitive_refs, bvh.primitives.len());
@@ -294,7 +303,7 @@ fn groups_of_coincident_triangles_past_the_stack_fall_back() {
         triangles,
         spheres: Vec::new(),
     };
-    let bvh = GpuBvh::build(&f.triangles, &f.spheres, BvhQuality::Fast).unwrap();
+    let bvh = build_binary(&f.triangles, &f.spheres, BvhQuality::Fast).unwrap();
     bvh.validate().unwrap();
     assert!(
         matches!(bvh.stats.fallback, Some(Fallback::TooDeep { depth }) if depth > MAX_STACK_DEPTH),

@@ -34,8 +34,8 @@ fn check_real_scene(name: &'static str, file: &str, seed: u64) {
         triangles: scene.triangles.clone(),
         spheres: scene.spheres.clone(),
     };
-    let fast = GpuBvh::from_scene(&scene, BvhQuality::Fast).unwrap();
-    let quality = GpuBvh::from_scene(&scene, BvhQuality::Quality).unwrap();
+    let binary = |q| GpuBvh::from_scene_with_layout(&scene, q, BvhLayout::Binary).unwrap();
+    let (fast, quality) = (binary(BvhQuality::Fast), binary(BvhQuality::Quality));
     for bvh in [&fast, &quality] {
         bvh.validate()
             .unwrap_or_else(|e| panic!("{name} {:?}: {e}", bvh.stats.quality));

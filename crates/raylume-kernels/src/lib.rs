@@ -199,7 +199,8 @@ pub enum Schedule {
 }
 
 /// Threads the persistent schedule launches at most: more than an H200 keeps resident (132
-/// multiprocessors x 2048), fewer than the samples of a large batch.
+/// multiprocessors x 2048), fewer than the samples of a large batch. The environment variable
+/// `RAYLUME_PERSISTENT_THREADS` overrides it on hardware adapters (for measuring).
 pub const PERSISTENT_THREADS: u32 = 1 << 20;
 
 impl Schedule {

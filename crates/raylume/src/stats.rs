@@ -13,13 +13,19 @@ pub struct StageSeconds {
     pub load: f64,
     /// Building and flattening the BVH.
     pub bvh: f64,
-    /// Creating the GPU device (0 on the CPU, and when the tracer already had one).
+    /// Creating the GPU device (0 on the CPU, and when an earlier render already reported it;
+    /// see `Tracer::prepare_backend`).
     pub device: f64,
     /// Uploading scene data to the GPU and compiling the shader module (0 on the CPU).
     pub upload: f64,
-    /// Preparing the batch loop on the GPU: work buffers, pipelines (compiled on first use),
-    /// ray sorters, warm-up dispatches (0 on the CPU).
+    /// Preparing the batch loop on the GPU: work buffers, pipelines not compiled yet (see
+    /// `pipelines`), ray sorters, warm-up dispatches (0 on the CPU).
     pub prepare: f64,
+    /// Making the shader module and compiling the GPU pipelines the render started with, on a
+    /// thread of its own while the BVH was built (so it overlaps `bvh`); when the tracer
+    /// reused the last render's pipelines (`RenderStats::pipelines_cached`), what they took
+    /// then. 0 on the CPU.
+    pub pipelines: f64,
     /// The ray-tracing phase.
     pub trace: f64,
     /// Ray sorting: the `sort_keys` passes (included in `trace`; 0 when no batch sorted).
@@ -28,7 +34,11 @@ pub struct StageSeconds {
     pub sort: f64,
     /// Post effects (bloom) and tone mapping for the output.
     pub post: f64,
-    /// Wall clock from the start of `Tracer::render` (plus `load`) to its end.
+    /// Writing the image file (filled by whoever saved it, e.g. the `render` example).
+    pub save: f64,
+    /// Wall clock from the start of `Tracer::render` to its end; the `render` example makes
+    /// it its own wall clock from loading the scene to the written file (loading and opening
+    /// the GPU device overlap there, so the parts add up to more).
     pub total: f64,
 }
 
@@ -107,6 +117,9 @@ pub struct RenderStats {
     pub bvh_preset: String,
     /// The BVH's node layout (`"binary"` or `"wide"`: `Tracer::bvh_layout`).
     pub bvh_layout: String,
+    /// True when the GPU pipelines came from the tracer's last render (same features and BVH
+    /// layout): nothing was compiled.
+    pub pipelines_cached: bool,
     /// Who built it: `"obvhs PLOC on the CPU, N threads"` (a cached tree: who built it then).
     pub bvh_builder: String,
     /// The post-processing passes that ran, in order (`bloom_threshold`, `bloom_h`, ...).

@@ -2,6 +2,7 @@
 
 use std::collections::HashMap;
 use std::path::Path;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh};
@@ -9,7 +10,7 @@ use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, GpuError};
 use raylume_kernels::batches::{RoundHook, RoundSums};
 use raylume_kernels::{
     BatchPlan, CpuTracer, Estimator, GpuTracer, GpuWorkspace, Reorder, ReorderMode, Sampler,
-    Schedule, TraceSettings, TraceStats,
+    Schedule, TraceSettings, TraceStats, gpu::TracerPipelines,
 };
 use raylume_scene::Scene;
 
@@ -222,6 +223,11 @@ pub struct Tracer {
     gpu_workspace: Option<GpuWorkspace>,
     /// `Auto`'s measurements and decisions, by [`fingerprint`].
     auto: HashMap<u64, AutoState>,
+    /// The GPU pipelines of the last render, kept for the next render of a scene with the
+    /// same features and BVH layout (compiling them is most of a first image's time).
+    gpu_pipelines: Option<Arc<TracerPipelines>>,
+    /// Seconds the GPU context took to create, until a render reports them.
+    device_seconds: Option<f64>,
     /// The last BVHs built (at most [`BVH_CACHE_ENTRIES`], the latest first), each for the
     /// geometry, preset and layout it was built from: rendering the same scene again (another
     /// spp, size, seed, or a benchmark's repeats, also alternating the two layouts) skips the
@@ -339,6 +345,8 @@ impl Tracer {
             gpu_bloom: None,
             gpu_workspace: None,
             auto: HashMap::new(),
+            gpu_pipelines: None,
+            device_seconds: None,
             bvh_cache: Vec::new(),
         }
     }
@@ -377,11 +385,21 @@ impl Tracer {
         self.bvh_cache.clear();
     }
 
+    /// Drops the GPU context and everything made on it: a lost device stays lost, so the
+    /// next render starts over on a new one.
+    fn forget_device(&mut self) {
+        self.gpu = None;
+        self.gpu_bloom = None;
+        self.gpu_workspace = None;
+        self.gpu_pipelines = None;
+    }
+
     /// Uses an existing GPU context (and its adapter) for GPU renders.
     pub fn with_gpu_context(mut self, ctx: GpuContext) -> Self {
         self.gpu = Some(ctx);
         self.gpu_bloom = None;
         self.gpu_workspace = None;
+        self.gpu_pipelines = None;
         // Measurements belong to an adapter.
         self.auto.clear();
         self
@@ -458,8 +476,28 @@ impl Tracer {
         Ok(())
     }
 
-    /// Picks the backend; returns the GPU context to use (None: CPU) and why.
+    /// Opens the GPU device the backend will render on (for [`Backend::Auto`], a hardware
+    /// adapter if there is one), so that its cost (0.16 s on the H200) overlaps other work,
+    /// e.g. loading the scene on another thread; [`Tracer::render`] does it otherwise. Its
+    /// time is reported in the next render's `seconds.device`. Errors as `render` would
+    /// (e.g. [`Backend::Gpu`] without an adapter).
+    pub fn prepare_backend(&mut self) -> Result<(), Error> {
+        self.choose_backend().map(|_| ())
+    }
+
+    /// Picks the backend; returns the GPU context to use (None: CPU) and why. Records the
+    /// time a new context took in `device_seconds`.
     fn choose_backend(&mut self) -> Result<(bool, String), Error> {
+        let t = Instant::now();
+        let had = self.gpu.is_some();
+        let r = self.choose_backend_inner();
+        if !had && self.gpu.is_some() {
+            self.device_seconds = Some(t.elapsed().as_secs_f64());
+        }
+        r
+    }
+
+    fn choose_backend_inner(&mut self) -> Result<(bool, String), Error> {
         match self.backend {
             Backend::Cpu => Ok((false, "requested".into())),
             Backend::Gpu => {
@@ -508,14 +546,8 @@ impl Tracer {
             return Err(Error::TargetError(e));
         }
         scene.validate()?;
-        let t_device = Instant::now();
-        let had_device = self.gpu.is_some();
         let (use_gpu, reason) = self.choose_backend()?;
-        let device_seconds = if had_device {
-            0.0
-        } else {
-            t_device.elapsed().as_secs_f64()
-        };
+        let device_seconds = self.device_seconds.take().unwrap_or(0.0);
         let r = scene.render;
         let mut settings = self.trace_settings(scene);
         // What the reorder policy runs: a fixed plan (the stats line says which), or `Auto`'s
@@ -600,11 +632,64 @@ impl Tracer {
             .position(|c| c.key == key)
             .map(|i| self.bvh_cache.remove(i));
         stats.bvh_cached = cached.is_some();
-        let bvh = match cached {
-            Some(c) => c.bvh,
-            None => GpuBvh::from_scene_with_layout(scene, self.bvh_quality, self.bvh_layout)?,
+        // On the GPU, the pipelines (a second of driver compilation on the H200) do not depend
+        // on the BVH: they are compiled on another thread while it is built, or come from the
+        // last render of a scene with the same features and layout.
+        let pipeline_key = (scene.features(), self.bvh_layout);
+        let first_schedule = if settings.reorder.sorts_any(settings.max_bounces) {
+            Schedule::Wavefront
+        } else {
+            settings.schedule
         };
-        stats.seconds.bvh = t.elapsed().as_secs_f64();
+        let reuse = self
+            .gpu_pipelines
+            .as_ref()
+            .filter(|p| (p.features(), p.bvh_layout()) == pipeline_key)
+            .cloned();
+        let gpu = self.gpu.as_ref().filter(|_| use_gpu);
+        let (bvh, pipelines) = std::thread::scope(|threads| {
+            let compiling = match (gpu, &reuse) {
+                (Some(ctx), None) => Some(threads.spawn(move || {
+                    let p = TracerPipelines::new(ctx, pipeline_key.0, pipeline_key.1)?;
+                    p.compile(ctx, first_schedule)?;
+                    Ok::<_, raylume_kernels::KernelError>(p)
+                })),
+                _ => None,
+            };
+            let bvh = match cached {
+                Some(c) => Ok(c.bvh),
+                None => GpuBvh::from_scene_with_layout(scene, self.bvh_quality, self.bvh_layout),
+            };
+            stats.seconds.bvh = t.elapsed().as_secs_f64();
+            let pipelines = match compiling {
+                Some(handle) => Some(
+                    handle
+                        .join()
+                        .unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
+                ),
+                None => reuse.map(Ok),
+            };
+            (bvh, pipelines)
+        });
+        let bvh = bvh?;
+        let pipelines = match pipelines.transpose() {
+            Ok(p) => p,
+            Err(e) => {
+                let e = Error::from(e);
+                if e.is_device_lost() {
+                    self.forget_device();
+                }
+                return Err(e);
+            }
+        };
+        if let Some(p) = &pipelines {
+            stats.seconds.pipelines = p.seconds();
+            stats.pipelines_cached = self
+                .gpu_pipelines
+                .as_ref()
+                .is_some_and(|q| Arc::ptr_eq(p, q));
+            self.gpu_pipelines = Some(p.clone());
+        }
         stats.bvh_nodes = bvh.stats.node_count;
         stats.bvh_builder = format!(
             "obvhs PLOC on the CPU, {} threads",
@@ -638,6 +723,7 @@ impl Tracer {
             self.trace_gpu(
                 scene,
                 &bvh,
+                pipelines.expect("made with the GPU backend"),
                 &settings,
                 auto_key,
                 bloom,
@@ -660,10 +746,7 @@ impl Tracer {
         self.bvh_cache.insert(0, BvhCacheEntry { key, bvh });
         self.bvh_cache.truncate(BVH_CACHE_ENTRIES);
         if result.as_ref().is_err_and(Error::is_device_lost) {
-            // A lost device stays lost: the next render starts over on a new one.
-            self.gpu = None;
-            self.gpu_bloom = None;
-            self.gpu_workspace = None;
+            self.forget_device();
         }
         let pixels = result?;
         if let Some(t) = &target {
@@ -694,6 +777,7 @@ impl Tracer {
         &mut self,
         scene: &Scene,
         bvh: &GpuBvh,
+        pipelines: Arc<TracerPipelines>,
         settings: &TraceSettings,
         auto_key: Option<u64>,
         bloom: Option<raylume_post::BloomParams>,
@@ -704,7 +788,7 @@ impl Tracer {
         let ctx = self.gpu.as_ref().expect("the backend choice created it");
         stats.adapter = ctx.describe();
         let t = Instant::now();
-        let mut tracer = GpuTracer::new(ctx, scene, bvh)?;
+        let mut tracer = GpuTracer::with_pipelines(ctx, scene, bvh, pipelines)?;
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
         tracer.set_russian_roulette(self.russian_roulette);

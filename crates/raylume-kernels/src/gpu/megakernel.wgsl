@@ -32,39 +32,29 @@ fn trace_paths_persistent(
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) local: u32,
 ) {
-    let threads = nwg.x * nwg.y * WORKGROUP_SIZE;
-    // The first sample is the thread's own index, the next ones come from the counter.
+    // The first sample is the thread's own index, the next ones come from the counter. The
+    // loop carries only the path, its sample index and depth (pixel and sample are derived
+    // from r at every bounce): the megakernel's state plus two words.
     var r = thread_index(wg, nwg, local);
+    var depth = 0u;
     var traced = 0u;
     var dropped = 0u;
-    var busy = false;
     var path = PathState(vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0), vec3<f32>(0.0), vec3<f32>(0.0), false, 0.0);
-    var pixel = 0u;
-    var sample = 0u;
-    var depth = 0u;
-    var first = true;
     loop {
-        if (!busy) {
-            if (!first) {
-                r = threads + atomicAdd(&queue_counts[3], 1u);
-            }
-            first = false;
-            if (r >= scene.rays_in_batch) {
-                break;
-            }
-            let ps = batch_ray(r);
-            pixel = ps.x;
-            sample = ps.y;
-            path = camera_path(pixel, sample);
-            depth = 0u;
-            busy = true;
+        if (r >= scene.rays_in_batch) {
+            break;
         }
-        trace_ray(&path, pixel, sample, depth);
+        let ps = batch_ray(r);
+        if (depth == 0u) {
+            path = camera_path(ps.x, ps.y);
+        }
+        trace_ray(&path, ps.x, ps.y, depth);
         traced += 1u;
         depth += 1u;
         if (!path.alive || depth > scene.max_bounces) {
             dropped += write_sample(r, path.radiance);
-            busy = false;
+            depth = 0u;
+            r = nwg.x * nwg.y * WORKGROUP_SIZE + atomicAdd(&queue_counts[3], 1u);
         }
     }
     flush_stats(local, traced, dropped);

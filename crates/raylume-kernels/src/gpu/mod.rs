@@ -6,16 +6,18 @@ mod batch;
 mod capture;
 mod clock;
 mod layout;
+mod pipelines;
 mod policy;
 mod render;
 mod shader;
 mod work;
 
 pub use capture::SortCapture;
+pub use pipelines::TracerPipelines;
 pub use policy::{BatchPlan, BatchPolicy, BatchTiming, DepthTiming, StageTime};
 pub use shader::{pipeline_constants, tracer_source};
 
-use std::collections::HashMap;
+use std::sync::Arc;
 use std::time::Instant;
 
 use raylume_bvh::{BvhLayout, BvhNode, GpuBvh, Primitive, WideNode};
@@ -28,7 +30,7 @@ use crate::bsdf::RoughPlasticTable;
 use crate::gpu_types::{GpuLight, GpuMaterial, SceneUniforms, TextureHeader, TriangleShading};
 use crate::scene_data::SceneData;
 use crate::{KernelError, TraceOutput, TraceSettings};
-use layout::{bind_group_layouts, upload};
+use layout::upload;
 use policy::Fixed;
 use work::WorkBuffers;
 
@@ -97,19 +99,10 @@ impl std::fmt::Debug for GpuWorkspace {
 pub struct GpuTracer<'a> {
     ctx: &'a GpuContext,
     data: SceneData,
-    features: Features,
     scene: SceneBuffers,
-    work_layout: wgpu::BindGroupLayout,
-    args_layout: wgpu::BindGroupLayout,
-    permute_group_layout: wgpu::BindGroupLayout,
-    /// Groups 0 and 1: every entry point but `prepare_propagate` and `permute_rays`.
-    pipeline_layout: wgpu::PipelineLayout,
-    /// Groups 0, 1 and 2: `prepare_propagate`.
-    prepare_layout: wgpu::PipelineLayout,
-    /// Groups 0, 1 and 2: `permute_rays`.
-    permute_layout: wgpu::PipelineLayout,
-    module: wgpu::ShaderModule,
-    pipelines: HashMap<&'static str, wgpu::ComputePipeline>,
+    /// The module, layouts and pipelines (shared with other tracers of the same features and
+    /// BVH layout).
+    pipelines: Arc<TracerPipelines>,
     work: Option<WorkBuffers>,
     /// The ray sorters (one per sorted key width), made on the first render that sorts, for
     /// the largest batch, and kept.
@@ -140,12 +133,36 @@ impl<'a> GpuTracer<'a> {
         bvh: &GpuBvh,
         features: Features,
     ) -> Result<Self, KernelError> {
+        let start = Instant::now();
+        let pipelines = TracerPipelines::new(ctx, features, bvh.layout)?;
+        let mut tracer = Self::with_pipelines(ctx, scene, bvh, pipelines)?;
+        tracer.upload_seconds = start.elapsed().as_secs_f64();
+        Ok(tracer)
+    }
+
+    /// As [`GpuTracer::with_features`], over pipelines made beforehand (possibly while the
+    /// BVH was built, and shared with earlier tracers): their features must include the
+    /// scene's and their BVH layout must be `bvh`'s.
+    pub fn with_pipelines(
+        ctx: &'a GpuContext,
+        scene: &Scene,
+        bvh: &GpuBvh,
+        pipelines: Arc<TracerPipelines>,
+    ) -> Result<Self, KernelError> {
+        let features = pipelines.features();
         // Bloom is a post pass, not tracer code.
         let needed = scene.features().bits() & !(Feature::Bloom as u32);
         let missing = Features::from_bits(needed & !features.bits());
         if missing != Features::NONE {
             return Err(KernelError::InvalidScene(format!(
                 "pipelines specialised without features the scene uses: {missing}"
+            )));
+        }
+        if pipelines.bvh_layout() != bvh.layout {
+            return Err(KernelError::InvalidSettings(format!(
+                "pipelines for the {} BVH layout given a {} tree",
+                pipelines.bvh_layout().name(),
+                bvh.layout.name()
             )));
         }
         let start = Instant::now();
@@ -186,94 +203,54 @@ impl<'a> GpuTracer<'a> {
         let plastic_tables =
             upload::<RoughPlasticTable>(ctx, "rough plastic tables", &data.plastic_tables)?;
 
-        let [scene_layout, work_layout, args_layout, permute_group_layout] =
-            bind_group_layouts(device);
-        let (bind_group, pipeline_layout, prepare_layout, permute_layout, module) =
-            ctx.scoped("building the tracer's shader and layouts", || {
-                let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("raylume scene"),
-                    layout: &scene_layout,
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: uniforms.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: nodes.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 2,
-                            resource: primitives.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 3,
-                            resource: materials.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 4,
-                            resource: prim_materials.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 5,
-                            resource: shading.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 6,
-                            resource: headers.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 7,
-                            resource: texels.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 8,
-                            resource: lights.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 9,
-                            resource: plastic_tables.as_entire_binding(),
-                        },
-                    ],
-                });
-                let pipeline_layout =
-                    device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                        label: Some("raylume tracer"),
-                        bind_group_layouts: &[Some(&scene_layout), Some(&work_layout)],
-                        immediate_size: 0,
-                    });
-                let prepare_layout =
-                    device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                        label: Some("raylume prepare_propagate"),
-                        bind_group_layouts: &[
-                            Some(&scene_layout),
-                            Some(&work_layout),
-                            Some(&args_layout),
-                        ],
-                        immediate_size: 0,
-                    });
-                let permute_layout =
-                    device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                        label: Some("raylume permute_rays"),
-                        bind_group_layouts: &[
-                            Some(&scene_layout),
-                            Some(&work_layout),
-                            Some(&permute_group_layout),
-                        ],
-                        immediate_size: 0,
-                    });
-                let module = ctx.shader_module(
-                    "raylume tracer",
-                    &tracer_source(ctx.limits.max_compute_workgroups_per_dimension, bvh.layout),
-                );
-                (
-                    bind_group,
-                    pipeline_layout,
-                    prepare_layout,
-                    permute_layout,
-                    module,
-                )
-            })?;
+        let bind_group = ctx.scoped("binding the scene's buffers", || {
+            device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("raylume scene"),
+                layout: &pipelines.scene_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: uniforms.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: nodes.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: primitives.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: materials.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 4,
+                        resource: prim_materials.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 5,
+                        resource: shading.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 6,
+                        resource: headers.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 7,
+                        resource: texels.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 8,
+                        resource: lights.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 9,
+                        resource: plastic_tables.as_entire_binding(),
+                    },
+                ],
+            })
+        })?;
         ctx.wait("uploading the scene")?;
         // Only what the uniforms need stays on the CPU.
         data.texels = Vec::new();
@@ -281,19 +258,11 @@ impl<'a> GpuTracer<'a> {
         Ok(Self {
             ctx,
             data,
-            features,
             scene: SceneBuffers {
                 uniforms,
                 bind_group,
             },
-            work_layout,
-            args_layout,
-            permute_group_layout,
-            pipeline_layout,
-            prepare_layout,
-            permute_layout,
-            module,
-            pipelines: HashMap::new(),
+            pipelines,
             work: None,
             sorters: Vec::new(),
             capture: None,
@@ -341,38 +310,17 @@ impl<'a> GpuTracer<'a> {
 
     /// The features the pipelines are specialised on.
     pub fn features(&self) -> Features {
-        self.features
+        self.pipelines.features()
+    }
+
+    /// The module, layouts and pipelines this tracer renders with.
+    pub fn pipelines(&self) -> &Arc<TracerPipelines> {
+        &self.pipelines
     }
 
     /// The compute pipeline of entry point `entry`, compiled on first use.
-    fn pipeline(&mut self, entry: &'static str) -> Result<wgpu::ComputePipeline, KernelError> {
-        if let Some(p) = self.pipelines.get(entry) {
-            return Ok(p.clone());
-        }
-        let constants = pipeline_constants(self.features);
-        let p = self
-            .ctx
-            .scoped(&format!("compiling the `{entry}` pipeline"), || {
-                self.ctx
-                    .device
-                    .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                        label: Some(entry),
-                        layout: Some(match entry {
-                            "prepare_propagate" => &self.prepare_layout,
-                            "permute_rays" => &self.permute_layout,
-                            _ => &self.pipeline_layout,
-                        }),
-                        module: &self.module,
-                        entry_point: Some(entry),
-                        compilation_options: wgpu::PipelineCompilationOptions {
-                            constants: &constants,
-                            zero_initialize_workgroup_memory: true,
-                        },
-                        cache: None,
-                    })
-            })?;
-        self.pipelines.insert(entry, p.clone());
-        Ok(p)
+    fn pipeline(&self, entry: &'static str) -> Result<wgpu::ComputePipeline, KernelError> {
+        self.pipelines.pipeline(self.ctx, entry)
     }
 
     /// Takes the work buffers and ray sorters out of this tracer (its next render allocates

@@ -11,7 +11,9 @@ use super::batch::BatchRecorder;
 use super::capture::CaptureBuffers;
 use super::clock::StageClock;
 use super::work::{self, WorkBuffers, WorkLayouts};
-use super::{BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, TraceStats};
+use super::{
+    BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, TraceStats, TracerPipelines,
+};
 use crate::batches::{
     RoundFlow, RoundHook, RoundSums, dispatch_size, ends_round, into_rounds, mean_of_sum,
     plan_batches,
@@ -123,20 +125,16 @@ impl GpuTracer<'_> {
             self.work = Some(WorkBuffers::new(
                 ctx,
                 WorkLayouts {
-                    work: &self.work_layout,
-                    args: &self.args_layout,
-                    permute: &self.permute_group_layout,
+                    work: &self.pipelines.work_layout,
+                    args: &self.pipelines.args_layout,
+                    permute: &self.pipelines.permute_group_layout,
                 },
                 key,
             )?);
         }
         let mut stages: Vec<&'static str> = Vec::new();
         for c in &candidates {
-            stages.extend_from_slice(match c.schedule {
-                Schedule::Megakernel => &["trace_paths", "resolve"][..],
-                Schedule::Persistent => &["trace_paths_persistent", "resolve"][..],
-                Schedule::Wavefront => &["raygen", "prepare_propagate", "propagate", "resolve"],
-            });
+            stages.extend_from_slice(TracerPipelines::entries(c.schedule));
         }
         if permute {
             stages.push("permute_rays");
@@ -213,7 +211,11 @@ impl GpuTracer<'_> {
         let default_threads = if ctx.info.is_software {
             u32::MAX
         } else {
-            crate::PERSISTENT_THREADS
+            std::env::var("RAYLUME_PERSISTENT_THREADS")
+                .ok()
+                .and_then(|v| v.parse::<u32>().ok())
+                .filter(|&t| t > 0)
+                .unwrap_or(crate::PERSISTENT_THREADS)
         };
         let prepare = t_prepare.elapsed().as_secs_f64();
         let start = Instant::now();

@@ -59,17 +59,39 @@ pub(super) fn utf8(bytes: Vec<u8>, label: &str) -> Result<String, SceneError> {
     })
 }
 
+/// An OBJ file read and parsed (its MTL files too, unless the material is overridden), not
+/// yet added to a scene: [`parse`] needs no [`SceneBuilder`], so files can be parsed on several
+/// threads and added in order ([`insert`]).
+pub(crate) struct ParsedObj {
+    label: String,
+    dir: PathBuf,
+    want_mtl: bool,
+    scan: scan::Scan,
+    models: Vec<tobj::Model>,
+    materials: Mtl,
+}
+
 /// Loads an OBJ file's triangles (and, unless overridden, its MTL materials) into `b`.
 pub(crate) fn load_into(
     b: &mut SceneBuilder,
     path: &Path,
     opts: &MeshOptions,
 ) -> Result<(), SceneError> {
+    let parsed = parse(path, opts.material.is_none(), opts.referenced_by.as_deref())?;
+    insert(b, parsed, opts)
+}
+
+/// Reads and parses `path` (and its MTL files when `want_mtl`); `referenced_by` names who
+/// referenced it, for a missing file's error.
+pub(crate) fn parse(
+    path: &Path,
+    want_mtl: bool,
+    referenced_by: Option<&str>,
+) -> Result<ParsedObj, SceneError> {
     let label = path.display().to_string();
-    let text = utf8(read_file(path, opts.referenced_by.as_deref())?, &label)?;
+    let text = utf8(read_file(path, referenced_by)?, &label)?;
     let scan = prescan(&text, &label)?;
     let dir = path.parent().unwrap_or(Path::new(""));
-    let want_mtl = opts.material.is_none();
     let failure: RefCell<Option<SceneError>> = RefCell::new(None);
     let mtl_paths: RefCell<Vec<PathBuf>> = RefCell::new(Vec::new());
     let result = catch_unwind(AssertUnwindSafe(|| {
@@ -116,6 +138,31 @@ pub(crate) fn load_into(
         message: e.to_string(),
     })?;
     let materials: Mtl = (materials.unwrap_or_default(), mtl_paths.into_inner());
+    Ok(ParsedObj {
+        label,
+        dir: dir.to_path_buf(),
+        want_mtl,
+        scan,
+        models,
+        materials,
+    })
+}
+
+/// Adds a parsed OBJ file's triangles (and, unless overridden, its materials) to `b`.
+pub(crate) fn insert(
+    b: &mut SceneBuilder,
+    parsed: ParsedObj,
+    opts: &MeshOptions,
+) -> Result<(), SceneError> {
+    let ParsedObj {
+        label,
+        dir,
+        want_mtl,
+        scan,
+        models,
+        materials,
+    } = parsed;
+    let dir = dir.as_path();
 
     // Every `usemtl` must name a material of the MTL files (unless overridden).
     if want_mtl {

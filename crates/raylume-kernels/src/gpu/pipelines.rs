@@ -1,0 +1,192 @@
+//! [`TracerPipelines`]: the tracer's shader module, layouts and compute pipelines, apart from
+//! any scene's data, so that they can be compiled while the BVH is built and kept for every
+//! render of scenes with the same features and BVH layout.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+use raylume_bvh::BvhLayout;
+use raylume_gpu::{GpuContext, wgpu};
+use raylume_scene::Features;
+
+use super::layout::bind_group_layouts;
+use super::shader::{pipeline_constants, tracer_source};
+use crate::{KernelError, Schedule};
+
+/// The tracer's shader module (every entry point, the traversal of one [`BvhLayout`]), its
+/// bind group and pipeline layouts, and its compute pipelines specialised on a feature set,
+/// each compiled on first use or ahead of it ([`TracerPipelines::compile`]). It depends on no
+/// scene data: a renderer can make it while the BVH is being built (on another thread: every
+/// method takes `&self`) and hand it to every [`super::GpuTracer`] of scenes with the same
+/// features and layout (`GpuTracer::with_pipelines`). Compiling is most of the time to a
+/// first image on a GPU (a second on the H200, measured in `docs/RESULTS.md`).
+pub struct TracerPipelines {
+    features: Features,
+    bvh_layout: BvhLayout,
+    pub(crate) scene_layout: wgpu::BindGroupLayout,
+    pub(crate) work_layout: wgpu::BindGroupLayout,
+    pub(crate) args_layout: wgpu::BindGroupLayout,
+    pub(crate) permute_group_layout: wgpu::BindGroupLayout,
+    /// Groups 0 and 1: every entry point but `prepare_propagate` and `permute_rays`.
+    pipeline_layout: wgpu::PipelineLayout,
+    /// Groups 0, 1 and 2: `prepare_propagate`.
+    prepare_layout: wgpu::PipelineLayout,
+    /// Groups 0, 1 and 2: `permute_rays`.
+    permute_layout: wgpu::PipelineLayout,
+    module: wgpu::ShaderModule,
+    compiled: Mutex<HashMap<&'static str, wgpu::ComputePipeline>>,
+    /// Seconds spent making the module and compiling pipelines so far.
+    seconds: Mutex<f64>,
+}
+
+impl std::fmt::Debug for TracerPipelines {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let compiled: Vec<&str> = self
+            .compiled
+            .lock()
+            .map(|c| c.keys().copied().collect())
+            .unwrap_or_default();
+        f.debug_struct("TracerPipelines")
+            .field("features", &self.features)
+            .field("bvh_layout", &self.bvh_layout)
+            .field("compiled", &compiled)
+            .finish()
+    }
+}
+
+impl TracerPipelines {
+    /// The entry points a schedule runs.
+    pub fn entries(schedule: Schedule) -> &'static [&'static str] {
+        match schedule {
+            Schedule::Megakernel => &["trace_paths", "resolve"],
+            Schedule::Persistent => &["trace_paths_persistent", "resolve"],
+            Schedule::Wavefront => &["raygen", "prepare_propagate", "propagate", "resolve"],
+        }
+    }
+
+    /// Builds the module (WGSL with the traversal of `bvh_layout`, specialised on `features`
+    /// at pipeline creation) and the layouts; compiles no pipeline yet.
+    pub fn new(
+        ctx: &GpuContext,
+        features: Features,
+        bvh_layout: BvhLayout,
+    ) -> Result<Arc<Self>, KernelError> {
+        let start = Instant::now();
+        let device = &ctx.device;
+        let [scene_layout, work_layout, args_layout, permute_group_layout] =
+            bind_group_layouts(device);
+        let (pipeline_layout, prepare_layout, permute_layout, module) =
+            ctx.scoped("building the tracer's shader and layouts", || {
+                let layout = |label, groups: &[Option<&wgpu::BindGroupLayout>]| {
+                    device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                        label: Some(label),
+                        bind_group_layouts: groups,
+                        immediate_size: 0,
+                    })
+                };
+                let tracer = layout("raylume tracer", &[Some(&scene_layout), Some(&work_layout)]);
+                let prepare = layout(
+                    "raylume prepare_propagate",
+                    &[Some(&scene_layout), Some(&work_layout), Some(&args_layout)],
+                );
+                let permute = layout(
+                    "raylume permute_rays",
+                    &[
+                        Some(&scene_layout),
+                        Some(&work_layout),
+                        Some(&permute_group_layout),
+                    ],
+                );
+                let module = ctx.shader_module(
+                    "raylume tracer",
+                    &tracer_source(ctx.limits.max_compute_workgroups_per_dimension, bvh_layout),
+                );
+                (tracer, prepare, permute, module)
+            })?;
+        Ok(Arc::new(Self {
+            features,
+            bvh_layout,
+            scene_layout,
+            work_layout,
+            args_layout,
+            permute_group_layout,
+            pipeline_layout,
+            prepare_layout,
+            permute_layout,
+            module,
+            compiled: Mutex::new(HashMap::new()),
+            seconds: Mutex::new(start.elapsed().as_secs_f64()),
+        }))
+    }
+
+    /// The features the pipelines are specialised on.
+    pub fn features(&self) -> Features {
+        self.features
+    }
+
+    /// The BVH layout whose traversal the module holds.
+    pub fn bvh_layout(&self) -> BvhLayout {
+        self.bvh_layout
+    }
+
+    /// Seconds spent so far making the module and compiling pipelines.
+    pub fn seconds(&self) -> f64 {
+        *self.seconds.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Compiles the pipelines `schedule` runs (those not compiled yet).
+    pub fn compile(&self, ctx: &GpuContext, schedule: Schedule) -> Result<(), KernelError> {
+        for &entry in Self::entries(schedule) {
+            self.pipeline(ctx, entry)?;
+        }
+        Ok(())
+    }
+
+    /// The compute pipeline of entry point `entry`, compiled on first use.
+    pub(crate) fn pipeline(
+        &self,
+        ctx: &GpuContext,
+        entry: &'static str,
+    ) -> Result<wgpu::ComputePipeline, KernelError> {
+        let lock = |m: &Mutex<HashMap<&'static str, wgpu::ComputePipeline>>| {
+            m.lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .get(entry)
+                .cloned()
+        };
+        if let Some(p) = lock(&self.compiled) {
+            return Ok(p);
+        }
+        let start = Instant::now();
+        let constants = pipeline_constants(self.features);
+        let p = ctx.scoped(&format!("compiling the `{entry}` pipeline"), || {
+            ctx.device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(entry),
+                    layout: Some(match entry {
+                        "prepare_propagate" => &self.prepare_layout,
+                        "permute_rays" => &self.permute_layout,
+                        _ => &self.pipeline_layout,
+                    }),
+                    module: &self.module,
+                    entry_point: Some(entry),
+                    compilation_options: wgpu::PipelineCompilationOptions {
+                        constants: &constants,
+                        zero_initialize_workgroup_memory: true,
+                    },
+                    cache: None,
+                })
+        })?;
+        // Two threads asking at once both compile; the first stored wins.
+        let p = self
+            .compiled
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .entry(entry)
+            .or_insert(p)
+            .clone();
+        *self.seconds.lock().unwrap_or_else(|e| e.into_inner()) += start.elapsed().as_secs_f64();
+        Ok(p)
+    }
+}
