@@ -11,7 +11,8 @@
 # Settings (environment): T1_SCENES (Table 1's scenes), T1_SPP (1,10,100), T1_SCHEDULES
 # (megakernel,wavefront,persistent), T1_BVH (binary,wide), T1_REORDER (off,on), T1_QUICK=1 (the
 # Cornell box and the living room only), T1_PERSISTENT_THREADS (the persistent schedule's thread
-# counts tried besides the default, RAYLUME_PERSISTENT_THREADS). Results: $OUT/table1.tgz.
+# counts tried besides the default, RAYLUME_PERSISTENT_THREADS), T1_PARTS (which parts run: "plain
+# nee threads mitsuba first-image", all by default). Results: $OUT/table1.tgz.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 mode=${1:-}
@@ -36,7 +37,7 @@ stage() {
 
 device() {
   cd "$(dirname "$0")/.."
-  local T0 R m S
+  local R m S
   T0=$(date +%s)
   el() { echo $(($(date +%s) - T0)); }
   R=/tmp/t1; rm -rf $R; mkdir -p $R
@@ -49,13 +50,19 @@ device() {
   S=${T1_SCENES:-"scenes/cornell-box.toml scenes/living-room/scene.json scenes/teapot.toml scenes/glass-teapot.toml scenes/spheres.toml scenes/cornell-plus.toml"}
   [ "${T1_QUICK:-0}" = 1 ] && S="scenes/cornell-box.toml scenes/living-room/scene.json"
   local common="--backend gpu --spp ${T1_SPP:-1,10,100} --repeat 3 --schedule ${T1_SCHEDULES:-megakernel,wavefront,persistent} --reorder ${T1_REORDER:-off,on} --bvh ${T1_BVH:-binary,wide}"
+  local parts=" ${T1_PARTS:-plain nee threads mitsuba first-image} "
+  if [[ $parts == *" plain "* ]]; then
   echo "== Table 1, plain estimator (at $(el) s)"
   timeout 300 /tmp/bench $common --json $R/plain.json $S > $R/plain.md 2> $R/plain.log || echo "bench plain: exit $?"
   awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/plain.md
+  fi
+  if [[ $parts == *" nee "* ]]; then
   echo "== NEE + MIS + roulette from 5, independent sampler (at $(el) s)"
   timeout 200 /tmp/bench $common --estimator nee --rr-depth 5 --json $R/nee.json \
     scenes/cornell-box.toml scenes/living-room/scene.json > $R/nee.md 2> $R/nee.log || echo "bench nee: exit $?"
   awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/nee.md
+  fi
+  if [[ $parts == *" threads "* ]]; then
   echo "== the persistent schedule's thread count (NEE, wide, 100 spp; at $(el) s)"
   local th
   for th in ${T1_PERSISTENT_THREADS:-131072 262144 2097152}; do
@@ -65,18 +72,31 @@ device() {
       > $R/persistent-$th.md 2>/dev/null || echo "bench persistent $th: exit $?"
     echo "threads $th:"; grep -E '^\| scenes.* \| 100 \| [0-9.]+ \|$' $R/persistent-$th.md || true
   done
+  fi
+  if [[ $parts == *" mitsuba "* ]]; then
   echo "== Mitsuba 3 (at $(el) s)"
   PYTHONPATH=$m timeout 100 python3 .gpu/cornell.py $R cuda_ad_rgb 2>&1 | tail -3 || true
   PYTHONPATH=$m timeout 200 python3 .gpu/mitsuba_table1.py scenes/living-room $R --tungsten .gpu/tungsten.py 2>&1 | tail -5 || true
+  fi
+  if [[ $parts == *" first-image "* ]]; then
   echo "== the living room from file to a 10-spp PNG (at $(el) s)"
-  local l
+  # Each layout twice: the first process compiles the pipelines, the second may find them in
+  # the driver's own shader cache. Mitsuba likewise: its first process (unless the mitsuba
+  # part ran above) JIT-compiles, the next one finds its kernel cache.
+  local l k
   for l in $(echo "${T1_BVH:-binary,wide}" | tr , ' '); do
-    TIMEFORMAT="raylume $l: process %R s"
-    time (timeout 60 /tmp/render scenes/living-room/scene.json -o /tmp/lr-$l.png --backend gpu \
-      --spp 10 --bvh $l --stats $R/render-lr-$l.json -q 2>&1 | grep -v wrote)
+    for k in 1 2; do
+      TIMEFORMAT="raylume $l, process $k: %R s"
+      time (timeout 60 /tmp/render scenes/living-room/scene.json -o /tmp/lr-$l.png --backend gpu \
+        --spp 10 --bvh $l --stats $R/render-lr-$l-$k.json -q 2>&1 | grep -E '^raylume: trace')
+    done
   done
-  TIMEFORMAT="mitsuba (second process, kernel cache warm): process %R s"
-  time (PYTHONPATH=$m timeout 100 python3 .gpu/mitsuba_table1.py scenes/living-room /tmp/mi2 --tungsten .gpu/tungsten.py --spp 1 2>&1 | head -1)
+  for k in 1 2; do
+    TIMEFORMAT="mitsuba, process $k: %R s"
+    time (PYTHONPATH=$m timeout 100 python3 .gpu/mitsuba_table1.py scenes/living-room /tmp/mi$k \
+      --tungsten .gpu/tungsten.py --spp 1 2>&1 | head -1)
+  done
+  fi
 }
 
 case "$mode" in

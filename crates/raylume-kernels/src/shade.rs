@@ -451,69 +451,64 @@ pub fn sample_lights(
     };
     let origin = offset_ray_origin(hit, dir_in, ng_facing);
     let emission = Vec3::from(light.emission);
-    if light.kind == LIGHT_ENVIRONMENT {
+    // The light's direction, the shadow ray's reach and the side it leaves from, per kind;
+    // then one shadow ray and one BSDF evaluation whatever the kind (as the WGSL, where that
+    // means one inlined traversal and material switch instead of two).
+    let is_env = light.kind == LIGHT_ENVIRONMENT;
+    let is_sphere = light.kind == LIGHT_SPHERE;
+    let (wi, t_max, side, env_pdf, dist2, cos_l);
+    if is_env {
         // A direction toward the sky; the shadow ray must escape the scene.
-        let (wi, pdf) = sample_environment(g, Vec2::new(rnd.y, rnd.z));
-        let side = light_side(mat, ns_facing, ng_facing, wi);
-        if !(pdf > 0.0 && p_select > 0.0 && side != 0.0) {
+        let (dir, pdf) = sample_environment(g, Vec2::new(rnd.y, rnd.z));
+        wi = dir;
+        env_pdf = pdf;
+        side = light_side(mat, ns_facing, ng_facing, wi);
+        if !(env_pdf > 0.0 && p_select > 0.0 && side != 0.0) {
             return Vec3::ZERO;
         }
-        let from = if side > 0.0 {
-            origin
+        (t_max, dist2, cos_l) = (T_MAX, 0.0, 1.0);
+    } else {
+        env_pdf = 0.0;
+        let point = if is_sphere {
+            // A point of the cap seen from the origin: it faces the origin (cos_l = 1).
+            let center = Vec3::from(light.p0);
+            let Some(point) =
+                sample_sphere_cap(center, light.e1[0], origin, Vec2::new(rnd.y, rnd.z))
+            else {
+                return Vec3::ZERO; // inside the sphere: only the scattered ray finds it
+            };
+            point
         } else {
-            offset_ray_origin(hit, dir_in, -ng_facing)
+            // Uniform on the triangle (the square-root parameterisation).
+            let su = rnd.y.sqrt();
+            let (e1, e2) = (Vec3::from(light.e1), Vec3::from(light.e2));
+            Vec3::from(light.p0) + e1 * (su * (1.0 - rnd.z)) + e2 * (su * rnd.z)
         };
-        if bvh.trace_any(
-            &Ray {
-                origin: from,
-                dir: wi,
-            },
-            0.0,
-            T_MAX,
-        ) {
+        let to = point - origin;
+        dist2 = to.length_squared();
+        if !(p_select > 0.0 && dist2 > 0.0) {
             return Vec3::ZERO;
         }
-        let f = eval_material(g, mat, dir_in, ns_facing, wi, front);
-        let w = mis_weight(g.scene.environment_select * environment_pdf(g, wi), f.pdf);
-        return f.value * environment_radiance(g, wi) * (w / (p_select * pdf));
-    }
-    let (point, cos_l) = if light.kind == LIGHT_SPHERE {
-        // A point of the cap seen from the origin: it faces the origin (cos_l > 0).
-        let center = Vec3::from(light.p0);
-        let Some(point) = sample_sphere_cap(center, light.e1[0], origin, Vec2::new(rnd.y, rnd.z))
-        else {
-            return Vec3::ZERO; // inside the sphere: only the scattered ray finds it
-        };
-        (point, 1.0)
-    } else {
-        // Uniform on the triangle (the square-root parameterisation).
-        let su = rnd.y.sqrt();
-        let (e1, e2) = (Vec3::from(light.e1), Vec3::from(light.e2));
-        let point = Vec3::from(light.p0) + e1 * (su * (1.0 - rnd.z)) + e2 * (su * rnd.z);
-        (point, 0.0) // cos_l below, once the direction is known
-    };
-    let to = point - origin;
-    let dist2 = to.length_squared();
-    if !(p_select > 0.0 && dist2 > 0.0) {
-        return Vec3::ZERO;
-    }
-    let dist = dist2.sqrt();
-    let wi = to / dist;
-    let side = light_side(mat, ns_facing, ng_facing, wi);
-    let cos_l = if light.kind == LIGHT_SPHERE {
-        cos_l
-    } else {
-        // The light's front face looks along e1 x e2: a one-sided light sends nothing backwards.
-        let nl = Vec3::from(light.e1).cross(Vec3::from(light.e2));
-        let cos_front = -nl.dot(wi) / nl.length();
-        if light.two_sided != 0 {
-            cos_front.abs()
+        let dist = dist2.sqrt();
+        wi = to / dist;
+        t_max = dist * SHADOW_T_SCALE;
+        side = light_side(mat, ns_facing, ng_facing, wi);
+        cos_l = if is_sphere {
+            1.0
         } else {
-            cos_front
+            // The light's front face looks along e1 x e2: a one-sided light sends nothing
+            // backwards.
+            let nl = Vec3::from(light.e1).cross(Vec3::from(light.e2));
+            let cos_front = -nl.dot(wi) / nl.length();
+            if light.two_sided != 0 {
+                cos_front.abs()
+            } else {
+                cos_front
+            }
+        };
+        if !(side != 0.0 && cos_l > 0.0) {
+            return Vec3::ZERO;
         }
-    };
-    if !(side != 0.0 && cos_l > 0.0) {
-        return Vec3::ZERO;
     }
     // Through rough glass the shadow ray leaves from behind the surface (the distance to the
     // light differs by the offset alone, which SHADOW_T_SCALE covers).
@@ -526,11 +521,15 @@ pub fn sample_lights(
         origin: from,
         dir: wi,
     };
-    if bvh.trace_any(&shadow, 0.0, dist * SHADOW_T_SCALE) {
+    if bvh.trace_any(&shadow, 0.0, t_max) {
         return Vec3::ZERO;
     }
     let f = eval_material(g, mat, dir_in, ns_facing, wi, front);
-    if light.kind == LIGHT_SPHERE {
+    if is_env {
+        let w = mis_weight(g.scene.environment_select * environment_pdf(g, wi), f.pdf);
+        return f.value * environment_radiance(g, wi) * (w / (p_select * env_pdf));
+    }
+    if is_sphere {
         let r = light.e1[0];
         let cap_pdf = sphere_cap_pdf(Vec3::from(light.p0), r, origin);
         let w = mis_weight(sphere_light_pdf(g, emission, r, cap_pdf), f.pdf);
