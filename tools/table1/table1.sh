@@ -94,7 +94,9 @@ device() {
   for k in 1 2; do
     TIMEFORMAT="mitsuba, process $k: %R s"
     time (PYTHONPATH=$m timeout 100 python3 .gpu/mitsuba_table1.py scenes/living-room /tmp/mi$k \
-      --tungsten .gpu/tungsten.py --spp 1 2>&1 | head -1)
+      --tungsten .gpu/tungsten.py --spp 1 > /tmp/mi$k.log 2>&1 || true)
+    head -1 /tmp/mi$k.log
+    cp /tmp/mi$k/living-room-mi-table1.json $R/mitsuba-first-image-$k.json 2>/dev/null || true
   done
   fi
 }
