@@ -63,11 +63,11 @@ struct Args {
     /// 30 = the paper's whole key, 4 radix passes; 16 = 2 passes). `auto` uses the first.
     #[arg(long, default_value = "30", value_delimiter = ',')]
     reorder_bits: Vec<u32>,
-    /// Comma-separated schedules `off` is timed with (megakernel, wavefront).
+    /// Comma-separated schedules `off` is timed with (megakernel, wavefront, persistent).
     #[arg(long, default_value = "megakernel", value_delimiter = ',')]
     schedule: Vec<Schedule>,
-    /// Comma-separated BVH layouts every configuration is timed with (binary, wide); the
-    /// first is the library's default when not given.
+    /// Comma-separated BVH layouts every configuration is timed with (wide, binary); the
+    /// library's default (wide) when not given.
     #[arg(long, value_delimiter = ',')]
     bvh: Vec<raylume::BvhLayout>,
     /// Samples per pixel per batch.

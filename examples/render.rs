@@ -62,11 +62,11 @@ struct Args {
     /// once, so with `auto` it runs what `off` runs and says so.)
     #[arg(long, default_value = "off")]
     reorder: ReorderPolicy,
-    /// GPU schedule: megakernel (bounces in registers) or wavefront (the paper's kernels).
+    /// GPU schedule: megakernel (bounces in registers, the default), persistent (the
+    /// megakernel with path regeneration) or wavefront (the paper's kernels).
     #[arg(long)]
     schedule: Option<Schedule>,
-    /// BVH node layout: binary (two children a node) or wide (eight, compressed); the
-    /// library's default when not given.
+    /// BVH node layout: wide (eight children a node, compressed; the default) or binary.
     #[arg(long)]
     bvh: Option<raylume::BvhLayout>,
     /// Estimator: nee (the default: next-event estimation with multiple importance sampling,
