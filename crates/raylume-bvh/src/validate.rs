@@ -39,26 +39,12 @@ impl GpuBvh {
         if n_nodes == 0 {
             return Err("no root node".into());
         }
+        crate::wide::check_primitives(self)?;
         // Some copy of each triangle, for the coverage check below.
         let mut copy_of = vec![0usize; self.triangle_count as usize];
         for (i, p) in self.primitives.iter().enumerate() {
-            let (kind, scene) = (p.kind(), p.scene_index() as usize);
-            let count = match kind {
-                PRIM_TRIANGLE => self.triangle_count as usize,
-                PRIM_SPHERE => self.sphere_count as usize,
-                _ => return Err(format!("primitive {i} has unknown kind {kind}")),
-            };
-            if scene >= count {
-                return Err(format!(
-                    "primitive {i} refers to scene primitive {scene} of {count}"
-                ));
-            }
-            let b = primitive_aabb(p);
-            if !(b.min.is_finite() && b.max.is_finite()) {
-                return Err(format!("primitive {i} is not finite: {p:?}"));
-            }
-            if kind == PRIM_TRIANGLE {
-                copy_of[scene] = i;
+            if p.kind() == PRIM_TRIANGLE {
+                copy_of[p.scene_index() as usize] = i;
             }
         }
 

@@ -364,7 +364,8 @@ impl WideNode {
     }
 }
 
-/// Every primitive finite, of a known kind, with a scene index in range (both layouts).
+/// Every primitive finite, of a known kind, with a scene index in range (both layouts'
+/// `validate`).
 pub(crate) fn check_primitives(bvh: &GpuBvh) -> Result<(), String> {
     for (i, p) in bvh.primitives.iter().enumerate() {
         let (kind, scene) = (p.kind(), p.scene_index() as usize);

@@ -204,79 +204,51 @@ fn structs_have_the_rust_layouts() {
     let (module, _) = parse();
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(module.to_ctx()).expect("layout");
-    // (struct, size, [(member, offset)]) as Rust lays them out.
-    type Layout<'a> = (&'a str, usize, Vec<(&'a str, usize)>);
-    let expected: [Layout; 3] = [
-        (
-            "BvhNode",
-            size_of::<BvhNode>(),
-            vec![
-                ("left_min", offset_of!(BvhNode, left_min)),
-                ("left_index", offset_of!(BvhNode, left_index)),
-                ("left_max", offset_of!(BvhNode, left_max)),
-                ("left_count", offset_of!(BvhNode, left_count)),
-                ("right_min", offset_of!(BvhNode, right_min)),
-                ("right_index", offset_of!(BvhNode, right_index)),
-                ("right_max", offset_of!(BvhNode, right_max)),
-                ("right_count", offset_of!(BvhNode, right_count)),
-            ],
-        ),
-        (
-            "Primitive",
-            size_of::<Primitive>(),
-            vec![
-                ("a", offset_of!(Primitive, a)),
-                ("b", offset_of!(Primitive, b)),
-                ("c", offset_of!(Primitive, c)),
-            ],
-        ),
-        (
-            "Hit",
-            size_of::<Hit>(),
-            vec![
-                ("t", offset_of!(Hit, t)),
-                ("prim", offset_of!(Hit, prim)),
-                ("u", offset_of!(Hit, u)),
-                ("v", offset_of!(Hit, v)),
-            ],
-        ),
-    ];
-    for (name, size, fields) in expected {
-        let (handle, ty) = module
-            .types
-            .iter()
-            .find(|(_, t)| t.name.as_deref() == Some(name))
-            .unwrap_or_else(|| panic!("WGSL has no struct {name}"));
-        let naga::TypeInner::Struct { members, span } = &ty.inner else {
-            panic!("{name} is not a struct in WGSL");
-        };
-        assert_eq!(*span as usize, size, "size of {name}");
-        assert_eq!(
-            layouter[handle].size as usize, size,
-            "layout size of {name}"
-        );
-        let wgsl: Vec<(&str, usize)> = members
-            .iter()
-            .map(|m| (m.name.as_deref().unwrap_or(""), m.offset as usize))
-            .collect();
-        assert_eq!(wgsl, fields, "members and offsets of {name}");
-    }
+    check_struct(
+        &module,
+        &layouter,
+        "BvhNode",
+        size_of::<BvhNode>(),
+        &[
+            ("left_min", offset_of!(BvhNode, left_min)),
+            ("left_index", offset_of!(BvhNode, left_index)),
+            ("left_max", offset_of!(BvhNode, left_max)),
+            ("left_count", offset_of!(BvhNode, left_count)),
+            ("right_min", offset_of!(BvhNode, right_min)),
+            ("right_index", offset_of!(BvhNode, right_index)),
+            ("right_max", offset_of!(BvhNode, right_max)),
+            ("right_count", offset_of!(BvhNode, right_count)),
+        ],
+    );
+    check_struct(
+        &module,
+        &layouter,
+        "Primitive",
+        size_of::<Primitive>(),
+        &[
+            ("a", offset_of!(Primitive, a)),
+            ("b", offset_of!(Primitive, b)),
+            ("c", offset_of!(Primitive, c)),
+        ],
+    );
+    check_struct(
+        &module,
+        &layouter,
+        "Hit",
+        size_of::<Hit>(),
+        &[
+            ("t", offset_of!(Hit, t)),
+            ("prim", offset_of!(Hit, prim)),
+            ("u", offset_of!(Hit, u)),
+            ("v", offset_of!(Hit, v)),
+        ],
+    );
 }
 
 #[test]
 fn constants_have_the_rust_values() {
     let (module, _) = parse();
-    let value = |name: &str| -> naga::Literal {
-        let (_, c) = module
-            .constants
-            .iter()
-            .find(|(_, c)| c.name.as_deref() == Some(name))
-            .unwrap_or_else(|| panic!("WGSL has no constant {name}"));
-        match module.global_expressions[c.init] {
-            naga::Expression::Literal(l) => l,
-            ref e => panic!("{name} is not a literal: {e:?}"),
-        }
-    };
+    let value = |name: &str| constant(&module, name);
     assert_eq!(value("INVALID_INDEX"), naga::Literal::U32(INVALID_INDEX));
     assert_eq!(
         value("MAX_STACK_DEPTH"),

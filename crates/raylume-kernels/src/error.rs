@@ -47,3 +47,14 @@ impl KernelError {
         }
     }
 }
+
+/// A ray sorter's failure: its GPU errors as the tracer's, anything else (a sorter asked for
+/// what it cannot do) as invalid settings.
+impl From<raylume_sort::SortError> for KernelError {
+    fn from(e: raylume_sort::SortError) -> Self {
+        match e {
+            raylume_sort::SortError::Gpu(g) => KernelError::Gpu(g),
+            other => KernelError::InvalidSettings(format!("ray sorting: {other}")),
+        }
+    }
+}

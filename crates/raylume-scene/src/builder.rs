@@ -11,14 +11,7 @@ use crate::error::{Location, SceneError};
 use crate::image_io;
 use crate::limits::{MAX_MATERIALS, MAX_TEXTURES, MAX_TRIANGLES};
 use crate::model::{Material, Scene, Texture, Triangle};
-use crate::validate::{Provenance, check_triangle_finite, is_degenerate, validate_with};
-
-/// A triangle source: the first triangle index it produced and a label (a mesh file).
-#[derive(Clone, Debug)]
-pub(crate) struct Source {
-    pub start: usize,
-    pub label: String,
-}
+use crate::validate::{Provenance, Source, check_triangle_finite, is_degenerate, validate_with};
 
 /// A scene under construction.
 pub(crate) struct SceneBuilder {

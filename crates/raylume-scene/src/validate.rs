@@ -9,13 +9,19 @@
 
 use glam::Vec3;
 
-use crate::builder::Source;
 use crate::error::{Location, SceneError};
 use crate::limits::{
     MAX_BLOOM_RADIUS, MAX_BLOOM_STRENGTH, MAX_IMAGE_SIZE, MAX_MATERIALS, MAX_RADIANCE, MAX_SPHERES,
     MAX_TEXTURE_SIZE, MAX_TEXTURES, MAX_TRIANGLES,
 };
 use crate::model::{Environment, Scene, Texture, Triangle};
+
+/// A triangle source: the first triangle index it produced and a label (a mesh file).
+#[derive(Clone, Debug)]
+pub(crate) struct Source {
+    pub start: usize,
+    pub label: String,
+}
 
 /// Where primitives came from, for messages.
 pub(crate) struct Provenance<'a> {

@@ -9,7 +9,6 @@ use raylume_sort::{RadixSorter, SortLen};
 use super::BatchPlan;
 use super::capture::CaptureBuffers;
 use super::clock::{Record, Stage};
-use super::render::sort_error;
 use super::work::WorkBuffers;
 use crate::{ReorderMode, Schedule};
 
@@ -114,7 +113,7 @@ impl<'r> BatchRecorder<'r> {
                         };
                         sorter
                             .encode(enc, &w.ray_keys, &w.ray_queues[q], len, ts)
-                            .map_err(sort_error)
+                            .map_err(crate::KernelError::from)
                     })),
                 });
                 if plan.reorder.mode == ReorderMode::SortPermute {

@@ -5,7 +5,7 @@ use std::collections::HashMap;
 use std::time::Instant;
 
 use raylume_gpu::wgpu;
-use raylume_sort::{RadixSorter, SortError, SortLen, SortOptions};
+use raylume_sort::{RadixSorter, SortLen, SortOptions};
 
 use super::batch::BatchRecorder;
 use super::capture::CaptureBuffers;
@@ -23,13 +23,6 @@ use crate::{KernelError, ReorderMode, Schedule, TraceSettings, WORKGROUP_SIZE};
 
 /// A sorter failure as a kernel error: GPU failures pass through; the rest (a sorter too small,
 /// bad options) would be a bug here, reported as settings the sorter cannot run.
-pub(crate) fn sort_error(e: SortError) -> KernelError {
-    match e {
-        SortError::Gpu(g) => KernelError::Gpu(g),
-        other => KernelError::InvalidSettings(format!("ray sorting: {other}")),
-    }
-}
-
 impl GpuTracer<'_> {
     /// Renders with each batch's schedule and reordering chosen by `policy`, which also sees
     /// what every batch cost (how `raylume`'s `--reorder auto` measures its candidates on the
@@ -165,7 +158,7 @@ impl GpuTracer<'_> {
             }
             self.sorters.retain(|s| s.plan().key_bits != bits);
             let opts = SortOptions::ray_keys().with_key_bits(bits);
-            let sorter = RadixSorter::new(ctx, work_capacity, opts).map_err(sort_error)?;
+            let sorter = RadixSorter::new(ctx, work_capacity, opts).map_err(KernelError::from)?;
             // One sort now, so that wgpu's lazy zeroing of the sorter's scratch buffers and
             // the first use of its pipelines do not land in a timed batch.
             let w = self.work.as_ref().expect("allocated above");
@@ -181,7 +174,7 @@ impl GpuTracer<'_> {
                 ctx.queue.submit([enc.finish()]);
                 r
             })?;
-            primed.map_err(sort_error)?;
+            primed.map_err(KernelError::from)?;
             ctx.wait("preparing the ray sorter")?;
             self.sorters.push(sorter);
         }
