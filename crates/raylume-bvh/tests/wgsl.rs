@@ -41,40 +41,23 @@ fn parse_with(traverse: &str) -> (naga::Module, String) {
     }
 }
 
-fn validate(module: &naga::Module, src: &str) {
+/// Parses `traverse` inside the kernel, validates it, and checks that it defines every
+/// function of `functions` and no global of its own (only the kernel's three exist).
+fn check_module(traverse: &str, what: &str, functions: &[&str]) -> naga::Module {
+    let (module, src) = parse_with(traverse);
     naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::empty(),
     )
-    .validate(module)
-    .unwrap_or_else(|e| panic!("{}", e.emit_to_string(src)));
-}
-
-fn has_function(module: &naga::Module, f: &str) -> bool {
-    module
-        .functions
-        .iter()
-        .any(|(_, g)| g.name.as_deref() == Some(f))
-}
-
-#[test]
-fn wide_traverse_wgsl_validates_inside_a_kernel() {
-    let (module, src) = parse_with(WIDE_TRAVERSE_WGSL);
-    validate(&module, &src);
-    // The same names as wide_traverse.rs.
-    for f in [
-        "intersect_primitive",
-        "wide_ray",
-        "wide_overlap4",
-        "intersect_wide_node",
-        "wide_child_index",
-        "wide_walk",
-        "trace_closest",
-        "trace_any",
-    ] {
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)));
+    for f in functions {
         assert!(
-            has_function(&module, f),
-            "WIDE_TRAVERSE_WGSL has no function {f}"
+            module
+                .functions
+                .iter()
+                .any(|(_, g)| g.name.as_deref() == Some(*f)),
+            "{what} has no function {f}"
         );
     }
     let mut globals: Vec<_> = module
@@ -83,7 +66,27 @@ fn wide_traverse_wgsl_validates_inside_a_kernel() {
         .filter_map(|(_, g)| g.name.clone())
         .collect();
     globals.sort();
-    assert_eq!(globals, ["bvh_nodes", "bvh_primitives", "out"]);
+    assert_eq!(globals, ["bvh_nodes", "bvh_primitives", "out"], "{what}");
+    module
+}
+
+#[test]
+fn wide_traverse_wgsl_validates_inside_a_kernel() {
+    // The same names as wide_traverse.rs.
+    let module = check_module(
+        WIDE_TRAVERSE_WGSL,
+        "WIDE_TRAVERSE_WGSL",
+        &[
+            "intersect_primitive",
+            "wide_ray",
+            "wide_overlap4",
+            "intersect_wide_node",
+            "wide_child_index",
+            "wide_walk",
+            "trace_closest",
+            "trace_any",
+        ],
+    );
     // The wide layout's struct and constants as Rust has them.
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(module.to_ctx()).expect("layout");
@@ -163,40 +166,21 @@ fn constant(module: &naga::Module, name: &str) -> naga::Literal {
 
 #[test]
 fn traverse_wgsl_validates_inside_a_kernel() {
-    let (module, src) = parse();
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::empty(),
-    )
-    .validate(&module)
-    .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)));
-    for f in [
-        "intersect_aabb",
-        "shear_ray",
-        "intersect_triangle",
-        "intersect_sphere",
-        "intersect_primitive",
-        "intersect_leaf_closest",
-        "intersect_leaf_any",
-        "trace_closest",
-        "trace_any",
-    ] {
-        assert!(
-            module
-                .functions
-                .iter()
-                .any(|(_, g)| g.name.as_deref() == Some(f)),
-            "TRAVERSE_WGSL has no function {f}"
-        );
-    }
-    // No bindings of its own: only the kernel's three globals exist.
-    let mut globals: Vec<_> = module
-        .global_variables
-        .iter()
-        .filter_map(|(_, g)| g.name.clone())
-        .collect();
-    globals.sort();
-    assert_eq!(globals, ["bvh_nodes", "bvh_primitives", "out"]);
+    check_module(
+        TRAVERSE_WGSL,
+        "TRAVERSE_WGSL",
+        &[
+            "intersect_aabb",
+            "shear_ray",
+            "intersect_triangle",
+            "intersect_sphere",
+            "intersect_primitive",
+            "intersect_leaf_closest",
+            "intersect_leaf_any",
+            "trace_closest",
+            "trace_any",
+        ],
+    );
 }
 
 #[test]
