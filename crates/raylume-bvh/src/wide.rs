@@ -116,17 +116,9 @@ fn slot_box(node: &WideNode, slot: usize) -> (DVec3, DVec3) {
     let cell = DVec3::from(node.cell().map(f64::from));
     let p = DVec3::from(node.p.map(f64::from));
     let pad = f64::from(WIDE_QUANT_PAD);
-    let q = |bytes: &[u8; 16], i: usize| f64::from(bytes[i]);
-    let lo = DVec3::new(
-        q(&node.q_x, slot) - pad,
-        q(&node.q_y, slot) - pad,
-        q(&node.q_z, slot) - pad,
-    );
-    let hi = DVec3::new(
-        q(&node.q_x, 8 + slot) + pad,
-        q(&node.q_y, 8 + slot) + pad,
-        q(&node.q_z, 8 + slot) + pad,
-    );
+    let q = |i: usize| DVec3::from([0, 1, 2].map(|k| f64::from(node.q_all(k)[i])));
+    let lo = q(slot) - pad;
+    let hi = q(8 + slot) + pad;
     (p + lo * cell, p + hi * cell)
 }
 

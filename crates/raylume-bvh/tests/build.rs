@@ -495,3 +495,48 @@ fn wide_stats_describe_the_tree() {
     assert!(s.sah_cost > 1.0 && s.sah_cost.is_finite());
     assert_eq!(s.fallback, None);
 }
+
+/// The wide layout's `validate` rejects what the traversal could not trust: a child box cut
+/// short on one axis (a primitive outside what the traversal reaches), a leaf whose unary
+/// count is not one, and a primitive in two leaves.
+#[test]
+fn wide_validate_rejects_broken_trees() {
+    let f = support::icosphere_on_plane();
+    let good =
+        GpuBvh::build_with_layout(&f.triangles, &f.spheres, BvhQuality::Fast, BvhLayout::Wide)
+            .unwrap();
+    good.validate().unwrap();
+    let (node, slot) = good
+        .wide_nodes
+        .iter()
+        .enumerate()
+        .find_map(|(i, n)| {
+            (0..8)
+                .find(|&s| n.child_meta[s] != 0 && n.imask() & (1 << s) == 0)
+                .map(|s| (i, s))
+        })
+        .expect("a leaf slot");
+    let broken = |edit: &dyn Fn(&mut raylume_bvh::WideNode)| {
+        let mut bvh = good.clone();
+        edit(&mut bvh.wide_nodes[node]);
+        bvh.validate()
+    };
+    // The upper x plane moved below the lower one.
+    let cut = broken(&|n| n.q_x[8 + slot] = n.q_x[slot].saturating_sub(1));
+    assert!(cut.is_err(), "a cut box passed");
+    let meta = broken(&|n| n.child_meta[slot] = 0b0100_0000 | (n.child_meta[slot] & 0b1_1111));
+    assert!(meta.unwrap_err().contains("leaf meta"));
+    let twice = broken(&|n| {
+        let other =
+            (0..8).find(|&s| s != slot && n.child_meta[s] != 0 && n.imask() & (1 << s) == 0);
+        if let Some(o) = other {
+            n.child_meta[o] = n.child_meta[slot];
+        } else {
+            n.child_meta[slot] = 0;
+        }
+    });
+    assert!(
+        twice.is_err(),
+        "a primitive in two leaves (or in none) passed"
+    );
+}
