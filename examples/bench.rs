@@ -70,6 +70,10 @@ struct Args {
     /// library's default (wide) when not given.
     #[arg(long, value_delimiter = ',')]
     bvh: Vec<raylume::BvhLayout>,
+    /// BVH build preset (fast or quality). Quality by default: the table times the trace, so
+    /// it takes the tree that traces fastest (the library chooses by the work ahead).
+    #[arg(long, default_value = "quality")]
+    bvh_preset: raylume::BvhQuality,
     /// Samples per pixel per batch.
     #[arg(long)]
     batch_spp: Option<u32>,
@@ -291,6 +295,7 @@ fn run(args: Args) -> Result<(), String> {
     tracer.estimator = args.estimator;
     tracer.sampler = args.sampler;
     tracer.russian_roulette = args.rr_depth.0;
+    tracer.bvh_quality = Some(args.bvh_preset);
     if let Some(b) = args.batch_spp {
         tracer.batch_spp = b;
     }

@@ -69,6 +69,10 @@ struct Args {
     /// BVH node layout: wide (eight children a node, compressed; the default) or binary.
     #[arg(long)]
     bvh: Option<raylume::BvhLayout>,
+    /// BVH build preset: auto (the default: quality when the render's rays repay its longer
+    /// build, else fast), fast or quality.
+    #[arg(long, default_value = "auto", value_parser = parse_preset)]
+    bvh_preset: Preset,
     /// Estimator: nee (the default: next-event estimation with multiple importance sampling,
     /// a shadow ray to an emitter at every reflecting hit; far less noise per sample under
     /// small lights) or plain (the paper's).
@@ -229,6 +233,7 @@ fn run(args: Args) -> Result<(), String> {
     if let Some(l) = args.bvh {
         tracer.bvh_layout = l;
     }
+    tracer.bvh_quality = args.bvh_preset.0;
     // A bar on a terminal; plain lines (no escape codes) when stderr is piped or redirected.
     let terminal = std::io::stderr().is_terminal();
     let bar = if args.quiet || !terminal {
@@ -382,10 +387,28 @@ fn settings_line(scene: &str, s: &raylume::RenderStats, capped: bool) -> String 
         s.sampler,
         s.reorder,
         s.schedule,
-        s.bvh_preset,
+        if s.bvh_preset_chosen {
+            format!("{} (chosen for the work)", s.bvh_preset)
+        } else {
+            s.bvh_preset.clone()
+        },
         s.bvh_layout,
         s.lights.describe(),
     )
+}
+
+/// `--bvh-preset`: `None` for auto.
+#[derive(Clone, Copy, Debug)]
+struct Preset(Option<raylume::BvhQuality>);
+
+fn parse_preset(s: &str) -> Result<Preset, String> {
+    match s {
+        "auto" => Ok(Preset(None)),
+        other => other
+            .parse::<raylume::BvhQuality>()
+            .map(|q| Preset(Some(q)))
+            .map_err(|e| e.replace("fast or quality", "auto, fast or quality")),
+    }
 }
 
 /// How often piped progress prints a line: 5 s, or `RAYLUME_PROGRESS_SECS` (the tests use a

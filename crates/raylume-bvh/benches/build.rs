@@ -11,6 +11,7 @@
 //! Run: `cargo bench -p raylume-bvh --bench build`. `RAYLUME_BENCH_QUICK=1`: the 100k and 1M
 //! grids only, one build each past 100k, short criterion runs (about a minute on 2 cores).
 //! `RAYLUME_BENCH_REPS=n`: builds per grid and preset in the table (best kept).
+//! `RAYLUME_BENCH_GRIDS=707,1224`: the table over these grids (quads per side) only.
 
 use std::time::{Duration, Instant};
 
@@ -125,10 +126,14 @@ fn stage_table(sizes: &[usize]) {
 }
 
 fn main() {
-    let sizes: &[usize] = if quick() {
-        &[224, 707]
-    } else {
-        &[224, 707, 1224]
+    // RAYLUME_BENCH_GRIDS=707,1224: the table over these grids only (quads per side).
+    let chosen: Option<Vec<usize>> = std::env::var("RAYLUME_BENCH_GRIDS")
+        .ok()
+        .map(|v| v.split(',').filter_map(|n| n.trim().parse().ok()).collect());
+    let sizes: &[usize] = match &chosen {
+        Some(v) => v,
+        None if quick() => &[224, 707],
+        None => &[224, 707, 1224],
     };
     stage_table(sizes);
 

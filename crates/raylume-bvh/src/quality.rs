@@ -65,6 +65,34 @@ impl BvhQuality {
         }
     }
 
+    /// The preset that finishes a render of `rays` ray segments over `primitives` primitives
+    /// sooner, build and trace together: `Quality` when its longer build is repaid by its
+    /// faster rays, else `Fast`.
+    ///
+    /// `Quality` builds longer by [`QUALITY_EXTRA_BUILD_SECONDS`] per primitive and thread
+    /// and traces [`QUALITY_TRACE_GAIN`] faster; it pays when
+    /// `QUALITY_TRACE_GAIN * rays / rays_per_second > QUALITY_EXTRA_BUILD_SECONDS * primitives
+    /// / build_threads`. `rays_per_second` is the backend's rate (a few million on a CPU core,
+    /// billions on a GPU: the caller's estimate); `build_threads` the threads the build runs on.
+    /// An estimate from the measured constants, not a measurement of this scene: on the 2-core
+    /// machine a 128x128, 4-spp CPU render of a million triangles chooses `Fast` (0.6 s of
+    /// build instead of 2 s), a 1000x1000, 100-spp one `Quality`.
+    pub fn for_work(
+        primitives: usize,
+        rays: f64,
+        rays_per_second: f64,
+        build_threads: usize,
+    ) -> BvhQuality {
+        let extra_build =
+            QUALITY_EXTRA_BUILD_SECONDS * primitives as f64 / build_threads.max(1) as f64;
+        let saved = QUALITY_TRACE_GAIN * rays / rays_per_second.max(1.0);
+        if saved > extra_build {
+            BvhQuality::Quality
+        } else {
+            BvhQuality::Fast
+        }
+    }
+
     /// Lower-case name for logs and stats ("fast", "quality").
     pub const fn name(self) -> &'static str {
         match self {
@@ -73,6 +101,32 @@ impl BvhQuality {
         }
     }
 }
+
+impl std::str::FromStr for BvhQuality {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "fast" => Ok(BvhQuality::Fast),
+            "quality" => Ok(BvhQuality::Quality),
+            other => Err(format!(
+                "unknown BVH preset '{other}' (expected fast or quality)"
+            )),
+        }
+    }
+}
+
+/// What `Quality`'s build costs beyond `Fast`'s, seconds per primitive on one thread: the
+/// eight-wide build of the 1M-triangle grid of `benches/build.rs` on the 2-core machine
+/// (2026-12-02), 2.06 s against 0.63 s on 2 threads, so (2.06 - 0.63) x 2 / 10^6 (the
+/// 100k grid and the living room measure 1.6–3 us; reinsertion grows a little faster
+/// than linearly).
+pub const QUALITY_EXTRA_BUILD_SECONDS: f64 = 2.9e-6;
+
+/// How much faster `Quality`'s rays are than `Fast`'s, as a fraction of the trace time: the
+/// table above measured 8–15 % on incoherent rays (one CPU thread, binary layout); 0.1 is
+/// taken for every backend and layout.
+pub const QUALITY_TRACE_GAIN: f64 = 0.1;
 
 #[cfg(test)]
 mod tests {
@@ -93,5 +147,28 @@ mod tests {
             BvhQuality::Quality
         );
         assert_eq!(BvhQuality::for_primitive_count(5_000_000), BvhQuality::Fast);
+    }
+
+    #[test]
+    fn work_decides_the_preset() {
+        // A million primitives on 2 threads: Quality costs ~1.45 s more. At 4 Mrays/s it needs
+        // 1.45 / 0.1 * 4e6 = 58 M rays to pay.
+        let choose = |rays: f64| BvhQuality::for_work(1_000_000, rays, 4e6, 2);
+        assert_eq!(choose(128.0 * 128.0 * 4.0 * 11.0), BvhQuality::Fast);
+        assert_eq!(choose(50e6), BvhQuality::Fast);
+        assert_eq!(choose(70e6), BvhQuality::Quality);
+        // More build threads make Quality cheaper; a faster backend makes it pay later.
+        assert_eq!(
+            BvhQuality::for_work(1_000_000, 50e6, 4e6, 4),
+            BvhQuality::Quality
+        );
+        assert_eq!(
+            BvhQuality::for_work(1_000_000, 70e6, 4e9, 2),
+            BvhQuality::Fast
+        );
+        // No primitives: nothing to build, Quality is free.
+        assert_eq!(BvhQuality::for_work(0, 1.0, 4e6, 2), BvhQuality::Quality);
+        // No rays: Fast (a non-empty scene), and nonsense rates do not divide by zero.
+        assert_eq!(BvhQuality::for_work(10, 0.0, 0.0, 0), BvhQuality::Fast);
     }
 }

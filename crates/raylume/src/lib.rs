@@ -79,7 +79,10 @@ pub use build::{MaterialId, SceneBuilder, Transform};
 pub use error::Error;
 pub use output::{ImageFormat, save_exr, save_png};
 pub use stats::{DepthSeconds, LightStats, NO_LIGHT_WARNING, RenderStats, StageSeconds};
-pub use tracer::{Backend, Progress, Render, ReorderPolicy, Tracer};
+pub use tracer::{
+    Backend, CPU_RAYS_PER_SECOND_PER_THREAD, GPU_RAYS_PER_SECOND, Progress, Render, ReorderPolicy,
+    Tracer,
+};
 
 pub use raylume_bvh::{BvhLayout, BvhQuality};
 pub use raylume_kernels::{BatchPlan, Estimator, Reorder, ReorderMode, Sampler, Schedule};

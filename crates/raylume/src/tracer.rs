@@ -98,6 +98,15 @@ pub const MAX_SPP: u32 = 1 << 20;
 /// The most bounces a path may take.
 pub const MAX_BOUNCES: u32 = 1024;
 
+/// The ray segments a CPU thread traces a second, as [`Tracer::bvh_quality`]'s choice
+/// estimates them: 2 M, what the 2-core development machine measured on the project's scenes
+/// and the large grids (1.5–4 M a thread, NEE's shadow rays included).
+pub const CPU_RAYS_PER_SECOND_PER_THREAD: f64 = 2e6;
+/// The ray segments a (hardware) GPU traces a second, for the same estimate: 2 G, between the
+/// H200's measured 1.6 G on the living room and 8.7 G on the Cornell box (`docs/RESULTS.md`).
+/// Software adapters are counted as CPUs.
+pub const GPU_RAYS_PER_SECOND: f64 = 2e9;
+
 /// A finished render: linear HDR radiance per pixel (after bloom, before tone mapping).
 #[derive(Clone, Debug)]
 pub struct Render {
@@ -204,8 +213,14 @@ pub struct Tracer {
     /// `batches`, `spp` (done) and `spp_cap`. Must be finite and above 0
     /// ([`Error::TargetError`]); on the GPU every batch's image is read back to estimate it.
     pub target_error: Option<f32>,
-    /// The BVH build preset (default [`BvhQuality::default`]).
-    pub bvh_quality: BvhQuality,
+    /// The BVH build preset. `None` (the default): chosen for each render from the work
+    /// ahead ([`BvhQuality::for_work`]: the rays the render may trace, at most
+    /// `pixels x spp x (bounces + 1)`, twice that with NEE's shadow rays, against the
+    /// backend's rate, [`CPU_RAYS_PER_SECOND_PER_THREAD`] a thread or [`GPU_RAYS_PER_SECOND`]),
+    /// so that a quick look at a large scene does not wait for the `Quality` build a long
+    /// render earns back; a tree of the same geometry built with `Quality` and still cached
+    /// is used whatever the choice. [`RenderStats::bvh_preset`] says what was built.
+    pub bvh_quality: Option<BvhQuality>,
     /// The BVH's node layout (default [`BvhLayout::default`]): the binary one or the
     /// compressed eight-wide one. The two find the same hits; which is faster depends on the
     /// scene and the device (`docs/RESULTS.md`).
@@ -335,7 +350,7 @@ impl Tracer {
             sampler: Sampler::ZSobol,
             russian_roulette: Some(Self::DEFAULT_RUSSIAN_ROULETTE),
             target_error: None,
-            bvh_quality: BvhQuality::default(),
+            bvh_quality: None,
             bvh_layout: BvhLayout::default(),
             bloom: true,
             tone: raylume_post::ToneMap::default(),
@@ -618,19 +633,54 @@ impl Tracer {
                 .push(crate::stats::NO_LIGHT_WARNING.to_string());
         }
         stats.seconds.device = device_seconds;
-        stats.bvh_preset = self.bvh_quality.name().into();
+        let rate = match (use_gpu, self.gpu.as_ref()) {
+            (true, Some(ctx)) if !ctx.info.is_software => GPU_RAYS_PER_SECOND,
+            _ => CPU_RAYS_PER_SECOND_PER_THREAD * rayon::current_num_threads() as f64,
+        };
+        let quality = self.bvh_quality.unwrap_or_else(|| {
+            let segments = f64::from(r.max_bounces) + 1.0;
+            let per_segment = if self.estimator == Estimator::Nee {
+                2.0
+            } else {
+                1.0
+            };
+            let rays = f64::from(r.width)
+                * f64::from(r.height)
+                * f64::from(r.spp)
+                * segments
+                * per_segment;
+            BvhQuality::for_work(
+                scene.triangles.len() + scene.spheres.len(),
+                rays,
+                rate,
+                rayon::current_num_threads(),
+            )
+        });
+        stats.bvh_preset = quality.name().into();
+        stats.bvh_preset_chosen = self.bvh_quality.is_none();
         stats.bvh_layout = self.bvh_layout.name().into();
         if let Some(f) = self.on_start.as_mut() {
             f(&stats);
         }
 
         let t = Instant::now();
-        let key = GeometryKey::of(scene, self.bvh_quality, self.bvh_layout);
+        let mut key = GeometryKey::of(scene, quality, self.bvh_layout);
+        // The tree this render would build, or, when the preset was chosen (not set), the same
+        // geometry's Quality tree if that is cached: it traces at least as fast, for nothing.
+        let better =
+            (self.bvh_quality.is_none() && quality != BvhQuality::Quality).then_some(GeometryKey {
+                quality: BvhQuality::Quality,
+                ..key
+            });
         let cached = self
             .bvh_cache
             .iter()
-            .position(|c| c.key == key)
+            .position(|c| c.key == key || Some(c.key) == better)
             .map(|i| self.bvh_cache.remove(i));
+        if let Some(c) = &cached {
+            key = c.key;
+            stats.bvh_preset = c.key.quality.name().into();
+        }
         stats.bvh_cached = cached.is_some();
         // On the GPU, the pipelines (a second of driver compilation on the H200) do not depend
         // on the BVH: they are compiled on another thread while it is built, or come from the
@@ -658,7 +708,7 @@ impl Tracer {
             };
             let bvh = match cached {
                 Some(c) => Ok(c.bvh),
-                None => GpuBvh::from_scene_with_layout(scene, self.bvh_quality, self.bvh_layout),
+                None => GpuBvh::from_scene_with_layout(scene, quality, self.bvh_layout),
             };
             stats.seconds.bvh = t.elapsed().as_secs_f64();
             let pipelines = match compiling {

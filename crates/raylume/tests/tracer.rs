@@ -255,6 +255,7 @@ fn gpu_schedules_no_bloom_pass_for_a_scene_without_bloom() {
 #[test]
 fn bvh_is_cached_per_geometry() {
     let mut t = Tracer::new(Backend::Cpu);
+    t.bvh_quality = Some(raylume::BvhQuality::Quality);
     let mut scene = cornell(12, 12, 1);
     let first = t.render(&scene).unwrap();
     assert!(!first.stats.bvh_cached);
@@ -281,8 +282,57 @@ fn bvh_is_cached_per_geometry() {
     moved.triangles[0].positions[0].y += 1e-3;
     let third = t.render(&moved).unwrap();
     assert!(!third.stats.bvh_cached, "one vertex moved by 1e-3: rebuilt");
-    t.bvh_quality = raylume::BvhQuality::Fast;
+    t.bvh_quality = Some(raylume::BvhQuality::Fast);
     let fast = t.render(&moved).unwrap();
     assert!(!fast.stats.bvh_cached, "another preset: rebuilt");
     assert_eq!(fast.stats.bvh_preset, "fast");
+    assert!(!fast.stats.bvh_preset_chosen, "set, not chosen");
+}
+
+/// Left to choose (`bvh_quality: None`), the tracer builds `Fast` when the render's rays
+/// cannot repay `Quality`'s build, `Quality` when they can, and takes a cached `Quality` tree
+/// of the same geometry over building a `Fast` one.
+#[test]
+fn bvh_preset_follows_the_work() {
+    let mut scene = cornell(4, 4, 1);
+    // 20,000 small triangles on the floor: a scene large for the rays of a 4x4, 1-spp image.
+    let m = scene.triangles[0].material;
+    for i in 0..10_000 {
+        let (x, z) = ((i % 100) as f32 * 0.01, (i / 100) as f32 * 0.01);
+        let p = |dx: f32, dz: f32| raylume::glam::Vec3::new(x + dx, 1e-3, z + dz);
+        scene.triangles.push(raylume::scene::Triangle::flat(
+            [p(0.0, 0.0), p(0.01, 0.0), p(0.01, 0.01)],
+            m,
+        ));
+        scene.triangles.push(raylume::scene::Triangle::flat(
+            [p(0.0, 0.0), p(0.01, 0.01), p(0.0, 0.01)],
+            m,
+        ));
+    }
+    let mut t = Tracer::new(Backend::Cpu);
+    assert_eq!(t.bvh_quality, None, "chosen by default");
+    let quick = t.render(&scene).unwrap();
+    assert_eq!(quick.stats.bvh_preset, "fast", "few rays, many triangles");
+    assert!(quick.stats.bvh_preset_chosen);
+    assert!(!quick.stats.bvh_cached);
+    // The same geometry at 64x64 and 400 spp: 64 * 64 * 400 * (2 + 1) * 2 = 9.8 M rays
+    // repay Quality's extra 2.9e-6 s x 20,036 primitives / threads (0.1 x 9.8e6 / (2e6 x
+    // threads) > 0.058 / threads).
+    let mut long = scene.clone();
+    long.render.width = 64;
+    long.render.height = 64;
+    long.render.spp = 400;
+    long.render.max_bounces = 2;
+    let long_render = Tracer::new(Backend::Cpu).render(&long).unwrap();
+    assert_eq!(long_render.stats.bvh_preset, "quality");
+    // A Quality tree built on request is then reused by a chosen render of the same geometry.
+    t.bvh_quality = Some(raylume::BvhQuality::Quality);
+    let built = t.render(&scene).unwrap();
+    assert_eq!(built.stats.bvh_preset, "quality");
+    assert!(!built.stats.bvh_cached, "no Quality tree yet");
+    t.bvh_quality = None;
+    let again = t.render(&scene).unwrap();
+    assert!(again.stats.bvh_cached);
+    assert_eq!(again.stats.bvh_preset, "quality", "the cached, better tree");
+    assert_eq!(again.pixels, built.pixels);
 }
