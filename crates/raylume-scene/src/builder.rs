@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use crate::error::{Location, SceneError};
 use crate::image_io;
@@ -244,17 +245,8 @@ pub(crate) fn line_of_offset(bytes: &[u8], offset: usize) -> usize {
 
 /// The loaders' last step (see [`SceneBuilder::finish`]): NaN/Inf errors, degenerate triangles
 /// dropped, albedo/tint clamped, then [`validate_with`].
-fn sanitize_and_validate(b: &mut SceneBuilder) -> Result<(), SceneError> {
-    let prov = Provenance {
-        file: &b.file,
-        sources: &b.sources,
-        sphere_labels: &b.sphere_labels,
-    };
-    // 1. Non-finite data is an error, reported with the index it has in its source file.
-    for (i, t) in b.scene.triangles.iter().enumerate() {
-        check_triangle_finite(t, &prov, i)?;
-    }
-    // 2. Degenerate triangles go, counted per source.
+/// Drops degenerate triangles, with a warning per source that had some.
+fn drop_degenerate(b: &mut SceneBuilder) {
     let n = b.scene.triangles.len();
     let sources = std::mem::take(&mut b.sources);
     let mut runs: Vec<(usize, usize, String)> = Vec::with_capacity(sources.len() + 1);
@@ -288,6 +280,43 @@ fn sanitize_and_validate(b: &mut SceneBuilder) -> Result<(), SceneError> {
         });
     }
     b.scene.triangles = kept;
+}
+
+fn sanitize_and_validate(b: &mut SceneBuilder) -> Result<(), SceneError> {
+    let prov = Provenance {
+        file: &b.file,
+        sources: &b.sources,
+        sphere_labels: &b.sphere_labels,
+    };
+    // 1. Non-finite data is an error, reported with the index it has in its source file (the
+    //    first such triangle's, found on every core).
+    if let Some(e) = b
+        .scene
+        .triangles
+        .par_iter()
+        .enumerate()
+        .find_map_first(|(i, t)| check_triangle_finite(t, &prov, i).err())
+    {
+        return Err(e);
+    }
+    // 2. Degenerate triangles go, counted per source (nothing is copied when there are none).
+    if b.scene.triangles.par_iter().any(is_degenerate) {
+        drop_degenerate(b);
+    } else if b
+        .sources
+        .first()
+        .map_or(b.scene.triangles.len(), |s| s.start)
+        > 0
+    {
+        // Triangles before the first source belong to the scene file (as drop_degenerate says).
+        b.sources.insert(
+            0,
+            Source {
+                start: 0,
+                label: b.file.clone(),
+            },
+        );
+    }
     // 3. Albedo and tint above 1 are clamped (negative stays an error below).
     for m in &mut b.scene.materials {
         for (what, c) in [("albedo", &mut m.albedo), ("tint", &mut m.tint)] {

@@ -379,12 +379,22 @@ impl Bounds {
 impl Scene {
     /// Bounds of all triangles and spheres.
     pub fn bounds(&self) -> Bounds {
-        let mut b = Bounds::EMPTY;
-        for t in &self.triangles {
-            for p in t.positions {
-                b.grow(p);
-            }
-        }
+        use rayon::prelude::*;
+        let (lo, hi) = self
+            .triangles
+            .par_iter()
+            .fold(
+                || (Vec3::INFINITY, Vec3::NEG_INFINITY),
+                |(lo, hi), t| {
+                    let [a, b, c] = t.positions;
+                    (lo.min(a).min(b).min(c), hi.max(a).max(b).max(c))
+                },
+            )
+            .reduce(
+                || (Vec3::INFINITY, Vec3::NEG_INFINITY),
+                |x, y| (x.0.min(y.0), x.1.max(y.1)),
+            );
+        let mut b = Bounds { min: lo, max: hi };
         for s in &self.spheres {
             b.grow(s.center - Vec3::splat(s.radius));
             b.grow(s.center + Vec3::splat(s.radius));

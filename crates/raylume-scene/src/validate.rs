@@ -8,6 +8,7 @@
 //! triangles are dropped, albedo/tint above 1 are clamped to 1.
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use crate::error::{Location, SceneError};
 use crate::limits::{
@@ -375,8 +376,8 @@ pub(crate) fn validate_with(s: &Scene, prov: &Provenance) -> Result<(), SceneErr
         }
     }
 
-    // Triangles.
-    for (i, t) in s.triangles.iter().enumerate() {
+    // Triangles, on every core; the error is the first triangle's, as a loop would find.
+    let check = |i: usize, t: &Triangle| -> Result<(), SceneError> {
         check_triangle_finite(t, prov, i)?;
         if t.material as usize >= s.materials.len() {
             return Err(SceneError::IndexOutOfRange {
@@ -403,6 +404,15 @@ pub(crate) fn validate_with(s: &Scene, prov: &Provenance) -> Result<(), SceneErr
                 message: "zero area or non-finite normal (loaders drop such triangles)".into(),
             });
         }
+        Ok(())
+    };
+    if let Some(e) = s
+        .triangles
+        .par_iter()
+        .enumerate()
+        .find_map_first(|(i, t)| check(i, t).err())
+    {
+        return Err(e);
     }
 
     // Spheres.

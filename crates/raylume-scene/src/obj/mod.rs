@@ -21,11 +21,13 @@
 //! `catch_unwind`, so a panic inside tobj becomes a syntax error, never a crash.
 
 use std::cell::RefCell;
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
+use std::ops::Range;
 use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use crate::builder::{MeshOptions, SceneBuilder, ShadingNormals, line_of_offset, read_file};
 use crate::error::{Location, SceneError};
@@ -33,6 +35,7 @@ use crate::model::Triangle;
 use mtl::{Mtl, convert, load_mtl};
 use scan::{locate_obj, prescan};
 
+mod fast;
 mod mtl;
 mod scan;
 
@@ -67,8 +70,17 @@ pub(crate) struct ParsedObj {
     dir: PathBuf,
     want_mtl: bool,
     scan: scan::Scan,
-    models: Vec<tobj::Model>,
+    geometry: Geometry,
     materials: Mtl,
+}
+
+/// The triangles of a parsed file: tobj's models, or the parallel parser's (`fast.rs`).
+enum Geometry {
+    Tobj(Vec<tobj::Model>),
+    Fast {
+        obj: fast::FastObj,
+        models: fast::Models,
+    },
 }
 
 /// Loads an OBJ file's triangles (and, unless overridden, its MTL materials) into `b`.
@@ -88,10 +100,94 @@ pub(crate) fn parse(
     want_mtl: bool,
     referenced_by: Option<&str>,
 ) -> Result<ParsedObj, SceneError> {
+    parse_with(path, want_mtl, referenced_by, true)
+}
+
+/// [`parse`]; `try_fast`: false to go straight to tobj's path (the tests compare the two).
+fn parse_with(
+    path: &Path,
+    want_mtl: bool,
+    referenced_by: Option<&str>,
+    try_fast: bool,
+) -> Result<ParsedObj, SceneError> {
     let label = path.display().to_string();
     let text = utf8(read_file(path, referenced_by)?, &label)?;
-    let scan = prescan(&text, &label)?;
     let dir = path.parent().unwrap_or(Path::new(""));
+    // The parallel parser first; tobj's path for what it declines.
+    if try_fast
+        && let Some(obj) = fast::parse(&text)
+        && let Some(parsed) = parse_fast(obj, &label, dir, want_mtl)?
+    {
+        return Ok(parsed);
+    }
+    parse_tobj(text, label, dir, want_mtl)
+}
+
+/// [`parse`] through the parallel parser: the MTL files loaded as tobj loads them, when
+/// their `mtllib` is met. `Ok(None)`: an MTL file tobj's path would treat otherwise.
+fn parse_fast(
+    obj: fast::FastObj,
+    label: &str,
+    dir: &Path,
+    want_mtl: bool,
+) -> Result<Option<ParsedObj>, SceneError> {
+    let mut scan = scan::Scan {
+        usemtl: Vec::new(),
+        mtllib: Vec::new(),
+        lines: 0,
+    };
+    for (_, line, e) in &obj.events {
+        match e {
+            fast::Event::Usemtl(n) => scan.usemtl.push((*line, n.clone())),
+            fast::Event::Mtllib(f) => scan.mtllib.push((*line, f.clone())),
+            fast::Event::Group => {}
+        }
+    }
+    let (mut materials, mut mtl_paths) = (Vec::new(), Vec::new());
+    let models = fast::models(&obj, |file, _| {
+        if !want_mtl {
+            return Ok(HashMap::new());
+        }
+        let full = dir.join(file);
+        let line = scan
+            .mtllib
+            .iter()
+            .find(|(_, f)| Path::new(f) == Path::new(file))
+            .map_or(0, |(l, _)| *l);
+        match load_mtl(&full, &format!("{label}:{line}")) {
+            Ok(Ok((mats, map))) => {
+                let offset = materials.len();
+                mtl_paths.extend(std::iter::repeat_n(full, mats.len()));
+                materials.extend(mats);
+                Ok(map.into_iter().map(|(k, v)| (k, v + offset)).collect())
+            }
+            Ok(Err(_)) => Err(None),
+            Err(e) => Err(Some(e)),
+        }
+    });
+    let models = match models {
+        Ok(m) => m,
+        Err(None) => return Ok(None),
+        Err(Some(e)) => return Err(e),
+    };
+    Ok(Some(ParsedObj {
+        label: label.to_string(),
+        dir: dir.to_path_buf(),
+        want_mtl,
+        scan,
+        geometry: Geometry::Fast { obj, models },
+        materials: (materials, mtl_paths),
+    }))
+}
+
+/// [`parse`] through tobj, after the pre-scan that checks what tobj would panic on.
+fn parse_tobj(
+    text: String,
+    label: String,
+    dir: &Path,
+    want_mtl: bool,
+) -> Result<ParsedObj, SceneError> {
+    let scan = prescan(&text, &label)?;
     let failure: RefCell<Option<SceneError>> = RefCell::new(None);
     let mtl_paths: RefCell<Vec<PathBuf>> = RefCell::new(Vec::new());
     let result = catch_unwind(AssertUnwindSafe(|| {
@@ -143,7 +239,7 @@ pub(crate) fn parse(
         dir: dir.to_path_buf(),
         want_mtl,
         scan,
-        models,
+        geometry: Geometry::Tobj(models),
         materials,
     })
 }
@@ -159,7 +255,7 @@ pub(crate) fn insert(
         dir,
         want_mtl,
         scan,
-        models,
+        geometry,
         materials,
     } = parsed;
     let dir = dir.as_path();
@@ -193,14 +289,16 @@ pub(crate) fn insert(
         ));
     }
 
-    let count: usize = models.iter().map(|m| m.mesh.indices.len() / 3).sum();
+    let count = match &geometry {
+        Geometry::Tobj(models) => models.iter().map(|m| m.mesh.indices.len() / 3).sum(),
+        Geometry::Fast { obj, .. } => obj.triangle_count(),
+    };
     b.reserve_triangles(count, &label, Location::None)?;
     b.begin_source(&label);
     let mut converted: Vec<Option<u32>> = vec![None; materials.0.len()];
-    let (mut zero_normals, mut partial) = (0usize, 0usize);
-    for model in &models {
-        let mesh = &model.mesh;
-        let material = match (opts.material, mesh.material_id) {
+    // The scene material of a model whose MTL material is `id`.
+    let mut material_of = |b: &mut SceneBuilder, id: Option<usize>| -> Result<u32, SceneError> {
+        Ok(match (opts.material, id) {
             (Some(m), _) => m,
             (None, Some(i)) if i < materials.0.len() => match converted[i] {
                 Some(m) => m,
@@ -218,44 +316,25 @@ pub(crate) fn insert(
                 }
             },
             _ => b.default_material(),
-        };
-        let p = &mesh.positions;
-        let nv = p.len() / 3;
-        let has_n = mesh.normals.len() == p.len();
-        let has_uv = mesh.texcoords.len() == nv * 2;
-        if (!has_n && !mesh.normals.is_empty()) || (!has_uv && !mesh.texcoords.is_empty()) {
-            partial += 1;
+        })
+    };
+    let (mut zero_normals, mut partial) = (0usize, 0usize);
+    match &geometry {
+        Geometry::Tobj(models) => {
+            for model in models {
+                let material = material_of(b, model.mesh.material_id)?;
+                let (z, p) = insert_tobj_mesh(b, &model.mesh, material, opts);
+                zero_normals += z;
+                partial += usize::from(p);
+            }
         }
-        let pos = |i: usize| Vec3::new(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
-        let nrm = |i: usize| {
-            Vec3::new(
-                mesh.normals[3 * i],
-                mesh.normals[3 * i + 1],
-                mesh.normals[3 * i + 2],
-            )
-        };
-        let uv = |i: usize| Vec2::new(mesh.texcoords[2 * i], 1.0 - mesh.texcoords[2 * i + 1]);
-        for tri in mesh.indices.chunks_exact(3) {
-            let [a, bb, c] = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
-            let normals = if has_n {
-                match ShadingNormals::check([nrm(a), nrm(bb), nrm(c)]) {
-                    ShadingNormals::Unit(n) | ShadingNormals::NonFinite(n) => Some(n),
-                    ShadingNormals::Zero => {
-                        zero_normals += 1;
-                        None
-                    }
-                }
-            } else {
-                None
-            };
-            let mut t = Triangle {
-                positions: [pos(a), pos(bb), pos(c)],
-                normals,
-                uvs: has_uv.then(|| [uv(a), uv(bb), uv(c)]),
-                material,
-            };
-            opts.xform.apply(&mut t);
-            b.push_triangle(t);
+        Geometry::Fast { obj, models } => {
+            for (range, id) in models {
+                let material = material_of(b, *id)?;
+                let (z, p) = insert_fast_model(b, obj, range.clone(), material, opts);
+                zero_normals += z;
+                partial += usize::from(p);
+            }
         }
     }
     if zero_normals > 0 {
@@ -269,4 +348,336 @@ pub(crate) fn insert(
         ));
     }
     Ok(())
+}
+
+/// A normal triple as the scene takes it: normalised, `None` when one is zero (flat shading;
+/// counted by the caller), kept raw when not finite (validation reports the triangle).
+fn shading_normals(n: [Vec3; 3]) -> Option<[Vec3; 3]> {
+    match ShadingNormals::check(n) {
+        ShadingNormals::Unit(n) | ShadingNormals::NonFinite(n) => Some(n),
+        ShadingNormals::Zero => None,
+    }
+}
+
+/// Adds one tobj mesh's triangles; returns (triangles whose normals were dropped as zero,
+/// whether the mesh gives normals or uvs for only some vertices).
+fn insert_tobj_mesh(
+    b: &mut SceneBuilder,
+    mesh: &tobj::Mesh,
+    material: u32,
+    opts: &MeshOptions,
+) -> (usize, bool) {
+    let p = &mesh.positions;
+    let nv = p.len() / 3;
+    let has_n = mesh.normals.len() == p.len();
+    let has_uv = mesh.texcoords.len() == nv * 2;
+    let partial = (!has_n && !mesh.normals.is_empty()) || (!has_uv && !mesh.texcoords.is_empty());
+    let pos = |i: usize| Vec3::new(p[3 * i], p[3 * i + 1], p[3 * i + 2]);
+    let nrm = |i: usize| {
+        Vec3::new(
+            mesh.normals[3 * i],
+            mesh.normals[3 * i + 1],
+            mesh.normals[3 * i + 2],
+        )
+    };
+    let uv = |i: usize| Vec2::new(mesh.texcoords[2 * i], 1.0 - mesh.texcoords[2 * i + 1]);
+    let mut zero_normals = 0;
+    for tri in mesh.indices.chunks_exact(3) {
+        let [a, bb, c] = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+        let normals = if has_n {
+            let n = shading_normals([nrm(a), nrm(bb), nrm(c)]);
+            zero_normals += usize::from(n.is_none());
+            n
+        } else {
+            None
+        };
+        let mut t = Triangle {
+            positions: [pos(a), pos(bb), pos(c)],
+            normals,
+            uvs: has_uv.then(|| [uv(a), uv(bb), uv(c)]),
+            material,
+        };
+        opts.xform.apply(&mut t);
+        b.push_triangle(t);
+    }
+    (zero_normals, partial)
+}
+
+/// [`insert_tobj_mesh`] for one of the parallel parser's models (triangles `range` of the
+/// file), its triangles made on every core. The same rules: normals (uvs) are kept when every
+/// corner of the model has one.
+fn insert_fast_model(
+    b: &mut SceneBuilder,
+    obj: &fast::FastObj,
+    range: Range<usize>,
+    material: u32,
+    opts: &MeshOptions,
+) -> (usize, bool) {
+    let slices = obj.slices(range);
+    // (every corner has a normal, some corner has one, the same for uvs)
+    let flags = |f: &[fast::Corner; 3]| {
+        let n = f.iter().filter(|c| c.vn != fast::MISSING).count();
+        let t = f.iter().filter(|c| c.vt != fast::MISSING).count();
+        (n == 3, n > 0, t == 3, t > 0)
+    };
+    let join = |a: (bool, bool, bool, bool), b: (bool, bool, bool, bool)| {
+        (a.0 && b.0, a.1 || b.1, a.2 && b.2, a.3 || b.3)
+    };
+    let (has_n, any_n, has_uv, any_uv) = slices
+        .par_iter()
+        .flat_map(|s| s.par_iter())
+        .map(flags)
+        .reduce(|| (true, false, true, false), join);
+    let partial = (!has_n && any_n) || (!has_uv && any_uv);
+    let pos = |i: u32| Vec3::from(obj.positions[i as usize]);
+    let nrm = |i: u32| Vec3::from(obj.normals[i as usize]);
+    let uv = |i: u32| {
+        let t = obj.texcoords[i as usize];
+        Vec2::new(t[0], 1.0 - t[1])
+    };
+    let make = |f: &[fast::Corner; 3]| {
+        let mut t = Triangle {
+            positions: f.map(|c| pos(c.v)),
+            normals: if has_n {
+                shading_normals(f.map(|c| nrm(c.vn)))
+            } else {
+                None
+            },
+            uvs: has_uv.then(|| f.map(|c| uv(c.vt))),
+            material,
+        };
+        opts.xform.apply(&mut t);
+        t
+    };
+    let first = b.scene.triangles.len();
+    for s in slices {
+        b.scene.triangles.par_extend(s.par_iter().map(make));
+    }
+    let zero_normals = if has_n {
+        b.scene.triangles[first..]
+            .par_iter()
+            .filter(|t| t.normals.is_none())
+            .count()
+    } else {
+        0
+    };
+    (zero_normals, partial)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// One OBJ statement, rendered against the counts so far by [`render`].
+    #[derive(Clone, Debug)]
+    enum Stmt {
+        V(f32, f32, f32),
+        Vt(f32, f32),
+        Vn(f32, f32, f32),
+        /// Corner selectors (index = selector mod count; negative form when `rel`), the form
+        /// (0: v, 1: v/vt, 2: v//vn, 3: v/vt/vn), and per corner a form override.
+        F(Vec<(u16, bool, Option<u8>)>, u8),
+        Group(bool),
+        Usemtl(u8),
+        Mtllib(bool),
+        Comment,
+        Smooth,
+        /// Something the parallel parser declines (tobj's path must then give the same).
+        Odd(u8),
+    }
+
+    fn stmt() -> impl Strategy<Value = Stmt> {
+        let f = -2.0f32..2.0;
+        prop_oneof![
+            6 => (f.clone(), f.clone(), f.clone()).prop_map(|(a, b, c)| Stmt::V(a, b, c)),
+            2 => (f.clone(), f.clone()).prop_map(|(a, b)| Stmt::Vt(a, b)),
+            2 => (f.clone(), f.clone(), f).prop_map(|(a, b, c)| Stmt::Vn(a, b, c)),
+            8 => (
+                prop::collection::vec(
+                    (any::<u16>(), any::<bool>(), prop::option::weighted(0.05, 0u8..4)),
+                    3..6
+                ),
+                0u8..4
+            )
+                .prop_map(|(c, form)| Stmt::F(c, form)),
+            1 => any::<bool>().prop_map(Stmt::Group),
+            1 => (0u8..4).prop_map(Stmt::Usemtl),
+            1 => prop::bool::weighted(0.9).prop_map(Stmt::Mtllib),
+            1 => Just(Stmt::Comment),
+            1 => Just(Stmt::Smooth),
+            1 => (0u8..40).prop_map(Stmt::Odd),
+        ]
+    }
+
+    fn render(stmts: &[Stmt]) -> String {
+        let mut out = String::new();
+        let (mut v, mut vt, mut vn) = (0usize, 0usize, 0usize);
+        let pick = |sel: u16, rel: bool, n: usize| -> String {
+            if n == 0 {
+                return "1".into(); // out of range: both paths must fail alike
+            }
+            let i = sel as usize % n;
+            if rel {
+                format!("-{}", n - i)
+            } else {
+                format!("{}", i + 1)
+            }
+        };
+        for s in stmts {
+            match s {
+                Stmt::V(a, b, c) => {
+                    v += 1;
+                    out += &format!("v {a} {b} {c}\n");
+                }
+                Stmt::Vt(a, b) => {
+                    vt += 1;
+                    out += &format!("vt {a} {b}\n");
+                }
+                Stmt::Vn(a, b, c) => {
+                    vn += 1;
+                    out += &format!("vn {a} {b} {c}\n");
+                }
+                Stmt::F(corners, form) => {
+                    out += "f";
+                    for (sel, rel, own) in corners {
+                        let p = pick(*sel, *rel, v);
+                        let t = pick(sel.rotate_left(5), *rel, vt);
+                        let n = pick(sel.rotate_left(11), *rel, vn);
+                        out += &match own.unwrap_or(*form) {
+                            0 => format!(" {p}"),
+                            1 => format!(" {p}/{t}"),
+                            2 => format!(" {p}//{n}"),
+                            _ => format!(" {p}/{t}/{n}"),
+                        };
+                    }
+                    out += "\n";
+                }
+                Stmt::Group(o) => out += if *o { "o thing\n" } else { "g part\n" },
+                Stmt::Usemtl(m) => {
+                    out += &format!("usemtl {}\n", ["red", "gold", "glass", "red"][*m as usize])
+                }
+                Stmt::Mtllib(ok) => {
+                    out += if *ok {
+                        "mtllib m.mtl\n"
+                    } else {
+                        "mtllib gone.mtl\n"
+                    }
+                }
+                Stmt::Comment => out += "# a comment\n\n",
+                Stmt::Smooth => out += "s 1\n",
+                Stmt::Odd(k) => {
+                    out += match k {
+                        0 => "l 1 2\n",
+                        1 => "v 1 2 3 0.5\n",
+                        2 => "f 1 2\n",
+                        3 => "usemtl\n",
+                        4 => "vt 0.5\n",
+                        5 => "f 0 1 2\n",
+                        6 => "v 1 2 3 0.1 0.2 0.3\n",
+                        7 => "f 1/1/1/1 1 1\n",
+                        8 => "vp 0.5 0.5\n",
+                        9 => "  usemtl gold\n",
+                        _ => "\r\n",
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    const MTL: &str = "newmtl red\nKd 0.8 0.1 0.1\nnewmtl gold\nKs 0.9 0.7 0.2\nKd 0.1 0.1 0.1\nillum 3\nNs 50\nnewmtl glass\nillum 7\nNi 1.5\n";
+
+    /// What loading `text` gives: the scene's triangles, materials and warnings, or the error.
+    fn load(
+        dir: &Path,
+        text: &str,
+        fast: bool,
+        material: Option<u32>,
+    ) -> Result<(Vec<Triangle>, usize, Vec<String>), String> {
+        let path = dir.join(if fast { "fast.obj" } else { "tobj.obj" });
+        std::fs::write(&path, text).unwrap();
+        let mut b = SceneBuilder::new("test");
+        let opts = MeshOptions {
+            material,
+            ..MeshOptions::bare()
+        };
+        let material_given = material.is_some();
+        let label = path.display().to_string();
+        let r =
+            parse_with(&path, !material_given, None, fast).and_then(|p| insert(&mut b, p, &opts));
+        let clean = |s: String| s.replace(&label, "FILE");
+        match r {
+            Ok(()) => Ok((
+                b.scene.triangles,
+                b.scene.materials.len(),
+                b.scene.warnings.into_iter().map(clean).collect(),
+            )),
+            Err(e) => Err(clean(format!("{e:?}"))),
+        }
+    }
+
+    fn temp_dir() -> PathBuf {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        static N: AtomicUsize = AtomicUsize::new(0);
+        let d = std::env::temp_dir().join(format!(
+            "raylume-obj-fast-{}-{}",
+            std::process::id(),
+            N.fetch_add(1, Ordering::Relaxed)
+        ));
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join("m.mtl"), MTL).unwrap();
+        d
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(300))]
+        /// The parallel parser and tobj's path give the same triangles (positions, normals,
+        /// uvs, materials), the same materials and warnings, or the same error, on random
+        /// files of positions, normals, uvs, faces of 3 to 5 corners in every index form
+        /// (absolute and relative), groups, materials and a few things the parallel parser
+        /// declines.
+        #[test]
+        fn parallel_parser_equals_tobj(stmts in prop::collection::vec(stmt(), 0..60), override_material in any::<bool>()) {
+            let text = render(&stmts);
+            let dir = temp_dir();
+            let material = override_material.then_some(0);
+            let fast = load(&dir, &text, true, material);
+            let slow = load(&dir, &text, false, material);
+            std::fs::remove_dir_all(&dir).ok();
+            prop_assert_eq!(fast, slow, "{}", text);
+        }
+    }
+
+    /// A large file cut into many pieces: relative indices across piece borders, and the
+    /// parallel parser really used (it declines nothing here).
+    #[test]
+    fn pieces_resolve_relative_indices_across_borders() {
+        let mut text = String::from("mtllib m.mtl\nusemtl gold\n");
+        for i in 0..30_000 {
+            let x = i as f32 * 0.001;
+            text += &format!(
+                "v {x} 0 0\nv {x} 1 0\nvn 0 0 1\nvt {x} 0.5\nf -2/-1/-1 -1/-1/-1 {}/1/1\n",
+                2 * i + 1
+            );
+            if i % 7000 == 0 {
+                text += "g more\nusemtl red\n";
+            }
+        }
+        assert!(text.len() > 8 * MIN_PIECE_FOR_TESTS);
+        assert!(
+            fast::parse(&text).is_some(),
+            "the parallel parser declined it"
+        );
+        let dir = temp_dir();
+        let fast = load(&dir, &text, true, None);
+        let slow = load(&dir, &text, false, None);
+        std::fs::remove_dir_all(&dir).ok();
+        let (tris, materials, _) = fast.clone().unwrap();
+        assert_eq!(tris.len(), 30_000);
+        assert_eq!(materials, 2);
+        assert_eq!(fast, slow);
+    }
+
+    const MIN_PIECE_FOR_TESTS: usize = 1 << 16;
 }
