@@ -55,6 +55,7 @@ mod quality;
 mod stats;
 mod validate;
 mod wide;
+mod wide_convert;
 
 pub mod gpu_types;
 pub mod intersect;

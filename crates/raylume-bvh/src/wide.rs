@@ -6,7 +6,8 @@
 //! ([`GpuBvh::validate`] for this layout) and its stats.
 
 use glam::DVec3;
-use obvhs::{aabb::Aabb, bvh2::Bvh2, cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh};
+use obvhs::{aabb::Aabb, bvh2::Bvh2};
+use rayon::prelude::*;
 
 use crate::bounds::primitive_aabb;
 use crate::flatten::leaf_box;
@@ -48,21 +49,33 @@ pub(crate) fn to_wide(mut bvh: Bvh2, source: &[Primitive]) -> WideFlat {
             max_depth: 1,
         };
     }
-    for node in bvh.nodes.iter_mut().filter(|n| n.is_leaf()) {
-        let ids = &bvh.primitive_indices
-            [node.first_index as usize..(node.first_index + node.prim_count) as usize];
-        let full = ids.iter().fold(Aabb::empty(), |b, &p| {
-            b.union(&primitive_aabb(&source[p as usize]))
-        });
-        let exact = leaf_box(node.aabb(), &full);
-        node.set_aabb(exact);
+    // Without spatial splits the leaves already hold their primitives' exact boxes: then
+    // nothing changes and no refit is needed.
+    let indices = &bvh.primitive_indices;
+    let changed = bvh
+        .nodes
+        .par_iter_mut()
+        .filter(|n| n.is_leaf())
+        .map(|node| {
+            let ids =
+                &indices[node.first_index as usize..(node.first_index + node.prim_count) as usize];
+            let full = ids.iter().fold(Aabb::empty(), |b, &p| {
+                b.union(&primitive_aabb(&source[p as usize]))
+            });
+            let exact = leaf_box(node.aabb(), &full);
+            let changed = exact != *node.aabb();
+            node.set_aabb(exact);
+            changed
+        })
+        .reduce(|| false, |a, b| a || b);
+    if changed {
+        refit(&mut bvh);
     }
-    refit(&mut bvh);
-    let cw = bvh2_to_cwbvh(&bvh, WIDE_MAX_LEAF, true, false);
-    let nodes: Vec<WideNode> = cw.nodes.iter().map(|n| bytemuck::cast(*n)).collect();
+    let cw = crate::wide_convert::convert(&bvh, WIDE_MAX_LEAF);
+    let nodes: Vec<WideNode> = cw.nodes.par_iter().map(|n| bytemuck::cast(*n)).collect();
     let primitives = cw
         .primitive_indices
-        .iter()
+        .par_iter()
         .map(|&p| source[p as usize])
         .collect();
     let max_depth = wide_depth(&nodes);
