@@ -70,7 +70,7 @@ struct Args {
     /// library's default (wide) when not given.
     #[arg(long, value_delimiter = ',')]
     bvh: Vec<raylume::BvhLayout>,
-    /// BVH build preset (fast or quality). Quality by default: the table times the trace, so
+    /// BVH build preset (fastest, fast or quality). Quality by default: the table times the trace, so
     /// it takes the tree that traces fastest (the library chooses by the work ahead).
     #[arg(long, default_value = "quality")]
     bvh_preset: raylume::BvhQuality,

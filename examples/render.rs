@@ -69,8 +69,9 @@ struct Args {
     /// BVH node layout: wide (eight children a node, compressed; the default) or binary.
     #[arg(long)]
     bvh: Option<raylume::BvhLayout>,
-    /// BVH build preset: auto (the default: quality when the render's rays repay its longer
-    /// build, else fast), fast or quality.
+    /// BVH build preset: auto (the default: the one whose build the render's rays repay:
+    /// fastest for a quick look at a large scene, quality for a long render), fastest, fast
+    /// or quality.
     #[arg(long, default_value = "auto", value_parser = parse_preset)]
     bvh_preset: Preset,
     /// Estimator: nee (the default: next-event estimation with multiple importance sampling,
@@ -407,7 +408,7 @@ fn parse_preset(s: &str) -> Result<Preset, String> {
         other => other
             .parse::<raylume::BvhQuality>()
             .map(|q| Preset(Some(q)))
-            .map_err(|e| e.replace("fast or quality", "auto, fast or quality")),
+            .map_err(|e| e.replace("fastest, fast or quality", "auto, fastest, fast or quality")),
     }
 }
 

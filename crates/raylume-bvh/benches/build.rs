@@ -20,7 +20,7 @@ use glam::Vec3;
 use raylume_bvh::{BuildProfile, BvhLayout, BvhQuality, GpuBvh};
 use raylume_scene::Triangle;
 
-const QUALITIES: [BvhQuality; 2] = [BvhQuality::Fast, BvhQuality::Quality];
+const QUALITIES: [BvhQuality; 3] = BvhQuality::ALL;
 
 fn quick() -> bool {
     std::env::var("RAYLUME_BENCH_QUICK").is_ok_and(|v| v == "1")

@@ -2,6 +2,7 @@
 //! for [`BvhQuality::Quality`]), SAH reinsertion and leaf collapse, flattening, and the depth
 //! fallback.
 
+use std::borrow::Cow;
 use std::time::{Duration, Instant};
 
 use glam::Vec3A;
@@ -14,6 +15,7 @@ use obvhs::{
     triangle::Triangle as ObvhsTriangle,
 };
 use raylume_scene::{Scene, Sphere, Triangle};
+use rayon::prelude::*;
 
 use crate::bounds::primitive_aabb;
 use crate::flatten::{Flat, flatten};
@@ -107,18 +109,20 @@ impl GpuBvh {
         let mut profile = BuildProfile::default();
         let mut lap = Lap(Instant::now());
         check_input(triangles, spheres)?;
-        let source: Vec<Primitive> = triangles
-            .iter()
-            .enumerate()
-            .map(|(i, t)| Primitive::triangle(t.positions.map(|p| p.to_array()), i as u32))
-            .chain(
-                spheres
-                    .iter()
-                    .enumerate()
-                    .map(|(i, s)| Primitive::sphere(s.center.to_array(), s.radius, i as u32)),
-            )
-            .collect();
-        let aabbs: Vec<Aabb> = source.iter().map(primitive_aabb).collect();
+        let mut source: Vec<Primitive> = Vec::with_capacity(triangles.len() + spheres.len());
+        source.par_extend(
+            triangles
+                .par_iter()
+                .enumerate()
+                .map(|(i, t)| Primitive::triangle(t.positions.map(|p| p.to_array()), i as u32)),
+        );
+        source.extend(
+            spheres
+                .iter()
+                .enumerate()
+                .map(|(i, s)| Primitive::sphere(s.center.to_array(), s.radius, i as u32)),
+        );
+        let aabbs: Vec<Aabb> = source.par_iter().map(primitive_aabb).collect();
         for (i, b) in aabbs.iter().enumerate().skip(triangles.len()) {
             if !(b.min.is_finite() && b.max.is_finite()) {
                 let k = i - triangles.len();
@@ -337,14 +341,18 @@ fn check_input(triangles: &[Triangle], spheres: &[Sphere]) -> Result<(), BvhErro
             limit: MAX_U32_COUNT,
         });
     }
-    for (index, t) in triangles.iter().enumerate() {
-        if let Some(v) = t.positions.iter().position(|p| !p.is_finite()) {
-            return Err(BvhError::NonFinite {
-                kind: "triangle",
-                index,
-                detail: format!("vertex {v} is {}", t.positions[v]),
-            });
-        }
+    // The first bad triangle, found on every core.
+    if let Some((index, v)) = triangles.par_iter().enumerate().find_map_first(|(i, t)| {
+        t.positions
+            .iter()
+            .position(|p| !p.is_finite())
+            .map(|v| (i, v))
+    }) {
+        return Err(BvhError::NonFinite {
+            kind: "triangle",
+            index,
+            detail: format!("vertex {v} is {}", triangles[index].positions[v]),
+        });
     }
     for (index, s) in spheres.iter().enumerate() {
         if !(s.center.is_finite() && s.radius.is_finite()) {
@@ -436,9 +444,9 @@ fn build_obvhs(
             boxes.extend_from_slice(&pieces);
             indices.extend_from_slice(&piece_indices);
         }
-        (boxes, indices)
+        (Cow::Owned(boxes), indices)
     } else {
-        (aabbs.to_vec(), (0..aabbs.len() as u32).collect())
+        (Cow::Borrowed(aabbs), (0..aabbs.len() as u32).collect())
     };
     profile.pre_split = lap.next();
     if boxes.len() > MAX_U32_COUNT {
@@ -508,7 +516,7 @@ fn largest_coincident_group(aabbs: &[Aabb]) -> usize {
         [lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]].map(f32::to_bits)
     };
     let mut hashes: Vec<u64> = aabbs
-        .iter()
+        .par_iter()
         .map(|b| {
             let h = bits(b).iter().fold(0xcbf2_9ce4_8422_2325u64, |h, &x| {
                 (h ^ u64::from(x)).wrapping_mul(0x9e37_79b9_7f4a_7c15)
@@ -516,7 +524,7 @@ fn largest_coincident_group(aabbs: &[Aabb]) -> usize {
             h ^ (h >> 29)
         })
         .collect();
-    hashes.sort_unstable();
+    hashes.par_sort_unstable();
     let bound = hashes
         .chunk_by(|a, b| a == b)
         .map(<[_]>::len)

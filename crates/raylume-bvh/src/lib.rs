@@ -74,7 +74,7 @@ pub use intersect::{
     AABB_T_FAR_SCALE, Ray, ShearedRay, T_MISS, intersect_aabb, intersect_primitive,
     intersect_sphere, intersect_triangle, shear_ray,
 };
-pub use quality::{BvhQuality, QUALITY_EXTRA_BUILD_SECONDS, QUALITY_TRACE_GAIN};
+pub use quality::{BvhQuality, PRESET_BUILD_SECONDS, PRESET_TRACE_FACTOR};
 pub use stats::{BvhStats, Fallback, SAH_NODE_COST, SAH_PRIMITIVE_COST};
 pub use traverse::{Hit, T_MAX_LIMIT, trace_any, trace_closest};
 pub use wide_traverse::{WIDE_INV_DIR_LIMIT, WIDE_QUANT_PAD, WIDE_T_FAR_SCALE};

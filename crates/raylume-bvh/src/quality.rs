@@ -4,7 +4,7 @@ use obvhs::BvhBuildParams;
 
 /// How much time the builder spends to make rays faster.
 ///
-/// obvhs (the builder underneath) has no top-down binned-SAH builder. Both presets build
+/// obvhs (the builder underneath) has no top-down binned-SAH builder. All presets build
 /// bottom-up with PLOC, *Parallel Locally-Ordered Clustering* (Meister & Bittner, IEEE TVCG
 /// 2018, <https://meistdan.github.io/publications/ploc/paper.pdf>): primitives sorted along a
 /// Morton curve are merged pairwise with their nearest neighbour (smallest union box) within a
@@ -33,9 +33,16 @@ use obvhs::BvhBuildParams;
 /// `slow_build` for 4 % lower SAH and 8–15 % faster secondary rays. A render traces ~10^9
 /// rays, so half a second of build is repaid many times: [`Default`] is `Quality`, and
 /// [`BvhQuality::for_primitive_count`] switches to `Fast` only past a million primitives,
-/// where `Quality`'s build (extrapolated, ~n log n: 5 s at 1M here) starts to show.
+/// where `Quality`'s build (extrapolated, ~n log n: 5 s at 1M here) starts to show. A render
+/// of few rays over many primitives does not repay even `Fast`'s: [`BvhQuality::for_work`]
+/// weighs build against trace (the facade's choice when the preset is not set).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BvhQuality {
+    /// PLOC with the shortest search radius, the least reinsertion, SAH leaf collapse, no
+    /// splits: obvhs' `very_fast_build()`. For a quick look at a large scene (a few rays per
+    /// primitive): 1.26 s against `Fast`'s 1.56 s for the 3M-triangle grid's eight-wide tree
+    /// on the 2-core machine, SAH 3 % higher.
+    Fastest,
     /// PLOC with a short search radius, a little reinsertion, SAH leaf collapse, no splits:
     /// obvhs' `fast_build()`. For scenes rebuilt often or so large that build time shows.
     Fast,
@@ -51,10 +58,14 @@ impl BvhQuality {
     /// The obvhs build parameters of this preset.
     pub const fn params(self) -> BvhBuildParams {
         match self {
+            BvhQuality::Fastest => BvhBuildParams::very_fast_build(),
             BvhQuality::Fast => BvhBuildParams::fast_build(),
             BvhQuality::Quality => BvhBuildParams::very_slow_build(),
         }
     }
+
+    /// Every preset, fastest build first.
+    pub const ALL: [BvhQuality; 3] = [BvhQuality::Fastest, BvhQuality::Fast, BvhQuality::Quality];
 
     /// `Quality` up to a million primitives, `Fast` beyond (see the table above).
     pub const fn for_primitive_count(primitives: usize) -> BvhQuality {
@@ -66,36 +77,35 @@ impl BvhQuality {
     }
 
     /// The preset that finishes a render of `rays` ray segments over `primitives` primitives
-    /// sooner, build and trace together: `Quality` when its longer build is repaid by its
-    /// faster rays, else `Fast`.
-    ///
-    /// `Quality` builds longer by [`QUALITY_EXTRA_BUILD_SECONDS`] per primitive and thread
-    /// and traces [`QUALITY_TRACE_GAIN`] faster; it pays when
-    /// `QUALITY_TRACE_GAIN * rays / rays_per_second > QUALITY_EXTRA_BUILD_SECONDS * primitives
-    /// / build_threads`. `rays_per_second` is the backend's rate (a few million on a CPU core,
-    /// billions on a GPU: the caller's estimate); `build_threads` the threads the build runs on.
-    /// An estimate from the measured constants, not a measurement of this scene: on the 2-core
-    /// machine a 128x128, 4-spp CPU render of a million triangles chooses `Fast` (0.6 s of
-    /// build instead of 2 s), a 1000x1000, 100-spp one `Quality`.
+    /// soonest, build and trace together: the one of least
+    /// `BUILD_SECONDS[p] * primitives / build_threads + TRACE_FACTOR[p] * rays / rays_per_second`
+    /// ([`PRESET_BUILD_SECONDS`], [`PRESET_TRACE_FACTOR`]: the extra build per primitive and
+    /// thread over `Fastest`'s, and the trace time relative to `Fastest`'s).
+    /// `rays_per_second` is the backend's rate with a `Fastest` tree (a few million on a CPU
+    /// core, billions on a GPU: the caller's estimate); `build_threads` the threads the build
+    /// runs on. An estimate from the measured constants, not a measurement of this scene: on
+    /// the 2-core machine a 128x128, 4-spp CPU render of a million triangles chooses
+    /// `Fastest`, a 1000x1000, 100-spp one `Quality`.
     pub fn for_work(
         primitives: usize,
         rays: f64,
         rays_per_second: f64,
         build_threads: usize,
     ) -> BvhQuality {
-        let extra_build =
-            QUALITY_EXTRA_BUILD_SECONDS * primitives as f64 / build_threads.max(1) as f64;
-        let saved = QUALITY_TRACE_GAIN * rays / rays_per_second.max(1.0);
-        if saved > extra_build {
-            BvhQuality::Quality
-        } else {
-            BvhQuality::Fast
-        }
+        let threads = build_threads.max(1) as f64;
+        let trace = rays / rays_per_second.max(1.0);
+        let cost = |i: usize| {
+            PRESET_BUILD_SECONDS[i] * primitives as f64 / threads + PRESET_TRACE_FACTOR[i] * trace
+        };
+        // The last of equal costs: with nothing to build, the better tree.
+        let best = (0..3).fold(0, |b, i| if cost(i) <= cost(b) { i } else { b });
+        BvhQuality::ALL[best]
     }
 
-    /// Lower-case name for logs and stats ("fast", "quality").
+    /// Lower-case name for logs and stats ("fastest", "fast", "quality").
     pub const fn name(self) -> &'static str {
         match self {
+            BvhQuality::Fastest => "fastest",
             BvhQuality::Fast => "fast",
             BvhQuality::Quality => "quality",
         }
@@ -107,26 +117,29 @@ impl std::str::FromStr for BvhQuality {
 
     fn from_str(s: &str) -> Result<Self, Self::Err> {
         match s {
+            "fastest" => Ok(BvhQuality::Fastest),
             "fast" => Ok(BvhQuality::Fast),
             "quality" => Ok(BvhQuality::Quality),
             other => Err(format!(
-                "unknown BVH preset '{other}' (expected fast or quality)"
+                "unknown BVH preset '{other}' (expected fastest, fast or quality)"
             )),
         }
     }
 }
 
-/// What `Quality`'s build costs beyond `Fast`'s, seconds per primitive on one thread: the
-/// eight-wide build of the 1M-triangle grid of `benches/build.rs` on the 2-core machine
-/// (2026-12-02), 2.06 s against 0.63 s on 2 threads, so (2.06 - 0.63) x 2 / 10^6 (the
-/// 100k grid and the living room measure 1.6–3 us; reinsertion grows a little faster
-/// than linearly).
-pub const QUALITY_EXTRA_BUILD_SECONDS: f64 = 2.9e-6;
+/// What each preset's build costs beyond `Fastest`'s, seconds per primitive on one thread
+/// ([`BvhQuality::ALL`]'s order), from the eight-wide builds of `benches/build.rs`'s grids on
+/// the 2-core machine (2026-12-02, best of 3, 2 threads): at 3M triangles `Fast` 1.56 s
+/// against `Fastest`'s 1.26 s, so 0.30 x 2 / 3e6 = 0.2 us; at 1M `Quality` 2.06 s against
+/// `Fast`'s 0.63 s, 1.43 x 2 / 1e6 = 2.9 us more (the 100k grid and the living room measure
+/// 1.6–3 us; reinsertion grows a little faster than linearly).
+pub const PRESET_BUILD_SECONDS: [f64; 3] = [0.0, 0.2e-6, 3.1e-6];
 
-/// How much faster `Quality`'s rays are than `Fast`'s, as a fraction of the trace time: the
-/// table above measured 8–15 % on incoherent rays (one CPU thread, binary layout); 0.1 is
+/// Each preset's trace time relative to `Fastest`'s ([`BvhQuality::ALL`]'s order): the
+/// table above measured `Fast`'s incoherent rays 9–12 % faster than `Fastest`'s and
+/// `Quality`'s 8–15 % faster than `Fast`'s (one CPU thread, binary layout); 10 % a step is
 /// taken for every backend and layout.
-pub const QUALITY_TRACE_GAIN: f64 = 0.1;
+pub const PRESET_TRACE_FACTOR: [f64; 3] = [1.0, 0.9, 0.81];
 
 #[cfg(test)]
 mod tests {
@@ -151,24 +164,32 @@ mod tests {
 
     #[test]
     fn work_decides_the_preset() {
-        // A million primitives on 2 threads: Quality costs ~1.45 s more. At 4 Mrays/s it needs
-        // 1.45 / 0.1 * 4e6 = 58 M rays to pay.
+        // A million primitives on 2 threads at 4 Mrays/s: Fast's build costs 0.1 s more than
+        // Fastest's and saves 10 % of the trace, so it pays from 0.1 / 0.1 * 4e6 = 4 M rays;
+        // Quality's costs 1.45 s more than Fast's and saves 0.09 of Fastest's trace time, so
+        // it pays from 1.45 / 0.09 * 4e6 = 64 M rays.
         let choose = |rays: f64| BvhQuality::for_work(1_000_000, rays, 4e6, 2);
-        assert_eq!(choose(128.0 * 128.0 * 4.0 * 11.0), BvhQuality::Fast);
-        assert_eq!(choose(50e6), BvhQuality::Fast);
+        assert_eq!(choose(128.0 * 128.0 * 4.0 * 11.0), BvhQuality::Fastest);
+        assert_eq!(choose(3.5e6), BvhQuality::Fastest);
+        assert_eq!(choose(4.5e6), BvhQuality::Fast);
+        assert_eq!(choose(60e6), BvhQuality::Fast);
         assert_eq!(choose(70e6), BvhQuality::Quality);
-        // More build threads make Quality cheaper; a faster backend makes it pay later.
+        // More build threads make the better builds cheaper; a faster backend makes them pay
+        // later.
         assert_eq!(
-            BvhQuality::for_work(1_000_000, 50e6, 4e6, 4),
+            BvhQuality::for_work(1_000_000, 60e6, 4e6, 4),
             BvhQuality::Quality
         );
         assert_eq!(
             BvhQuality::for_work(1_000_000, 70e6, 4e9, 2),
-            BvhQuality::Fast
+            BvhQuality::Fastest
         );
         // No primitives: nothing to build, Quality is free.
         assert_eq!(BvhQuality::for_work(0, 1.0, 4e6, 2), BvhQuality::Quality);
-        // No rays: Fast (a non-empty scene), and nonsense rates do not divide by zero.
-        assert_eq!(BvhQuality::for_work(10, 0.0, 0.0, 0), BvhQuality::Fast);
+        // No rays: Fastest (a non-empty scene), and nonsense rates do not divide by zero.
+        assert_eq!(BvhQuality::for_work(10, 0.0, 0.0, 0), BvhQuality::Fastest);
+        for q in BvhQuality::ALL {
+            assert_eq!(q.name().parse::<BvhQuality>(), Ok(q));
+        }
     }
 }

@@ -31,7 +31,7 @@ fn check_fixture(f: Fixture, seed: u64) {
         "{}: only {hits} of {QUERIES} queries hit",
         f.name
     );
-    for (quality, layout) in [BvhQuality::Fast, BvhQuality::Quality]
+    for (quality, layout) in BvhQuality::ALL
         .into_iter()
         .flat_map(|q| [(q, BvhLayout::Binary), (q, BvhLayout::Wide)])
     {

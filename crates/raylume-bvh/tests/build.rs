@@ -11,7 +11,7 @@ use raylume_bvh::{
 use raylume_scene::{Scene, Sphere, Triangle};
 use support::{Fixture, brute_force, check_against_brute_force, queries};
 
-const QUALITIES: [BvhQuality; 2] = [BvhQuality::Fast, BvhQuality::Quality];
+const QUALITIES: [BvhQuality; 3] = BvhQuality::ALL;
 
 /// The binary layout's tree (these tests read its `nodes`).
 fn build_binary(

@@ -6,8 +6,9 @@
 use std::collections::HashMap;
 
 use glam::Vec3;
-use raylume_bvh::{GpuBvh, PRIM_SPHERE, PRIM_TRIANGLE};
+use raylume_bvh::{GpuBvh, PRIM_SPHERE, PRIM_TRIANGLE, Primitive};
 use raylume_scene::{Camera, Environment, MaterialKind, Scene, Texture};
+use rayon::prelude::*;
 
 use crate::KernelError;
 use crate::TraceSettings;
@@ -331,12 +332,10 @@ impl SceneData {
 
         let has_shading = scene
             .triangles
-            .iter()
+            .par_iter()
             .any(|t| t.normals.is_some() || t.uvs.is_some());
-        let n_prims = bvh.primitives.len();
-        let mut prim_materials = Vec::with_capacity(n_prims);
-        let mut triangle_shading = Vec::with_capacity(if has_shading { n_prims } else { 0 });
-        for (leaf, p) in bvh.primitives.iter().enumerate() {
+        // Each leaf primitive's material and shading data, on every core.
+        let lookup = |leaf: usize, p: &Primitive| -> Result<(u32, TriangleShading), KernelError> {
             let index = p.scene_index() as usize;
             let (material, shading) = match p.kind() {
                 PRIM_TRIANGLE => {
@@ -382,11 +381,33 @@ impl SceneData {
                     scene.materials.len()
                 )));
             }
-            prim_materials.push(material);
-            if has_shading {
-                triangle_shading.push(shading);
-            }
+            Ok((material, shading))
+        };
+        // The first bad primitive's error, as a loop would report it.
+        if let Some(e) = bvh
+            .primitives
+            .par_iter()
+            .enumerate()
+            .find_map_first(|(leaf, p)| lookup(leaf, p).err())
+        {
+            return Err(e);
         }
+        let looked_up = |leaf: usize, p: &Primitive| lookup(leaf, p).unwrap_or_default();
+        let prim_materials: Vec<u32> = bvh
+            .primitives
+            .par_iter()
+            .enumerate()
+            .map(|(leaf, p)| looked_up(leaf, p).0)
+            .collect();
+        let triangle_shading: Vec<TriangleShading> = if has_shading {
+            bvh.primitives
+                .par_iter()
+                .enumerate()
+                .map(|(leaf, p)| looked_up(leaf, p).1)
+                .collect()
+        } else {
+            Vec::new()
+        };
 
         let mut data = SceneData {
             camera: scene.camera,

@@ -113,7 +113,8 @@ pub struct RenderStats {
     /// True when the BVH came from the tracer's cache (the same geometry as the last render:
     /// `seconds.bvh` is then the time to recognise it).
     pub bvh_cached: bool,
-    /// The BVH preset the tree was built with (`"fast"` or `"quality"`: `Tracer::bvh_quality`;
+    /// The BVH preset the tree was built with (`"fastest"`, `"fast"` or `"quality"`:
+    /// `Tracer::bvh_quality`;
     /// for a cached tree, the preset it was built with).
     pub bvh_preset: String,
     /// True when the preset was chosen for this render from the work ahead
