@@ -12,7 +12,9 @@
 # (megakernel,wavefront,persistent), T1_BVH (binary,wide), T1_REORDER (off,on), T1_QUICK=1 (the
 # Cornell box and the living room only), T1_PERSISTENT_THREADS (the persistent schedule's thread
 # counts tried besides the default, RAYLUME_PERSISTENT_THREADS), T1_PARTS (which parts run: "plain
-# nee threads mitsuba first-image", all by default). Results: $OUT/table1.tgz.
+# nee threads mitsuba first-image large", all by default; `large` is issue 19's: the 3M-triangle
+# grid of tools/large made there and rendered from file to a 10-spp PNG by raylume and by
+# Mitsuba, T1_GRID quads a side, default 1224). Results: $OUT/table1.tgz.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 mode=${1:-}
@@ -22,13 +24,13 @@ stage() {
   cd "$root"
   [ -d .gl ] || ../shared/gpu/prepare.sh
   mkdir -p .gpu
-  cargo build --release -p raylume --example bench --example render
-  for b in bench render; do
+  cargo build --release -p raylume --example bench --example render --example make_grid
+  for b in bench render make_grid; do
     cp target/release/examples/$b .gpu/$b && strip .gpu/$b && xz -f -T2 .gpu/$b
   done
   [ -f .gpu/mitsuba-trim.tar.xz ] || ../shared/peers/mitsuba/pack.sh
   cp ../shared/peers/mitsuba/tungsten.py ../shared/peers/mitsuba/cornell.py .gpu/
-  cp "$here/mitsuba_table1.py" .gpu/
+  cp "$here/mitsuba_table1.py" "$here/../large/mitsuba_grid.py" "$here/../large/large.sh" .gpu/
   cp "$here/table1.sh" .gpu/table1-device.sh
   git rev-parse --short HEAD > .gpu/commit.txt
   git status --porcelain --untracked-files=no | grep -q . && echo "(uncommitted changes)" >> .gpu/commit.txt
@@ -42,7 +44,7 @@ device() {
   el() { echo $(($(date +%s) - T0)); }
   R=/tmp/t1; rm -rf $R; mkdir -p $R
   trap 'tar czf "$OUT/table1.tgz" -C '$R' . ; echo "== done at $(el) s"' EXIT
-  for b in bench render; do xz -dc .gpu/$b.xz > /tmp/$b && chmod +x /tmp/$b; done
+  for b in bench render make_grid; do xz -dc .gpu/$b.xz > /tmp/$b && chmod +x /tmp/$b; done
   m=$(mktemp -d); tar -C "$m" -xJf .gpu/mitsuba-trim.tar.xz
   export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
   cp .gpu/commit.txt $R/
@@ -50,7 +52,7 @@ device() {
   S=${T1_SCENES:-"scenes/cornell-box.toml scenes/living-room/scene.json scenes/teapot.toml scenes/glass-teapot.toml scenes/spheres.toml scenes/cornell-plus.toml"}
   [ "${T1_QUICK:-0}" = 1 ] && S="scenes/cornell-box.toml scenes/living-room/scene.json"
   local common="--backend gpu --spp ${T1_SPP:-1,10,100} --repeat 3 --schedule ${T1_SCHEDULES:-megakernel,wavefront,persistent} --reorder ${T1_REORDER:-off,on} --bvh ${T1_BVH:-binary,wide}"
-  local parts=" ${T1_PARTS:-plain nee threads mitsuba first-image} "
+  local parts=" ${T1_PARTS:-plain nee threads mitsuba first-image large} "
   if [[ $parts == *" plain "* ]]; then
   echo "== Table 1, plain estimator (at $(el) s)"
   timeout 300 /tmp/bench $common --json $R/plain.json $S > $R/plain.md 2> $R/plain.log || echo "bench plain: exit $?"
@@ -97,6 +99,22 @@ device() {
       --tungsten .gpu/tungsten.py --spp 1 > /tmp/mi$k.log 2>&1 || true)
     head -1 /tmp/mi$k.log
     cp /tmp/mi$k/living-room-mi-table1.json $R/mitsuba-first-image-$k.json 2>/dev/null || true
+  done
+  fi
+  if [[ $parts == *" large "* ]]; then
+  echo "== issue 19: the ${T1_GRID:-1224}^2-quad grid from file to a 10-spp PNG (at $(el) s)"
+  local g=/tmp/grid n=${T1_GRID:-1224}
+  SIZES=$n MAKE_GRID=/tmp/make_grid bash .gpu/large.sh make $g > /dev/null
+  ls -la $g | tail -2
+  for k in 1 2; do
+    TIMEFORMAT="raylume grid, process $k: %R s"
+    time (timeout 60 /tmp/render $g/grid-$n.toml -o /tmp/grid.png --backend gpu --spp 10 \
+      --stats $R/render-grid-$k.json -q 2>&1 | grep -E '^raylume: trace')
+  done
+  for k in 1 2; do
+    TIMEFORMAT="mitsuba grid, process $k: %R s"
+    time (PYTHONPATH=$m timeout 100 python3 .gpu/mitsuba_grid.py $g/grid-$n.obj $R/mitsuba-grid-$k.json \
+      --variant cuda_ad_rgb --size 1000x1000 --spp 10 --png /tmp/grid-mi.png 2>&1 | tail -1)
   done
   fi
 }
