@@ -74,6 +74,11 @@ struct Args {
     /// it takes the tree that traces fastest (the library chooses by the work ahead).
     #[arg(long, default_value = "quality")]
     bvh_preset: raylume::BvhQuality,
+    /// Comma-separated: on (pipelines specialised on the scene's features, the library's
+    /// default), off (the generic pipeline, every feature compiled in: the baseline). On the
+    /// CPU both run the same code.
+    #[arg(long, default_value = "on", value_delimiter = ',', value_parser = parse_on_off)]
+    specialise: Vec<OnOff>,
     /// Samples per pixel per batch.
     #[arg(long)]
     batch_spp: Option<u32>,
@@ -139,11 +144,13 @@ struct Config {
     mode: ReorderMode,
     key_bits: u32,
     layout: raylume::BvhLayout,
+    /// The generic pipeline (every feature compiled in) instead of the scene's specialised one.
+    generic: bool,
 }
 
 impl Config {
     /// Column name: `megakernel`, `wavefront`, `on sort-index`, `on sort-index/16`, `auto`,
-    /// with ` wide` after it for the wide BVH layout.
+    /// with ` wide` after it for the wide BVH layout and ` generic` for the generic pipeline.
     fn name(&self) -> String {
         let bits = if self.key_bits == 30 {
             String::new()
@@ -155,9 +162,14 @@ impl Config {
             ReorderPolicy::On => format!("on {}{bits}", self.mode.name()),
             ReorderPolicy::Auto => format!("auto{bits}"),
         };
-        match self.layout {
+        let base = match self.layout {
             raylume::BvhLayout::Binary => base,
             raylume::BvhLayout::Wide => format!("{base} wide"),
+        };
+        if self.generic {
+            format!("{base} generic")
+        } else {
+            base
         }
     }
 }
@@ -176,6 +188,9 @@ struct Row {
     reorder: String,
     /// The key width `on` and `auto` sorted by (0 for `off`).
     key_bits: u32,
+    /// The features the GPU pipelines were compiled for (`RenderStats::pipeline_features`):
+    /// the scene's, or all of them for `--specialise off`.
+    pipeline_features: Vec<&'static str>,
     spp: u32,
     width: u32,
     height: u32,
@@ -201,6 +216,7 @@ fn configs(args: &Args) -> Vec<Config> {
     } else {
         args.bvh.clone()
     };
+    let generic: Vec<bool> = args.specialise.iter().map(|&on| !on.0).collect();
     layouts
         .into_iter()
         .flat_map(|layout| {
@@ -208,6 +224,7 @@ fn configs(args: &Args) -> Vec<Config> {
                 .into_iter()
                 .map(move |c| Config { layout, ..c })
         })
+        .flat_map(|c| generic.iter().map(move |&generic| Config { generic, ..c }))
         .collect()
 }
 
@@ -226,6 +243,7 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                 mode: ReorderMode::Off,
                 key_bits: 30,
                 layout,
+                generic: false,
             })),
             ReorderPolicy::On => {
                 for &key_bits in &args.reorder_bits {
@@ -235,6 +253,7 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                         mode,
                         key_bits,
                         layout,
+                        generic: false,
                     }))
                 }
             }
@@ -244,10 +263,23 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                 mode: ReorderMode::SortIndex,
                 key_bits: first_bits,
                 layout,
+                generic: false,
             }),
         }
     }
     out
+}
+
+/// `on` or `off`.
+#[derive(Clone, Copy, Debug)]
+struct OnOff(bool);
+
+fn parse_on_off(s: &str) -> Result<OnOff, String> {
+    match s {
+        "on" => Ok(OnOff(true)),
+        "off" => Ok(OnOff(false)),
+        other => Err(format!("expected on or off, not '{other}'")),
+    }
 }
 
 fn stem(path: &std::path::Path) -> String {
@@ -277,6 +309,7 @@ fn apply(tracer: &mut Tracer, config: &Config) {
     }
     tracer.reorder_key_bits = config.key_bits;
     tracer.bvh_layout = config.layout;
+    tracer.specialise = !config.generic;
 }
 
 fn run(args: Args) -> Result<(), String> {
@@ -416,6 +449,7 @@ fn run(args: Args) -> Result<(), String> {
                     } else {
                         config.key_bits
                     },
+                    pipeline_features: s.pipeline_features.clone(),
                     spp,
                     width: w,
                     height: h,

@@ -228,6 +228,12 @@ pub struct Tracer {
     /// compressed eight-wide one. The two find the same hits; which is faster depends on the
     /// scene and the device (`docs/RESULTS.md`).
     pub bvh_layout: BvhLayout,
+    /// Specialise the GPU pipelines on the scene's features (default true): code for an
+    /// effect the scene does not call for is compiled out (WGSL override constants). False
+    /// compiles the generic pipeline, every feature on: the baseline that specialisation is
+    /// measured against (`bench --generic`). The image is the same either way. The CPU mirror
+    /// branches on the scene's data and is the same in both.
+    pub specialise: bool,
     /// Run the scene's bloom, if it has one (`--no-bloom` clears this).
     pub bloom: bool,
     /// Exposure, tone curve and encoding for `.png` output.
@@ -241,9 +247,10 @@ pub struct Tracer {
     gpu_workspace: Option<GpuWorkspace>,
     /// `Auto`'s measurements and decisions, by [`fingerprint`].
     auto: HashMap<u64, AutoState>,
-    /// The GPU pipelines of the last render, kept for the next render of a scene with the
-    /// same features and BVH layout (compiling them is most of a first image's time).
-    gpu_pipelines: Option<Arc<TracerPipelines>>,
+    /// The GPU pipelines of the last renders (most recent first, at most
+    /// [`PIPELINE_CACHE_ENTRIES`]), kept for the next render with the same features and BVH
+    /// layout (compiling them is most of a first image's time).
+    gpu_pipelines: Vec<Arc<TracerPipelines>>,
     /// Seconds the GPU context took to create, until a render reports them.
     device_seconds: Option<f64>,
     /// The last BVHs built (at most [`BVH_CACHE_ENTRIES`], the latest first), each for the
@@ -256,6 +263,10 @@ pub struct Tracer {
 /// BVHs the tracer keeps: two, so that a benchmark alternating layouts or presets on one
 /// scene builds each tree once.
 const BVH_CACHE_ENTRIES: usize = 2;
+
+/// Pipeline sets (features x BVH layout) a tracer keeps: a bench alternating the generic and
+/// the specialised pipeline, or two layouts, compiles each once.
+const PIPELINE_CACHE_ENTRIES: usize = 4;
 
 /// A built BVH and the exact geometry it was built from.
 struct BvhCacheEntry {
@@ -365,6 +376,7 @@ impl Tracer {
             target_error: None,
             bvh_quality: None,
             bvh_layout: BvhLayout::default(),
+            specialise: true,
             bloom: true,
             tone: raylume_post::ToneMap::default(),
             progress: None,
@@ -373,7 +385,7 @@ impl Tracer {
             gpu_bloom: None,
             gpu_workspace: None,
             auto: HashMap::new(),
-            gpu_pipelines: None,
+            gpu_pipelines: Vec::new(),
             device_seconds: None,
             bvh_cache: Vec::new(),
         }
@@ -419,7 +431,7 @@ impl Tracer {
         self.gpu = None;
         self.gpu_bloom = None;
         self.gpu_workspace = None;
-        self.gpu_pipelines = None;
+        self.gpu_pipelines.clear();
     }
 
     /// Uses an existing GPU context (and its adapter) for GPU renders.
@@ -427,7 +439,7 @@ impl Tracer {
         self.gpu = Some(ctx);
         self.gpu_bloom = None;
         self.gpu_workspace = None;
-        self.gpu_pipelines = None;
+        self.gpu_pipelines.clear();
         // Measurements belong to an adapter.
         self.auto.clear();
         self
@@ -453,13 +465,14 @@ impl Tracer {
             scene,
             &self.trace_settings(scene),
             &format!(
-                "{:?} {:?} {} {} {} {:?}",
+                "{:?} {:?} {} {} {} {:?} {}",
                 self.bvh_quality,
                 self.bvh_layout,
                 self.reorder_key_bits,
                 self.estimator.name(),
                 self.sampler.name(),
-                self.russian_roulette
+                self.russian_roulette,
+                self.specialise
             ),
         )
     }
@@ -699,7 +712,15 @@ impl Tracer {
         // On the GPU, the pipelines (a second of driver compilation on the H200) do not depend
         // on the BVH: they are compiled on another thread while it is built, or come from the
         // last render of a scene with the same features and layout.
-        let pipeline_key = (scene.features(), self.bvh_layout);
+        let pipeline_features = if self.specialise {
+            scene.features()
+        } else {
+            raylume_scene::Features::all()
+        };
+        if use_gpu {
+            stats.pipeline_features = pipeline_features.names();
+        }
+        let pipeline_key = (pipeline_features, self.bvh_layout);
         let first_schedule = if settings.reorder.sorts_any(settings.max_bounces) {
             Schedule::Wavefront
         } else {
@@ -707,8 +728,8 @@ impl Tracer {
         };
         let reuse = self
             .gpu_pipelines
-            .as_ref()
-            .filter(|p| (p.features(), p.bvh_layout()) == pipeline_key)
+            .iter()
+            .find(|p| (p.features(), p.bvh_layout()) == pipeline_key)
             .cloned();
         let gpu = self.gpu.as_ref().filter(|_| use_gpu);
         let (bvh, pipelines) = std::thread::scope(|threads| {
@@ -748,11 +769,10 @@ impl Tracer {
         };
         if let Some(p) = &pipelines {
             stats.seconds.pipelines = p.seconds();
-            stats.pipelines_cached = self
-                .gpu_pipelines
-                .as_ref()
-                .is_some_and(|q| Arc::ptr_eq(p, q));
-            self.gpu_pipelines = Some(p.clone());
+            stats.pipelines_cached = self.gpu_pipelines.iter().any(|q| Arc::ptr_eq(p, q));
+            self.gpu_pipelines.retain(|q| !Arc::ptr_eq(p, q));
+            self.gpu_pipelines.insert(0, p.clone());
+            self.gpu_pipelines.truncate(PIPELINE_CACHE_ENTRIES);
         }
         stats.bvh_nodes = bvh.stats.node_count;
         stats.bvh_builder = format!(
