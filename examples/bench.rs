@@ -74,11 +74,12 @@ struct Args {
     /// it takes the tree that traces fastest (the library chooses by the work ahead).
     #[arg(long, default_value = "quality")]
     bvh_preset: raylume::BvhQuality,
-    /// Comma-separated: on (pipelines specialised on the scene's features, the library's
-    /// default), off (the generic pipeline, every feature compiled in: the baseline). On the
-    /// CPU both run the same code.
-    #[arg(long, default_value = "on", value_delimiter = ',', value_parser = parse_on_off)]
-    specialise: Vec<OnOff>,
+    /// Comma-separated ways the GPU pipelines are specialised on the scene's features:
+    /// composed (the library's default: absent features' code left out of the source),
+    /// overrides (the full source, WGSL override constants), generic (every feature compiled
+    /// in: the baseline). On the CPU all run the same code.
+    #[arg(long, default_value = "composed", value_delimiter = ',')]
+    specialise: Vec<raylume::Specialisation>,
     /// Samples per pixel per batch.
     #[arg(long)]
     batch_spp: Option<u32>,
@@ -144,13 +145,14 @@ struct Config {
     mode: ReorderMode,
     key_bits: u32,
     layout: raylume::BvhLayout,
-    /// The generic pipeline (every feature compiled in) instead of the scene's specialised one.
-    generic: bool,
+    /// How the GPU pipelines are specialised (`--specialise`).
+    specialisation: raylume::Specialisation,
 }
 
 impl Config {
     /// Column name: `megakernel`, `wavefront`, `on sort-index`, `on sort-index/16`, `auto`,
-    /// with ` wide` after it for the wide BVH layout and ` generic` for the generic pipeline.
+    /// with ` wide` after it for the wide BVH layout and ` generic` or ` overrides` when the
+    /// pipelines are not specialised the library's default way.
     fn name(&self) -> String {
         let bits = if self.key_bits == 30 {
             String::new()
@@ -166,10 +168,10 @@ impl Config {
             raylume::BvhLayout::Binary => base,
             raylume::BvhLayout::Wide => format!("{base} wide"),
         };
-        if self.generic {
-            format!("{base} generic")
-        } else {
+        if self.specialisation == raylume::Specialisation::default() {
             base
+        } else {
+            format!("{base} {}", self.specialisation.name())
         }
     }
 }
@@ -189,8 +191,13 @@ struct Row {
     /// The key width `on` and `auto` sorted by (0 for `off`).
     key_bits: u32,
     /// The features the GPU pipelines were compiled for (`RenderStats::pipeline_features`):
-    /// the scene's, or all of them for `--specialise off`.
+    /// the scene's, or all of them for `--specialise generic`.
     pipeline_features: Vec<&'static str>,
+    /// How they were specialised (`RenderStats::specialisation`).
+    specialisation: String,
+    /// Seconds the tracer's first render of this configuration spent compiling its pipelines
+    /// (0 when another configuration had compiled the same ones).
+    pipelines_s: f64,
     spp: u32,
     width: u32,
     height: u32,
@@ -216,7 +223,7 @@ fn configs(args: &Args) -> Vec<Config> {
     } else {
         args.bvh.clone()
     };
-    let generic: Vec<bool> = args.specialise.iter().map(|&on| !on.0).collect();
+    let kinds = args.specialise.clone();
     layouts
         .into_iter()
         .flat_map(|layout| {
@@ -224,7 +231,12 @@ fn configs(args: &Args) -> Vec<Config> {
                 .into_iter()
                 .map(move |c| Config { layout, ..c })
         })
-        .flat_map(|c| generic.iter().map(move |&generic| Config { generic, ..c }))
+        .flat_map(|c| {
+            kinds.iter().map(move |&specialisation| Config {
+                specialisation,
+                ..c
+            })
+        })
         .collect()
 }
 
@@ -243,7 +255,7 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                 mode: ReorderMode::Off,
                 key_bits: 30,
                 layout,
-                generic: false,
+                specialisation: raylume::Specialisation::default(),
             })),
             ReorderPolicy::On => {
                 for &key_bits in &args.reorder_bits {
@@ -253,7 +265,7 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                         mode,
                         key_bits,
                         layout,
-                        generic: false,
+                        specialisation: raylume::Specialisation::default(),
                     }))
                 }
             }
@@ -263,23 +275,11 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                 mode: ReorderMode::SortIndex,
                 key_bits: first_bits,
                 layout,
-                generic: false,
+                specialisation: raylume::Specialisation::default(),
             }),
         }
     }
     out
-}
-
-/// `on` or `off`.
-#[derive(Clone, Copy, Debug)]
-struct OnOff(bool);
-
-fn parse_on_off(s: &str) -> Result<OnOff, String> {
-    match s {
-        "on" => Ok(OnOff(true)),
-        "off" => Ok(OnOff(false)),
-        other => Err(format!("expected on or off, not '{other}'")),
-    }
 }
 
 fn stem(path: &std::path::Path) -> String {
@@ -309,7 +309,7 @@ fn apply(tracer: &mut Tracer, config: &Config) {
     }
     tracer.reorder_key_bits = config.key_bits;
     tracer.bvh_layout = config.layout;
-    tracer.specialise = !config.generic;
+    tracer.specialisation = config.specialisation;
 }
 
 fn run(args: Args) -> Result<(), String> {
@@ -405,6 +405,7 @@ fn run(args: Args) -> Result<(), String> {
             // touches every configuration alike instead of the last one timed.
             let mut best: Vec<Option<raylume::Render>> = configs.iter().map(|_| None).collect();
             let mut all: Vec<Vec<f64>> = vec![Vec::new(); configs.len()];
+            let mut first_pipelines: Vec<f64> = vec![0.0; configs.len()];
             let mut rounds = 0;
             while rounds < args.repeat.max(1)
                 || (rounds < MAX_ROUNDS
@@ -414,6 +415,9 @@ fn run(args: Args) -> Result<(), String> {
                 for (ci, config) in configs.iter().enumerate() {
                     apply(&mut tracer, config);
                     let r = tracer.render(&scene).map_err(|e| e.to_string())?;
+                    if all[ci].is_empty() && !r.stats.pipelines_cached {
+                        first_pipelines[ci] = r.stats.seconds.pipelines;
+                    }
                     all[ci].push(r.stats.seconds.trace);
                     if best[ci]
                         .as_ref()
@@ -450,6 +454,8 @@ fn run(args: Args) -> Result<(), String> {
                         config.key_bits
                     },
                     pipeline_features: s.pipeline_features.clone(),
+                    specialisation: s.specialisation.clone(),
+                    pipelines_s: first_pipelines[ci],
                     spp,
                     width: w,
                     height: h,

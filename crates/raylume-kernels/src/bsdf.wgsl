@@ -26,6 +26,7 @@ fn bsdf_eval_zero() -> BsdfEval {
     return BsdfEval(vec3<f32>(0.0), 0.0);
 }
 
+//#if metal|rough_metal|glass|rough_glass|plastic
 fn ggx_d(m: vec3<f32>, alpha: f32) -> f32 {
     let x = m.x / alpha;
     let y = m.y / alpha;
@@ -33,7 +34,9 @@ fn ggx_d(m: vec3<f32>, alpha: f32) -> f32 {
     let d = 1.0 / (PI * alpha * alpha * (s * s));
     return select(0.0, d, d * m.z > 1e-20);
 }
+//#endif
 
+//#if metal|rough_metal|glass|rough_glass|plastic
 fn smith_g1(v: vec3<f32>, m: vec3<f32>, alpha: f32) -> f32 {
     let xy_alpha_2 = (alpha * v.x) * (alpha * v.x) + (alpha * v.y) * (alpha * v.y);
     let tan_theta_alpha_2 = xy_alpha_2 / (v.z * v.z);
@@ -46,11 +49,15 @@ fn smith_g1(v: vec3<f32>, m: vec3<f32>, alpha: f32) -> f32 {
     }
     return g;
 }
+//#endif
 
+//#if metal|rough_metal
 fn sqrt3(v: vec3<f32>) -> vec3<f32> {
     return sqrt(v);
 }
+//#endif
 
+//#if metal|rough_metal
 // Exact conductor Fresnel (Mitsuba's fresnel_conductor); eta == 0 channels reflect exactly 1.
 fn fresnel_conductor(cos_i: f32, eta: vec3<f32>, k: vec3<f32>) -> vec3<f32> {
     let cos_i_2 = cos_i * cos_i;
@@ -68,6 +75,7 @@ fn fresnel_conductor(cos_i: f32, eta: vec3<f32>, k: vec3<f32>) -> vec3<f32> {
     let f = 0.5 * (r_s + r_p);
     return select(f, vec3<f32>(1.0), eta == vec3<f32>(0.0));
 }
+//#endif
 
 fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
     let inv_eta = 1.0 / eta;
@@ -86,6 +94,7 @@ fn sample_cosine_local(u: vec2<f32>) -> vec3<f32> {
 
 // ---- conductor / roughconductor ----
 
+//#if metal|rough_metal
 fn sample_conductor(
     dir: vec3<f32>,
     n: vec3<f32>,
@@ -130,7 +139,9 @@ fn sample_conductor(
         false,
     );
 }
+//#endif
 
+//#if metal|rough_metal
 fn eval_conductor(
     dir: vec3<f32>,
     n: vec3<f32>,
@@ -161,14 +172,18 @@ fn eval_conductor(
     let f = fresnel_conductor(min(cos_oh, 1.0), eta, k);
     return BsdfEval(reflectance * f * (pdf * smith_g1(wl, h, a)), pdf);
 }
+//#endif
 
 // ---- plastic (smooth coat) ----
 
+//#if plastic
 fn plastic_specular_weight(albedo: vec3<f32>) -> f32 {
     let d_mean = (albedo.x + albedo.y + albedo.z) * (1.0 / 3.0);
     return 1.0 / (d_mean + 1.0);
 }
+//#endif
 
+//#if plastic
 fn plastic_specular_probability(f_i: f32, w: f32) -> f32 {
     let ps = f_i * w;
     let pd = (1.0 - f_i) * (1.0 - w);
@@ -177,7 +192,9 @@ fn plastic_specular_probability(f_i: f32, w: f32) -> f32 {
     }
     return 1.0;
 }
+//#endif
 
+//#if plastic
 fn plastic_diffuse_local(wo: vec3<f32>, wl: vec3<f32>, ior: f32, albedo: vec3<f32>) -> BsdfEval {
     let inv_ior = 1.0 / ior;
     let f_i = fresnel_dielectric(min(wo.z, 1.0), inv_ior);
@@ -188,7 +205,9 @@ fn plastic_diffuse_local(wo: vec3<f32>, wl: vec3<f32>, ior: f32, albedo: vec3<f3
     let scale = inv_ior * inv_ior * (1.0 - f_i) * (1.0 - f_o) / (1.0 - fdr_int);
     return BsdfEval(albedo * (scale * cos_pdf), (1.0 - p_spec) * cos_pdf);
 }
+//#endif
 
+//#if plastic
 fn sample_plastic(dir: vec3<f32>, n: vec3<f32>, ior: f32, albedo: vec3<f32>, u: vec3<f32>) -> BsdfSample {
     let cos_i = -dot(dir, n);
     if (cos_i <= 0.0) {
@@ -211,7 +230,9 @@ fn sample_plastic(dir: vec3<f32>, n: vec3<f32>, ior: f32, albedo: vec3<f32>, u: 
     }
     return BsdfSample(to_world(wl, basis.t, basis.b, n), e.value / e.pdf, e.pdf, false);
 }
+//#endif
 
+//#if plastic
 fn eval_plastic(dir: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, ior: f32, albedo: vec3<f32>) -> BsdfEval {
     let basis = orthonormal_basis(n);
     let wo = to_local(-dir, basis.t, basis.b, n);
@@ -221,6 +242,7 @@ fn eval_plastic(dir: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, ior: f32, albedo: v
     }
     return plastic_diffuse_local(wo, wl, ior, albedo);
 }
+//#endif
 
 // ---- roughplastic ----
 
@@ -234,6 +256,7 @@ struct RoughPlasticTable {
     _pad2: f32,
 }
 
+//#if plastic
 fn rough_transmittance(table: ptr<function, RoughPlasticTable>, cos_i: f32) -> f32 {
     let x = cos_i * f32(ROUGH_TRANSMITTANCE_RES - 1u);
     let i = min(u32(x), ROUGH_TRANSMITTANCE_RES - 2u);
@@ -242,7 +265,9 @@ fn rough_transmittance(table: ptr<function, RoughPlasticTable>, cos_i: f32) -> f
     let t = x - f32(i);
     return v0 + (v1 - v0) * t;
 }
+//#endif
 
+//#if plastic
 fn rough_plastic_local(
     wo: vec3<f32>,
     wl: vec3<f32>,
@@ -267,7 +292,9 @@ fn rough_plastic_local(
         p_spec * spec_pdf + (1.0 - p_spec) * cos_pdf,
     );
 }
+//#endif
 
+//#if plastic
 fn sample_rough_plastic(
     dir: vec3<f32>,
     n: vec3<f32>,
@@ -301,7 +328,9 @@ fn sample_rough_plastic(
     }
     return BsdfSample(to_world(wl, basis.t, basis.b, n), e.value / e.pdf, e.pdf, false);
 }
+//#endif
 
+//#if plastic
 fn eval_rough_plastic(
     dir: vec3<f32>,
     n: vec3<f32>,
@@ -320,9 +349,11 @@ fn eval_rough_plastic(
     }
     return rough_plastic_local(wo, wl, a, ior, albedo, table);
 }
+//#endif
 
 // ---- roughdielectric ----
 
+//#if glass|rough_glass
 fn sample_rough_dielectric(
     dir: vec3<f32>,
     n: vec3<f32>,
@@ -367,7 +398,9 @@ fn sample_rough_dielectric(
     }
     return BsdfSample(to_world(wl, basis.t, basis.b, n), tint * (smith_g1(wl, m, a) * eta * eta), pdf, true);
 }
+//#endif
 
+//#if glass|rough_glass
 fn eval_rough_dielectric(
     dir: vec3<f32>,
     n: vec3<f32>,
@@ -413,3 +446,4 @@ fn eval_rough_dielectric(
     let pdf = (1.0 - f) * d * g1o * cos_oh * abs(cos_lh) / (wo.z * denom * denom);
     return BsdfEval(tint * (pdf * g1l * eta * eta), pdf);
 }
+//#endif

@@ -89,7 +89,7 @@ pub use cpu::CpuTracer;
 pub use error::KernelError;
 pub use gpu::{
     BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, GpuWorkspace, SortCapture,
-    StageTime, TraceStats, WavefrontBuffers,
+    Specialisation, StageTime, TraceStats, WavefrontBuffers,
 };
 
 use raylume_scene::RenderSettings;

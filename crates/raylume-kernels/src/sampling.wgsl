@@ -33,13 +33,16 @@ fn sample_diffuse(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     return to_world(local, basis.t, basis.b, n);
 }
 
+//#if spheres
 // sampling.rs `sphere_cone_one_minus_cos`: 1 - cos θmax as sin²/(1 + cos).
 fn sphere_cone_one_minus_cos(r: f32, d2: f32) -> f32 {
     let sin2 = min(r * r / d2, 1.0);
     let c = sqrt(max(1.0 - sin2, 0.0));
     return sin2 / (1.0 + c);
 }
+//#endif
 
+//#if spheres
 // sampling.rs `sphere_cap_pdf`.
 fn sphere_cap_pdf(center: vec3<f32>, r: f32, p: vec3<f32>) -> f32 {
     let to_c = center - p;
@@ -49,6 +52,7 @@ fn sphere_cap_pdf(center: vec3<f32>, r: f32, p: vec3<f32>) -> f32 {
     }
     return 1.0 / (2.0 * PI * sphere_cone_one_minus_cos(r, d2));
 }
+//#endif
 
 // sampling.rs `sample_sphere_cap` (pbrt-v4 Sphere::Sample(ctx, u)); `valid` false on or
 // inside the sphere.
@@ -57,6 +61,7 @@ struct CapSample {
     valid: bool,
 }
 
+//#if spheres
 fn sample_sphere_cap(center: vec3<f32>, r: f32, p: vec3<f32>, u: vec2<f32>) -> CapSample {
     let to_c = center - p;
     let d2 = dot(to_c, to_c);
@@ -76,6 +81,7 @@ fn sample_sphere_cap(center: vec3<f32>, r: f32, p: vec3<f32>, u: vec2<f32>) -> C
     let n = -to_world(vec3<f32>(sin_alpha * cos(phi), sin_alpha * sin(phi), cos_alpha), basis.t, basis.b, w);
     return CapSample(center + n * r, true);
 }
+//#endif
 
 fn smith_lambda(w: vec3<f32>, alpha: f32) -> f32 {
     let a2_tan2 = alpha * alpha * (w.x * w.x + w.y * w.y) / (w.z * w.z);

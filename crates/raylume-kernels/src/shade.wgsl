@@ -14,33 +14,47 @@ struct PathState {
 fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, rnd: vec4<f32>, last: bool, emission_weight: f32) -> f32 {
     let ng = hit.geometric_normal;
     let front = dot((*path).dir, ng) < 0.0;
+//#if emission
     if (HAS_EMISSION && (front || (mat.flags & MATERIAL_TWO_SIDED) != 0u)) {
         (*path).radiance += (*path).throughput * mat.emission * emission_weight;
     }
+//#endif
     if (last) {
         (*path).alive = false;
         return 0.0;
     }
     let ng_facing = select(-ng, ng, front);
     let ns_facing = select(-hit.shading_normal, hit.shading_normal, front);
+    // One branch per material kind (the kinds exclude each other); each is left out of the
+    // composed source of a scene without that material (`//#if`, gpu/shader.rs `compose`).
     var s = bsdf_absorbed((*path).dir);
+//#if diffuse
     if (HAS_DIFFUSE && mat.kind == MATERIAL_DIFFUSE) {
         let wi = sample_diffuse(ns_facing, rnd.xy);
         s = BsdfSample(wi, mat.color, max(dot(wi, ns_facing), 0.0) * INV_PI, false);
-    } else if ((HAS_METAL || HAS_ROUGH_METAL) && mat.kind == MATERIAL_METAL) {
+    }
+//#endif
+//#if metal|rough_metal
+    if ((HAS_METAL || HAS_ROUGH_METAL) && mat.kind == MATERIAL_METAL) {
         var alpha = mat.alpha;
         if (!HAS_ROUGH_METAL) {
             alpha = 0.0;
         }
         s = sample_conductor((*path).dir, ns_facing, alpha, mat.color, mat.eta, mat.k, rnd.xy);
-    } else if ((HAS_GLASS || HAS_ROUGH_GLASS) && mat.kind == MATERIAL_GLASS) {
+    }
+//#endif
+//#if glass|rough_glass
+    if ((HAS_GLASS || HAS_ROUGH_GLASS) && mat.kind == MATERIAL_GLASS) {
         let eta = select(mat.ior, 1.0 / mat.ior, front);
         var alpha = mat.alpha;
         if (!HAS_ROUGH_GLASS) {
             alpha = 0.0;
         }
         s = sample_rough_dielectric((*path).dir, ns_facing, alpha, eta, mat.color, rnd.xyz);
-    } else if (HAS_PLASTIC && mat.kind == MATERIAL_PLASTIC) {
+    }
+//#endif
+//#if plastic
+    if (HAS_PLASTIC && mat.kind == MATERIAL_PLASTIC) {
         if (mat.alpha > 0.0) {
             var table = plastic_tables[mat.table];
             s = sample_rough_plastic((*path).dir, ns_facing, mat.alpha, mat.ior, mat.color, &table, rnd.xyz);
@@ -48,6 +62,7 @@ fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, 
             s = sample_plastic((*path).dir, ns_facing, mat.ior, mat.color, rnd.xyz);
         }
     }
+//#endif
     let wi = s.dir;
     let cos_g = dot(wi, ng_facing);
     let right_side = select((cos_g > 0.0), (cos_g < 0.0), s.transmitted);
@@ -91,22 +106,27 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     // weigh the scattered ray's estimate against the shadow ray's (shade.rs).
     var emission_weight = 1.0;
     var sample_here = false;
+//#if emission|constant_environment|environment_map
     if ((HAS_EMISSION || HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && (HAS_DIFFUSE || HAS_PLASTIC || HAS_ROUGH_METAL || HAS_ROUGH_GLASS)) {
         let prim = bvh_primitives[hit.prim];
         if ((*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_TRIANGLE) {
             let n = cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz);
             let cos_l = abs(dot(n, (*path).dir)) / length(n);
             emission_weight = mis_weight((*path).mis_pdf, light_pdf(mat.emission, hit.t * hit.t, cos_l));
-        } else if (HAS_SPHERES && (*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_SPHERE) {
+        }
+//#if spheres
+        if (HAS_SPHERES && (*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_SPHERE) {
             let cap_pdf = sphere_cap_pdf(prim.a.xyz, prim.a.w, (*path).origin);
             emission_weight = mis_weight((*path).mis_pdf, sphere_light_pdf(mat.emission, prim.a.w, cap_pdf));
         }
+//#endif
         sample_here = scene.light_count > 0u && samples_lights(mat) && !last;
         if (sample_here) {
             let rnd_light = path_rand4(pixel, sample, depth, DIM_LIGHT);
             (*path).radiance += (*path).throughput * sample_lights(surface, mat, (*path).dir, rnd_light);
         }
     }
+//#endif
     let rnd = path_rand4(pixel, sample, depth, DIM_SCATTER);
     let pdf = shade_hit(path, surface, mat, rnd, last, emission_weight);
     (*path).mis_pdf = select(0.0, pdf, sample_here);
@@ -153,9 +173,12 @@ fn eval_material(mat: GpuMaterial, dir_in: vec3<f32>, n: vec3<f32>, wi: vec3<f32
         let pdf = max(dot(n, wi), 0.0) * INV_PI;
         return BsdfEval(mat.color * pdf, pdf);
     }
+//#if rough_metal
     if (HAS_ROUGH_METAL && mat.kind == MATERIAL_METAL) {
         return eval_conductor(dir_in, n, wi, mat.alpha, mat.color, mat.eta, mat.k);
     }
+//#endif
+//#if plastic
     if (HAS_PLASTIC && mat.kind == MATERIAL_PLASTIC) {
         if (mat.alpha > 0.0) {
             var table = plastic_tables[mat.table];
@@ -163,10 +186,13 @@ fn eval_material(mat: GpuMaterial, dir_in: vec3<f32>, n: vec3<f32>, wi: vec3<f32
         }
         return eval_plastic(dir_in, n, wi, mat.ior, mat.color);
     }
+//#endif
+//#if rough_glass
     if (HAS_ROUGH_GLASS && mat.kind == MATERIAL_GLASS) {
         let eta = select(mat.ior, 1.0 / mat.ior, front);
         return eval_rough_dielectric(dir_in, n, wi, mat.alpha, eta, mat.color);
     }
+//#endif
     return bsdf_eval_zero();
 }
 
@@ -233,17 +259,17 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
             return vec3<f32>(0.0);
         }
     } else {
-        var point: vec3<f32>;
+        let su = sqrt(rnd.y);
+        var point = light.p0 + light.e1 * (su * (1.0 - rnd.z)) + light.e2 * (su * rnd.z);
+//#if spheres
         if (is_sphere) {
             let cap = sample_sphere_cap(light.p0, light.e1.x, origin, rnd.yz);
             if (!cap.valid) {
                 return vec3<f32>(0.0);
             }
             point = cap.point;
-        } else {
-            let su = sqrt(rnd.y);
-            point = light.p0 + light.e1 * (su * (1.0 - rnd.z)) + light.e2 * (su * rnd.z);
         }
+//#endif
         let to = point - origin;
         dist2 = dot(to, to);
         if (!(p_select > 0.0 && dist2 > 0.0)) {
@@ -276,11 +302,13 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
         let we = mis_weight(scene.environment_select * environment_pdf(wi), f.pdf);
         return f.value * environment_radiance(wi) * (we / (p_select * env_pdf));
     }
+//#if spheres
     if (is_sphere) {
         let cap_pdf = sphere_cap_pdf(light.p0, light.e1.x, origin);
         let ws = mis_weight(sphere_light_pdf(light.emission, light.e1.x, cap_pdf), f.pdf);
         return f.value * light.emission * (ws / (p_select * cap_pdf));
     }
+//#endif
     let w = mis_weight(light_pdf(light.emission, dist2, cos_l), f.pdf);
     return f.value * light.emission * (cos_l * light.area / (dist2 * p_select) * w);
 }

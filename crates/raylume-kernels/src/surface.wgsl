@@ -20,6 +20,7 @@ fn surface_at(hit: Hit, origin: vec3<f32>, dir: vec3<f32>) -> SurfaceHit {
     let prim = bvh_primitives[hit.prim];
     let material = prim_materials[hit.prim];
     let a = prim.a.xyz;
+//#if spheres
     if (HAS_SPHERES && bitcast<u32>(prim.b.w) == PRIM_SPHERE) {
         let radius = prim.a.w;
         let p = origin + dir * hit.t;
@@ -30,6 +31,7 @@ fn surface_at(hit: Hit, origin: vec3<f32>, dir: vec3<f32>) -> SurfaceHit {
         let offset = hit_offset(n, magnitude, 2.0 * radius, 1.0);
         return SurfaceHit(position, n, n, direction_to_equirect(n), material, offset, back_offset(magnitude, hit.t));
     }
+//#endif
     let b = prim.b.xyz;
     let c = prim.c.xyz;
     let w = 1.0 - hit.u - hit.v;
@@ -42,29 +44,40 @@ fn surface_at(hit: Hit, origin: vec3<f32>, dir: vec3<f32>) -> SurfaceHit {
     let offset = hit_offset(ng, magnitude, extent, extent * extent / length(cr));
     var ns = ng;
     var uv = vec2<f32>(hit.u, hit.v);
+//#if shading_normals|textures
     if (HAS_SHADING_NORMALS || HAS_TEXTURES) {
         let sh = triangle_shading[hit.prim];
+//#if shading_normals
         if (HAS_SHADING_NORMALS && (sh.flags & SHADING_HAS_NORMALS) != 0u) {
             let n = normalize(sh.n0 * w + sh.n1 * hit.u + sh.n2 * hit.v);
             ns = select(n, -n, dot(n, ng) < 0.0);
         }
+//#endif
+//#if textures
         if (HAS_TEXTURES && (sh.flags & SHADING_HAS_UVS) != 0u) {
             uv = vec2<f32>(sh.u0, sh.v0) * w + vec2<f32>(sh.u1, sh.v1) * hit.u
                 + vec2<f32>(sh.u2, sh.v2) * hit.v;
         }
+//#endif
     }
+//#endif
     return SurfaceHit(position, ng, ns, uv, material, offset, back_offset(magnitude, hit.t));
 }
 
+//#if textures|environment_map
 fn texel(offset: u32, width: u32, x: u32, y: u32) -> vec3<f32> {
     let i = (offset + y * width + x) * 3u;
     return vec3<f32>(texels[i], texels[i + 1u], texels[i + 2u]);
 }
+//#endif
 
+//#if textures|environment_map
 fn wrap_index(i: i32, n: i32) -> i32 {
     return ((i % n) + n) % n;
 }
+//#endif
 
+//#if textures|environment_map
 fn texture_bilinear(offset: u32, width: u32, height: u32, uv: vec2<f32>, wrap_v: bool) -> vec3<f32> {
     let w = i32(width);
     let h = i32(height);
@@ -97,20 +110,26 @@ fn texture_bilinear(offset: u32, width: u32, height: u32, uv: vec2<f32>, wrap_v:
     let bottom = t01 * (1.0 - fx) + t11 * fx;
     return top * (1.0 - fy) + bottom * fy;
 }
+//#endif
 
 fn material_at(surface: SurfaceHit) -> GpuMaterial {
     var m = materials[surface.material];
+//#if textures
     if (HAS_TEXTURES && m.texture != NO_TEXTURE && m.kind != MATERIAL_GLASS) {
         let h = texture_headers[m.texture];
         m.color = m.color * texture_bilinear(h.offset, h.width, h.height, surface.uv, true);
     }
+//#endif
     return m;
 }
 
 fn environment_radiance(dir: vec3<f32>) -> vec3<f32> {
+//#if constant_environment
     if (HAS_CONSTANT_ENVIRONMENT && scene.environment_kind == ENVIRONMENT_CONSTANT) {
         return scene.environment_color;
     }
+//#endif
+//#if environment_map
     if (HAS_ENVIRONMENT_MAP && scene.environment_kind == ENVIRONMENT_MAP) {
         let e = direction_to_equirect(dir);
         let uv = vec2<f32>(e.x + scene.environment_rotation, e.y);
@@ -123,9 +142,11 @@ fn environment_radiance(dir: vec3<f32>) -> vec3<f32> {
         );
         return l * scene.environment_color;
     }
+//#endif
     return vec3<f32>(0.0);
 }
 
+//#if environment_map
 // surface.rs `cdf_search`: the first i < count with cdf[i] > u, the CDF at texels[base..].
 fn cdf_search(base: u32, count: u32, u: f32) -> u32 {
     var lo = 0u;
@@ -140,7 +161,9 @@ fn cdf_search(base: u32, count: u32, u: f32) -> u32 {
     }
     return lo;
 }
+//#endif
 
+//#if environment_map
 // surface.rs `cdf_step`: (cdf[i] - cdf[i - 1], cdf[i - 1]).
 fn cdf_step(base: u32, i: u32) -> vec2<f32> {
     var before = 0.0;
@@ -149,12 +172,14 @@ fn cdf_step(base: u32, i: u32) -> vec2<f32> {
     }
     return vec2<f32>(texels[base + i] - before, before);
 }
+//#endif
 
 // surface.rs `environment_pdf`.
 fn environment_pdf(dir: vec3<f32>) -> f32 {
     if (!(HAS_ENVIRONMENT_MAP && scene.environment_kind == ENVIRONMENT_MAP)) {
         return 0.25 * INV_PI;
     }
+//#if environment_map
     let sin_theta = sqrt(max(1.0 - dir.y * dir.y, 0.0));
     if (!(sin_theta > 0.0)) {
         return 0.0;
@@ -169,6 +194,9 @@ fn environment_pdf(dir: vec3<f32>) -> f32 {
     let p_row = cdf_step(scene.environment_cdf, y).x;
     let p_col = cdf_step(scene.environment_cdf + h + y * w, x).x;
     return p_row * p_col * f32(w * h) / (2.0 * PI * PI * sin_theta);
+//#else
+    return 0.25 * INV_PI;
+//#endif
 }
 
 // surface.rs `sample_environment`: a direction and its solid-angle pdf.
@@ -184,6 +212,7 @@ fn sample_environment(u: vec2<f32>) -> EnvironmentSample {
         let phi = 2.0 * PI * u.y;
         return EnvironmentSample(vec3<f32>(r * cos(phi), z, r * sin(phi)), 0.25 * INV_PI);
     }
+//#if environment_map
     let w = scene.environment_width;
     let h = scene.environment_height;
     let y = cdf_search(scene.environment_cdf, h, u.x);
@@ -203,6 +232,9 @@ fn sample_environment(u: vec2<f32>) -> EnvironmentSample {
         return EnvironmentSample(dir, 0.0);
     }
     return EnvironmentSample(dir, row.x * col.x * f32(w * h) / (2.0 * PI * PI * sin_theta));
+//#else
+    return EnvironmentSample(vec3<f32>(0.0, 1.0, 0.0), 0.0);
+//#endif
 }
 
 // The next ray's origin: pushed off the surface by a bound on the rounding error of the hit

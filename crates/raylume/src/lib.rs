@@ -85,7 +85,9 @@ pub use tracer::{
 };
 
 pub use raylume_bvh::{BvhLayout, BvhQuality};
-pub use raylume_kernels::{BatchPlan, Estimator, Reorder, ReorderMode, Sampler, Schedule};
+pub use raylume_kernels::{
+    BatchPlan, Estimator, Reorder, ReorderMode, Sampler, Schedule, Specialisation,
+};
 pub use raylume_scene::{Feature, Features, RenderSettings, Scene};
 
 /// The scene model and its loaders (`raylume-scene`, re-exported): [`scene::Camera`],

@@ -84,8 +84,11 @@ pub struct RenderStats {
     /// The scene's features (what the kernels were specialised on).
     pub features: Vec<&'static str>,
     /// On the GPU, the features the pipelines were compiled for: the scene's, or every one
-    /// when `Tracer::specialise` is off (the generic baseline). Empty on the CPU.
+    /// for the generic baseline (`Tracer::specialisation`). Empty on the CPU.
     pub pipeline_features: Vec<&'static str>,
+    /// On the GPU, how the pipelines were specialised: `"composed"`, `"overrides"` or
+    /// `"generic"`. Empty on the CPU.
+    pub specialisation: String,
     /// `megakernel` or `wavefront` (`megakernel + wavefront (auto trials)` when
     /// `--reorder auto` measured both in this render).
     pub schedule: String,

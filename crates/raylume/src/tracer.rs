@@ -12,7 +12,7 @@ use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, GpuError};
 use raylume_kernels::batches::{RoundHook, RoundSums};
 use raylume_kernels::{
     BatchPlan, CpuTracer, Estimator, GpuTracer, GpuWorkspace, Reorder, ReorderMode, Sampler,
-    Schedule, TraceSettings, TraceStats, gpu::TracerPipelines,
+    Schedule, Specialisation, TraceSettings, TraceStats, gpu::TracerPipelines,
 };
 use raylume_scene::Scene;
 
@@ -228,12 +228,13 @@ pub struct Tracer {
     /// compressed eight-wide one. The two find the same hits; which is faster depends on the
     /// scene and the device (`docs/RESULTS.md`).
     pub bvh_layout: BvhLayout,
-    /// Specialise the GPU pipelines on the scene's features (default true): code for an
-    /// effect the scene does not call for is compiled out (WGSL override constants). False
-    /// compiles the generic pipeline, every feature on: the baseline that specialisation is
-    /// measured against (`bench --generic`). The image is the same either way. The CPU mirror
-    /// branches on the scene's data and is the same in both.
-    pub specialise: bool,
+    /// How the GPU pipelines are specialised on the scene's features
+    /// ([`Specialisation::Composed`] by default: the code of an effect the scene does not call
+    /// for is not in the shader at all; [`Specialisation::Overrides`]: it is, behind WGSL
+    /// override constants; [`Specialisation::Generic`]: every feature compiled in, the
+    /// baseline, `bench --specialise`). The image is the same every way (`tests/specialise.rs`).
+    /// The CPU mirror branches on the scene's data and is the same in all.
+    pub specialisation: Specialisation,
     /// Run the scene's bloom, if it has one (`--no-bloom` clears this).
     pub bloom: bool,
     /// Exposure, tone curve and encoding for `.png` output.
@@ -376,7 +377,7 @@ impl Tracer {
             target_error: None,
             bvh_quality: None,
             bvh_layout: BvhLayout::default(),
-            specialise: true,
+            specialisation: Specialisation::default(),
             bloom: true,
             tone: raylume_post::ToneMap::default(),
             progress: None,
@@ -472,7 +473,7 @@ impl Tracer {
                 self.estimator.name(),
                 self.sampler.name(),
                 self.russian_roulette,
-                self.specialise
+                self.specialisation.name()
             ),
         )
     }
@@ -712,15 +713,12 @@ impl Tracer {
         // On the GPU, the pipelines (a second of driver compilation on the H200) do not depend
         // on the BVH: they are compiled on another thread while it is built, or come from the
         // last render of a scene with the same features and layout.
-        let pipeline_features = if self.specialise {
-            scene.features()
-        } else {
-            raylume_scene::Features::all()
-        };
+        let pipeline_features = self.specialisation.features(scene.features());
         if use_gpu {
             stats.pipeline_features = pipeline_features.names();
+            stats.specialisation = self.specialisation.name().into();
         }
-        let pipeline_key = (pipeline_features, self.bvh_layout);
+        let pipeline_key = (pipeline_features, self.bvh_layout, self.specialisation);
         let first_schedule = if settings.reorder.sorts_any(settings.max_bounces) {
             Schedule::Wavefront
         } else {
@@ -729,13 +727,14 @@ impl Tracer {
         let reuse = self
             .gpu_pipelines
             .iter()
-            .find(|p| (p.features(), p.bvh_layout()) == pipeline_key)
+            .find(|p| (p.features(), p.bvh_layout(), p.specialisation()) == pipeline_key)
             .cloned();
         let gpu = self.gpu.as_ref().filter(|_| use_gpu);
         let (bvh, pipelines) = std::thread::scope(|threads| {
             let compiling = match (gpu, &reuse) {
                 (Some(ctx), None) => Some(threads.spawn(move || {
-                    let p = TracerPipelines::new(ctx, pipeline_key.0, pipeline_key.1)?;
+                    let (features, layout, specialisation) = pipeline_key;
+                    let p = TracerPipelines::specialised(ctx, features, layout, specialisation)?;
                     p.compile(ctx, first_schedule)?;
                     Ok::<_, raylume_kernels::KernelError>(p)
                 })),

@@ -1,13 +1,14 @@
 //! Specialisation changes no image (issue 14): every scene in `scenes/` renders the same on
-//! the GPU with its pipelines specialised on its features (`Tracer::specialise`, the default)
-//! and with the generic pipeline, every feature compiled in. The override constants only
-//! remove code for effects the scene does not have, so both run the same operations on the
-//! same numbers: the images must be equal bit for bit (measured so on lavapipe; a driver that
-//! compiled the two differently could move a pixel by rounding, and this test would say so).
+//! the GPU with its pipelines composed for its features (`Specialisation::Composed`, the
+//! default), specialised by override constants only, and generic (every feature compiled in).
+//! Both ways only remove code for effects the scene does not have, so all three run the same
+//! operations on the same numbers: the images must be equal bit for bit (measured so on
+//! lavapipe; a driver that compiled them differently could move a pixel by rounding, and this
+//! test would say so).
 
 use std::path::{Path, PathBuf};
 
-use raylume::{Backend, Scene, Tracer};
+use raylume::{Backend, Scene, Specialisation, Tracer};
 
 fn scenes() -> Vec<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
@@ -32,49 +33,62 @@ fn small(path: &Path) -> Scene {
 }
 
 #[test]
-fn specialised_and_generic_pipelines_render_the_same_image() {
+fn composed_overridden_and_generic_pipelines_render_the_same_image() {
     let Some(_ctx) = raylume_gpu::testing::context_or_skip(
-        "specialised_and_generic_pipelines_render_the_same_image",
+        "composed_overridden_and_generic_pipelines_render_the_same_image",
     ) else {
         return;
     };
-    let mut specialised = Tracer::new(Backend::Gpu);
+    let mut composed = Tracer::new(Backend::Gpu);
+    assert_eq!(composed.specialisation, Specialisation::Composed);
+    let mut overrides = Tracer::new(Backend::Gpu);
+    overrides.specialisation = Specialisation::Overrides;
     let mut generic = Tracer::new(Backend::Gpu);
-    generic.specialise = false;
+    generic.specialisation = Specialisation::Generic;
     let all = raylume::Features::all().names();
     for path in scenes() {
         let scene = small(&path);
         let name = path.display();
-        let s = specialised.render(&scene).unwrap();
-        let g = generic.render(&scene).unwrap();
+        let s = composed.render(&scene).unwrap();
+        assert_eq!(s.stats.specialisation, "composed");
         assert_eq!(
             s.stats.pipeline_features,
             scene.features().names(),
             "{name}"
         );
-        assert_eq!(g.stats.pipeline_features, all, "{name}");
         assert!(
             s.stats.pipeline_features.len() < all.len(),
             "{name}: a scene with every feature would test nothing"
         );
         assert!(s.pixels.iter().flatten().any(|v| *v > 0.0), "{name}: black");
-        let differ = s
-            .pixels
-            .iter()
-            .zip(&g.pixels)
-            .filter(|(a, b)| a.map(f32::to_bits) != b.map(f32::to_bits))
-            .count();
-        assert_eq!(
-            differ,
-            0,
-            "{name}: {differ} of {} pixels differ between the specialised and the generic pipeline",
-            s.pixels.len()
-        );
-        assert_eq!(s.stats.rays_traced, g.stats.rays_traced, "{name}");
+        for (other, kind) in [(&mut overrides, "overrides"), (&mut generic, "generic")] {
+            let o = other.render(&scene).unwrap();
+            assert_eq!(o.stats.specialisation, kind);
+            let expected = if kind == "generic" {
+                all.clone()
+            } else {
+                scene.features().names()
+            };
+            assert_eq!(o.stats.pipeline_features, expected, "{name}");
+            let differ = s
+                .pixels
+                .iter()
+                .zip(&o.pixels)
+                .filter(|(a, b)| a.map(f32::to_bits) != b.map(f32::to_bits))
+                .count();
+            assert_eq!(
+                differ,
+                0,
+                "{name}: {differ} of {} pixels differ between the composed and the {kind} pipeline",
+                s.pixels.len()
+            );
+            assert_eq!(s.stats.rays_traced, o.stats.rays_traced, "{name}");
+        }
     }
     // The CPU mirror is not specialised: it names no pipeline features.
     let cpu = Tracer::new(Backend::Cpu)
         .render(&small(&scenes()[0]))
         .unwrap();
     assert!(cpu.stats.pipeline_features.is_empty());
+    assert!(cpu.stats.specialisation.is_empty());
 }

@@ -15,7 +15,7 @@ mod work;
 pub use capture::SortCapture;
 pub use pipelines::TracerPipelines;
 pub use policy::{BatchPlan, BatchPolicy, BatchTiming, DepthTiming, StageTime};
-pub use shader::{pipeline_constants, tracer_source};
+pub use shader::{Specialisation, compose, pipeline_constants, tracer_source, tracer_source_for};
 
 use std::sync::Arc;
 use std::time::Instant;

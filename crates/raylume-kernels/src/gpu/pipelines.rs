@@ -11,7 +11,7 @@ use raylume_gpu::{GpuContext, wgpu};
 use raylume_scene::Features;
 
 use super::layout::bind_group_layouts;
-use super::shader::{pipeline_constants, tracer_source};
+use super::shader::{Specialisation, pipeline_constants, tracer_source_for};
 use crate::{KernelError, Schedule};
 
 /// The tracer's shader module (every entry point, the traversal of one [`BvhLayout`]), its
@@ -23,6 +23,7 @@ use crate::{KernelError, Schedule};
 /// first image on a GPU (a second on the H200, measured in `docs/RESULTS.md`).
 pub struct TracerPipelines {
     features: Features,
+    specialisation: Specialisation,
     bvh_layout: BvhLayout,
     pub(crate) scene_layout: wgpu::BindGroupLayout,
     pub(crate) work_layout: wgpu::BindGroupLayout,
@@ -66,12 +67,28 @@ impl TracerPipelines {
     }
 
     /// Builds the module (WGSL with the traversal of `bvh_layout`, specialised on `features`
-    /// at pipeline creation) and the layouts; compiles no pipeline yet.
+    /// the default way, [`Specialisation::default`]) and the layouts; compiles no pipeline yet.
     pub fn new(
         ctx: &GpuContext,
         features: Features,
         bvh_layout: BvhLayout,
     ) -> Result<Arc<Self>, KernelError> {
+        Self::specialised(ctx, features, bvh_layout, Specialisation::default())
+    }
+
+    /// [`TracerPipelines::new`] specialised on `features` the `specialisation` way (for
+    /// [`Specialisation::Generic`], on every feature whatever `features` says).
+    pub fn specialised(
+        ctx: &GpuContext,
+        features: Features,
+        bvh_layout: BvhLayout,
+        specialisation: Specialisation,
+    ) -> Result<Arc<Self>, KernelError> {
+        let features = specialisation.features(features);
+        let composed_for = match specialisation {
+            Specialisation::Composed => features,
+            Specialisation::Generic | Specialisation::Overrides => Features::all(),
+        };
         let start = Instant::now();
         let device = &ctx.device;
         let [scene_layout, work_layout, args_layout, permute_group_layout] =
@@ -100,12 +117,17 @@ impl TracerPipelines {
                 );
                 let module = ctx.shader_module(
                     "raylume tracer",
-                    &tracer_source(ctx.limits.max_compute_workgroups_per_dimension, bvh_layout),
+                    &tracer_source_for(
+                        ctx.limits.max_compute_workgroups_per_dimension,
+                        bvh_layout,
+                        composed_for,
+                    ),
                 );
                 (tracer, prepare, permute, module)
             })?;
         Ok(Arc::new(Self {
             features,
+            specialisation,
             bvh_layout,
             scene_layout,
             work_layout,
@@ -120,9 +142,14 @@ impl TracerPipelines {
         }))
     }
 
-    /// The features the pipelines are specialised on.
+    /// The features the pipelines are specialised on (all of them for the generic ones).
     pub fn features(&self) -> Features {
         self.features
+    }
+
+    /// How they are specialised.
+    pub fn specialisation(&self) -> Specialisation {
+        self.specialisation
     }
 
     /// The BVH layout whose traversal the module holds.

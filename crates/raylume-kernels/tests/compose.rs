@@ -1,0 +1,159 @@
+//! The composed tracer shader (issue 14): for any feature set the source composed for it
+//! (`gpu::compose`, the `//#if` blocks of absent features left out) parses and validates, and
+//! the functions and branches of an absent feature are not in it at all.
+
+use raylume_bvh::BvhLayout;
+use raylume_gpu::wgpu::naga;
+use raylume_kernels::gpu::{compose, tracer_source_for};
+use raylume_scene::{Feature, Features};
+
+/// The composed source without its comments.
+fn code(features: Features) -> String {
+    tracer_source_for(65535, BvhLayout::Wide, features)
+        .lines()
+        .map(|l| l.split("//").next().unwrap_or(""))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+fn validate(features: Features, layout: BvhLayout) -> naga::Module {
+    let src = tracer_source_for(65535, layout, features);
+    let module = naga::front::wgsl::parse_str(&src)
+        .unwrap_or_else(|e| panic!("{features}: {}", e.emit_to_string(&src)));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{features}: {}", e.emit_to_string(&src)));
+    module
+}
+
+/// A deterministic pseudo-random feature set.
+fn subset(state: &mut u64) -> Features {
+    *state = state
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    Features::from_bits((*state >> 33) as u32)
+}
+
+/// Every feature set a scene may have composes into a valid module: all of them, none, each
+/// feature alone, all but each one, and 64 pseudo-random sets, in both BVH layouts.
+#[test]
+fn every_feature_set_composes_into_a_valid_module() {
+    let mut sets = vec![Features::all(), Features::NONE];
+    for f in Feature::ALL {
+        sets.push(Features::NONE.with(f));
+        let mut all_but = Features::all();
+        all_but.remove(f);
+        sets.push(all_but);
+    }
+    let mut s = 7;
+    sets.extend((0..64).map(|_| subset(&mut s)));
+    for features in sets {
+        for layout in [BvhLayout::Binary, BvhLayout::Wide] {
+            validate(features, layout);
+        }
+    }
+}
+
+/// The functions only a feature (or a group of features) needs, as written in the WGSL.
+const ONLY_FOR: [(&[Feature], &[&str]); 5] = [
+    (
+        &[Feature::Glass, Feature::RoughGlass],
+        &["sample_rough_dielectric", "eval_rough_dielectric"],
+    ),
+    (
+        &[Feature::Metal, Feature::RoughMetal],
+        &["sample_conductor", "eval_conductor", "fresnel_conductor"],
+    ),
+    (
+        &[Feature::Plastic],
+        &[
+            "sample_plastic",
+            "eval_plastic",
+            "sample_rough_plastic",
+            "eval_rough_plastic",
+        ],
+    ),
+    (
+        &[Feature::Spheres],
+        &["sample_sphere_cap", "sphere_cap_pdf"],
+    ),
+    (&[Feature::EnvironmentMap], &["cdf_search", "cdf_step"]),
+];
+
+/// Without a feature, its functions are absent from the module (naga's function list) and
+/// their names from the composed source; with it, present. Textures and environment maps
+/// share the texel fetch: it is absent only when both are.
+#[test]
+fn absent_features_leave_no_code() {
+    for (features, functions) in ONLY_FOR {
+        let mut without = Features::all();
+        for &f in features {
+            without.remove(f);
+        }
+        let module = validate(without, BvhLayout::Wide);
+        let src = code(without);
+        for name in functions {
+            assert!(
+                !module
+                    .functions
+                    .iter()
+                    .any(|(_, f)| f.name.as_deref() == Some(*name)),
+                "without {features:?}: `{name}` is still in the module"
+            );
+            assert!(
+                !src.contains(name),
+                "without {features:?}: `{name}` in the source"
+            );
+        }
+        let with = validate(Features::NONE.with(features[0]), BvhLayout::Wide);
+        for name in functions {
+            assert!(
+                with.functions
+                    .iter()
+                    .any(|(_, f)| f.name.as_deref() == Some(*name)),
+                "with {:?}: `{name}` missing",
+                features[0]
+            );
+        }
+    }
+    let mut neither = Features::all();
+    neither.remove(Feature::Textures);
+    neither.remove(Feature::EnvironmentMap);
+    assert!(!code(neither).contains("texture_bilinear"));
+    let mut no_shading = neither;
+    no_shading.remove(Feature::ShadingNormals);
+    assert!(
+        !code(no_shading).contains("triangle_shading[hit.prim]"),
+        "shading data read without textures or normals"
+    );
+    assert!(code(Features::all()).contains("triangle_shading[hit.prim]"));
+}
+
+/// The composer itself: nesting, `//#else`, alternatives, line count kept.
+#[test]
+fn compose_keeps_lines_and_nests() {
+    let src = "a\n//#if glass\nb\n//#if spheres\nc\n//#else\nd\n//#endif\n//#else\ne\n//#endif\nf\n//#if plastic|spheres\ng\n//#endif\n";
+    let glass = Features::NONE.with(Feature::Glass);
+    assert_eq!(compose(src, glass), "a\n\nb\n\n\n\nd\n\n\n\n\nf\n\n\n\n");
+    let spheres = Features::NONE.with(Feature::Spheres);
+    assert_eq!(compose(src, spheres), "a\n\n\n\n\n\n\n\n\ne\n\nf\n\ng\n\n");
+    assert_eq!(
+        compose(src, Features::all()).lines().count(),
+        src.lines().count()
+    );
+}
+
+#[test]
+#[should_panic(expected = "unknown feature")]
+fn compose_rejects_unknown_features() {
+    compose("//#if glas\nx\n//#endif\n", Features::all());
+}
+
+#[test]
+#[should_panic(expected = "left open")]
+fn compose_rejects_open_blocks() {
+    compose("//#if glass\nx\n", Features::all());
+}
