@@ -80,6 +80,12 @@ struct Args {
     /// in: the baseline). On the CPU all run the same code.
     #[arg(long, default_value = "composed", value_delimiter = ',')]
     specialise: Vec<raylume::Specialisation>,
+    /// Comma-separated features (diffuse, glass, spheres, ...): besides each configuration,
+    /// one with that feature compiled into the pipelines although the scene lacks it (a
+    /// ` +glass` column; a scene that has it runs the same pipeline twice): what a feature
+    /// costs when present but unused.
+    #[arg(long, value_delimiter = ',', value_parser = parse_feature)]
+    extra_feature: Vec<raylume::Feature>,
     /// Samples per pixel per batch.
     #[arg(long)]
     batch_spp: Option<u32>,
@@ -147,6 +153,8 @@ struct Config {
     layout: raylume::BvhLayout,
     /// How the GPU pipelines are specialised (`--specialise`).
     specialisation: raylume::Specialisation,
+    /// A feature compiled in although the scene lacks it (`--extra-feature`).
+    extra: Option<raylume::Feature>,
 }
 
 impl Config {
@@ -168,10 +176,14 @@ impl Config {
             raylume::BvhLayout::Binary => base,
             raylume::BvhLayout::Wide => format!("{base} wide"),
         };
-        if self.specialisation == raylume::Specialisation::default() {
+        let base = if self.specialisation == raylume::Specialisation::default() {
             base
         } else {
             format!("{base} {}", self.specialisation.name())
+        };
+        match self.extra {
+            Some(f) => format!("{base} +{}", f.name()),
+            None => base,
         }
     }
 }
@@ -237,6 +249,11 @@ fn configs(args: &Args) -> Vec<Config> {
                 ..c
             })
         })
+        .flat_map(|c| {
+            std::iter::once(None)
+                .chain(args.extra_feature.iter().map(|f| Some(*f)))
+                .map(move |extra| Config { extra, ..c })
+        })
         .collect()
 }
 
@@ -256,6 +273,7 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                 key_bits: 30,
                 layout,
                 specialisation: raylume::Specialisation::default(),
+                extra: None,
             })),
             ReorderPolicy::On => {
                 for &key_bits in &args.reorder_bits {
@@ -266,6 +284,7 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                         key_bits,
                         layout,
                         specialisation: raylume::Specialisation::default(),
+                        extra: None,
                     }))
                 }
             }
@@ -276,10 +295,18 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                 key_bits: first_bits,
                 layout,
                 specialisation: raylume::Specialisation::default(),
+                extra: None,
             }),
         }
     }
     out
+}
+
+fn parse_feature(s: &str) -> Result<raylume::Feature, String> {
+    raylume::Feature::ALL
+        .into_iter()
+        .find(|f| f.name() == s)
+        .ok_or_else(|| format!("unknown feature '{s}'"))
 }
 
 fn stem(path: &std::path::Path) -> String {
@@ -310,6 +337,10 @@ fn apply(tracer: &mut Tracer, config: &Config) {
     tracer.reorder_key_bits = config.key_bits;
     tracer.bvh_layout = config.layout;
     tracer.specialisation = config.specialisation;
+    tracer.extra_features = raylume::Features::NONE;
+    if let Some(f) = config.extra {
+        tracer.extra_features.insert(f);
+    }
 }
 
 fn run(args: Args) -> Result<(), String> {

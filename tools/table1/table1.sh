@@ -12,7 +12,9 @@
 # (megakernel,wavefront,persistent), T1_BVH (binary,wide), T1_REORDER (off,on), T1_QUICK=1 (the
 # Cornell box and the living room only), T1_PERSISTENT_THREADS (the persistent schedule's thread
 # counts tried besides the default, RAYLUME_PERSISTENT_THREADS), T1_PARTS (which parts run: "plain
-# nee threads mitsuba first-image large", all by default; `large` is issue 19's: the 3M-triangle
+# nee threads mitsuba first-image large specialise", all by default; `specialise` is issue 14's:
+# every scene with its pipelines composed, overridden and generic, then with each absent feature
+# compiled in (present but unused); `large` is issue 19's: the 3M-triangle
 # grid of tools/large made there and rendered from file to a 10-spp PNG by raylume and by
 # Mitsuba, T1_GRID quads a side, default 1224). Results: $OUT/table1.tgz.
 set -euo pipefail
@@ -52,7 +54,7 @@ device() {
   S=${T1_SCENES:-"scenes/cornell-box.toml scenes/living-room/scene.json scenes/teapot.toml scenes/glass-teapot.toml scenes/spheres.toml scenes/cornell-plus.toml"}
   [ "${T1_QUICK:-0}" = 1 ] && S="scenes/cornell-box.toml scenes/living-room/scene.json"
   local common="--backend gpu --spp ${T1_SPP:-1,10,100} --repeat 3 --schedule ${T1_SCHEDULES:-megakernel,wavefront,persistent} --reorder ${T1_REORDER:-off,on} --bvh ${T1_BVH:-binary,wide}"
-  local parts=" ${T1_PARTS:-plain nee threads mitsuba first-image large} "
+  local parts=" ${T1_PARTS:-plain nee threads mitsuba first-image large specialise} "
   if [[ $parts == *" plain "* ]]; then
   echo "== Table 1, plain estimator (at $(el) s)"
   timeout 300 /tmp/bench $common --json $R/plain.json $S > $R/plain.md 2> $R/plain.log || echo "bench plain: exit $?"
@@ -100,6 +102,23 @@ device() {
     head -1 /tmp/mi$k.log
     cp /tmp/mi$k/living-room-mi-table1.json $R/mitsuba-first-image-$k.json 2>/dev/null || true
   done
+  fi
+  if [[ $parts == *" specialise "* ]]; then
+  local S6="scenes/cornell-box.toml scenes/living-room/scene.json scenes/teapot.toml scenes/glass-teapot.toml scenes/spheres.toml scenes/cornell-plus.toml"
+  local one="--backend gpu --repeat 3 --schedule megakernel --reorder off --bvh wide"
+  echo "== issue 14: composed, overrides, generic; plain estimator (at $(el) s)"
+  timeout 200 /tmp/bench $one --spp 10,100 --specialise composed,overrides,generic \
+    --json $R/specialise-plain.json $S6 > $R/specialise-plain.md 2> $R/specialise-plain.log || echo "bench: exit $?"
+  awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/specialise-plain.md
+  echo "== the same, NEE + MIS + roulette from 5 (at $(el) s)"
+  timeout 150 /tmp/bench $one --spp 100 --specialise composed,overrides,generic --estimator nee --rr-depth 5 \
+    --json $R/specialise-nee.json $S6 > $R/specialise-nee.md 2> $R/specialise-nee.log || echo "bench: exit $?"
+  awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/specialise-nee.md
+  echo "== each feature present but unused (composed, plain, 100 spp; at $(el) s)"
+  timeout 240 /tmp/bench $one --spp 100 --specialise composed \
+    --extra-feature diffuse,metal,rough_metal,glass,rough_glass,plastic,emission,spheres,textures,shading_normals,constant_environment,environment_map \
+    --json $R/extra.json $S6 > $R/extra.md 2> $R/extra.log || echo "bench: exit $?"
+  awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/extra.md
   fi
   if [[ $parts == *" large "* ]]; then
   echo "== issue 19: the ${T1_GRID:-1224}^2-quad grid from file to a 10-spp PNG (at $(el) s)"

@@ -235,6 +235,10 @@ pub struct Tracer {
     /// baseline, `bench --specialise`). The image is the same every way (`tests/specialise.rs`).
     /// The CPU mirror branches on the scene's data and is the same in all.
     pub specialisation: Specialisation,
+    /// Features compiled into the GPU pipelines although the scene does not call for them
+    /// (default none): for measuring what a feature costs when present but unused (`bench
+    /// --extra-feature`). The image is the same.
+    pub extra_features: raylume_scene::Features,
     /// Run the scene's bloom, if it has one (`--no-bloom` clears this).
     pub bloom: bool,
     /// Exposure, tone curve and encoding for `.png` output.
@@ -378,6 +382,7 @@ impl Tracer {
             bvh_quality: None,
             bvh_layout: BvhLayout::default(),
             specialisation: Specialisation::default(),
+            extra_features: raylume_scene::Features::NONE,
             bloom: true,
             tone: raylume_post::ToneMap::default(),
             progress: None,
@@ -466,14 +471,15 @@ impl Tracer {
             scene,
             &self.trace_settings(scene),
             &format!(
-                "{:?} {:?} {} {} {} {:?} {}",
+                "{:?} {:?} {} {} {} {:?} {} {:?}",
                 self.bvh_quality,
                 self.bvh_layout,
                 self.reorder_key_bits,
                 self.estimator.name(),
                 self.sampler.name(),
                 self.russian_roulette,
-                self.specialisation.name()
+                self.specialisation.name(),
+                self.extra_features,
             ),
         )
     }
@@ -713,7 +719,11 @@ impl Tracer {
         // On the GPU, the pipelines (a second of driver compilation on the H200) do not depend
         // on the BVH: they are compiled on another thread while it is built, or come from the
         // last render of a scene with the same features and layout.
-        let pipeline_features = self.specialisation.features(scene.features());
+        let pipeline_features = self
+            .specialisation
+            .features(raylume_scene::Features::from_bits(
+                scene.features().bits() | self.extra_features.bits(),
+            ));
         if use_gpu {
             stats.pipeline_features = pipeline_features.names();
             stats.specialisation = self.specialisation.name().into();
