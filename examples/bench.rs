@@ -207,8 +207,9 @@ struct Row {
     pipeline_features: Vec<&'static str>,
     /// How they were specialised (`RenderStats::specialisation`).
     specialisation: String,
-    /// Seconds the tracer's first render of this configuration spent compiling its pipelines
-    /// (0 when another configuration had compiled the same ones).
+    /// Seconds the warm-up render of this configuration spent compiling its pipelines for
+    /// this scene (0 when another configuration had compiled the same ones; the driver's
+    /// shader cache may have made it short).
     pipelines_s: f64,
     spp: u32,
     width: u32,
@@ -376,11 +377,18 @@ fn run(args: Args) -> Result<(), String> {
         scene.render.width = w;
         scene.render.height = h;
         scene.render.max_bounces = args.bounces;
-        // Warm-up, per configuration: compiles pipelines, touches every buffer once.
+        // Warm-up, per configuration: compiles pipelines (their seconds kept for the rows),
+        // touches every buffer once.
+        let mut compiled: Vec<f64> = Vec::with_capacity(configs.len());
         for config in &configs {
             apply(&mut tracer, config);
             scene.render.spp = 1;
-            tracer.render(&scene).map_err(|e| e.to_string())?;
+            let r = tracer.render(&scene).map_err(|e| e.to_string())?;
+            compiled.push(if r.stats.pipelines_cached {
+                0.0
+            } else {
+                r.stats.seconds.pipelines
+            });
         }
         for &spp in &args.spp {
             scene.render.spp = spp;
@@ -436,7 +444,7 @@ fn run(args: Args) -> Result<(), String> {
             // touches every configuration alike instead of the last one timed.
             let mut best: Vec<Option<raylume::Render>> = configs.iter().map(|_| None).collect();
             let mut all: Vec<Vec<f64>> = vec![Vec::new(); configs.len()];
-            let mut first_pipelines: Vec<f64> = vec![0.0; configs.len()];
+            let first_pipelines = &compiled;
             let mut rounds = 0;
             while rounds < args.repeat.max(1)
                 || (rounds < MAX_ROUNDS
@@ -446,9 +454,6 @@ fn run(args: Args) -> Result<(), String> {
                 for (ci, config) in configs.iter().enumerate() {
                     apply(&mut tracer, config);
                     let r = tracer.render(&scene).map_err(|e| e.to_string())?;
-                    if all[ci].is_empty() && !r.stats.pipelines_cached {
-                        first_pipelines[ci] = r.stats.seconds.pipelines;
-                    }
                     all[ci].push(r.stats.seconds.trace);
                     if best[ci]
                         .as_ref()
