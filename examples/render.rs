@@ -45,6 +45,12 @@ struct Args {
     /// 2 batches of --batch-spp samples under the cap to estimate anything.
     #[arg(long, value_name = "E")]
     target_error: Option<f32>,
+    /// Render part I of N (1-based, e.g. 2/4): the I-th of N equal ranges of every pixel's
+    /// samples, written as an .exr of per-pixel sums with a header; `merge` joins the parts
+    /// into the image of one render of all the samples (render farms, Slurm arrays: see
+    /// README). No bloom on a part.
+    #[arg(long, value_parser = parse_part)]
+    part: Option<(u32, u32)>,
     /// Maximum bounces per path.
     #[arg(long)]
     bounces: Option<u32>,
@@ -184,6 +190,17 @@ fn check_output_path(path: &Path, what: &str, allowed: &[&str]) -> Result<(), St
 
 fn run(args: Args) -> Result<(), String> {
     check_output_path(&args.output, "output", &["png", "exr"])?;
+    if args.part.is_some()
+        && !args
+            .output
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+    {
+        return Err(format!(
+            "{}: a part holds sums of samples, to be merged: write it as .exr",
+            args.output.display()
+        ));
+    }
     if let Some(s) = &args.stats {
         check_output_path(s, "stats file", &["json"])?;
     }
@@ -228,6 +245,11 @@ fn run(args: Args) -> Result<(), String> {
     tracer.sampler = args.sampler;
     tracer.russian_roulette = args.rr_depth.0;
     tracer.target_error = args.target_error;
+    if let Some((i, n)) = args.part {
+        let range =
+            raylume::SampleRange::part(i, n, scene.render.spp).map_err(|e| e.to_string())?;
+        tracer.samples = Some(range);
+    }
     if let Some(s) = args.schedule {
         tracer.schedule = s;
     }
@@ -396,6 +418,20 @@ fn settings_line(scene: &str, s: &raylume::RenderStats, capped: bool) -> String 
         s.bvh_layout,
         s.lights.describe(),
     )
+}
+
+/// `--part I/N`.
+fn parse_part(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("--part wants I/N with 1 <= I <= N (e.g. 2/4), not `{s}`");
+    let (i, n) = s.split_once('/').ok_or_else(bad)?;
+    let (i, n) = (
+        i.trim().parse::<u32>().map_err(|_| bad())?,
+        n.trim().parse::<u32>().map_err(|_| bad())?,
+    );
+    if i == 0 || i > n {
+        return Err(bad());
+    }
+    Ok((i, n))
 }
 
 /// `--bvh-preset`: `None` for auto.

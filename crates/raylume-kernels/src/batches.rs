@@ -53,6 +53,21 @@ impl Batch {
 /// The batches of a `pixels`-pixel, `spp`-sample render with at most `batch_spp` samples per
 /// batch and at most `max_rays` rays per batch (both at least 1), pixel ranges outermost.
 pub fn plan_batches(pixels: u32, spp: u32, batch_spp: u32, max_rays: u64) -> Vec<Batch> {
+    plan_sample_range(pixels, 0..spp, batch_spp, max_rays, true)
+}
+
+/// [`plan_batches`] over samples `samples` of every pixel only (a render *part*). With
+/// `mean`, the last batch of each pixel range divides by `samples.end` (a whole render);
+/// without, no batch divides and the image holds each pixel's *sum* over the range, to be
+/// added to other parts' sums and divided by the total count.
+pub fn plan_sample_range(
+    pixels: u32,
+    samples: std::ops::Range<u32>,
+    batch_spp: u32,
+    max_rays: u64,
+    mean: bool,
+) -> Vec<Batch> {
+    let spp = samples.end.saturating_sub(samples.start);
     let max_rays = max_rays.clamp(1, u64::from(u32::MAX));
     let batch_spp = batch_spp.clamp(1, spp.max(1));
     let (pixels_per_batch, samples_per_batch) =
@@ -67,21 +82,51 @@ pub fn plan_batches(pixels: u32, spp: u32, batch_spp: u32, max_rays: u64) -> Vec
     let mut p = 0;
     while p < pixels {
         let pc = pixels_per_batch.min(pixels - p);
-        let mut s = 0;
-        while s < spp {
-            let sc = samples_per_batch.min(spp - s);
+        let mut s = samples.start;
+        while s < samples.end {
+            let sc = samples_per_batch.min(samples.end - s);
             out.push(Batch {
                 pixel_begin: p,
                 pixel_count: pc,
                 sample_begin: s,
                 sample_count: sc,
-                last_for_pixels: s + sc == spp,
+                last_for_pixels: mean && s + sc == samples.end,
             });
             s += sc;
         }
         p += pc;
     }
     out
+}
+
+/// The batches of a render with `settings`: all its samples (each pixel's mean), or only
+/// `range` of them (each pixel's sum over it; [`plan_sample_range`]). A range must be
+/// non-empty and within `0..settings.spp`.
+pub fn plan_render(
+    pixels: u32,
+    settings: &crate::TraceSettings,
+    range: Option<&std::ops::Range<u32>>,
+    max_rays: u64,
+) -> Result<Vec<Batch>, crate::KernelError> {
+    match range {
+        None => Ok(plan_batches(
+            pixels,
+            settings.spp,
+            settings.batch_spp,
+            max_rays,
+        )),
+        Some(r) if r.start < r.end && r.end <= settings.spp => Ok(plan_sample_range(
+            pixels,
+            r.clone(),
+            settings.batch_spp,
+            max_rays,
+            false,
+        )),
+        Some(r) => Err(crate::KernelError::InvalidSettings(format!(
+            "sample range {}..{} is not a non-empty range within the render's {} samples per pixel",
+            r.start, r.end, settings.spp
+        ))),
+    }
 }
 
 /// What a batch hook ([`crate::CpuTracer::render_with_hook`],

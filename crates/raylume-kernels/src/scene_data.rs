@@ -72,6 +72,9 @@ pub struct SceneData {
     pub russian_roulette: Option<u32>,
     /// Where the paths' random numbers come from ([`SceneData::uniforms`]).
     pub sampler: Sampler,
+    /// The samples of every pixel the next renders trace: all of them (`None`, the default,
+    /// each pixel's mean), or a range (each pixel's sum over it: a render part).
+    pub sample_range: Option<std::ops::Range<u32>>,
 }
 
 /// Every emitter that next-event estimation samples, with its selection probability
@@ -432,6 +435,7 @@ impl SceneData {
             estimator: Estimator::Plain,
             russian_roulette: None,
             sampler: Sampler::Independent,
+            sample_range: None,
         };
         match &scene.environment {
             Environment::Black => {}

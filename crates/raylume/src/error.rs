@@ -23,6 +23,10 @@ pub enum Error {
     /// Settings that cannot render (zero sizes, absurd sizes, ...).
     #[error("invalid render settings: {0}")]
     Settings(String),
+    /// Render parts that cannot be read or merged (not a part, another render's part, a
+    /// missing or overlapping sample range): [`crate::merge`], [`crate::Part::load`].
+    #[error("render parts: {0}")]
+    Parts(String),
     /// A [`crate::Tracer::target_error`] that is not a finite relative MSE above 0.
     #[error("target error {0}: use a relative MSE above 0 (e.g. 1e-3), a finite number")]
     TargetError(f32),

@@ -86,6 +86,8 @@ pub struct RenderStats {
     /// On the GPU, the features the pipelines were compiled for: the scene's, or every one
     /// for the generic baseline (`Tracer::specialisation`). Empty on the CPU.
     pub pipeline_features: Vec<&'static str>,
+    /// For a render part (`Tracer::samples`), the samples of every pixel it traced.
+    pub samples: Option<crate::SampleRange>,
     /// On the GPU, how the pipelines were specialised: `"composed"`, `"overrides"` or
     /// `"generic"`. Empty on the CPU.
     pub specialisation: String,

@@ -18,7 +18,7 @@ use raylume_scene::Scene;
 
 use crate::auto::{AutoDecision, AutoPolicy, AutoState, fingerprint};
 use crate::target::TargetRun;
-use crate::{DepthSeconds, Error, ImageFormat, RenderStats};
+use crate::{DepthSeconds, Error, ImageFormat, Part, PartHeader, RenderStats, SampleRange};
 
 /// Where rays are traced.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -116,12 +116,16 @@ pub struct Render {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
-    /// Row-major, top row first, mean linear radiance per pixel.
+    /// Row-major, top row first, mean linear radiance per pixel (for a part: the sum of its
+    /// samples, [`Render::part`]).
     pub pixels: Vec<[f32; 3]>,
     /// What ran, on what, and how long it took.
     pub stats: RenderStats,
     /// How [`Render::save`] turns radiance into 8-bit sRGB.
     pub tone: raylume_post::ToneMap,
+    /// For a render part ([`Tracer::samples`]): what it belongs to and which samples it
+    /// holds; `None` for a whole render.
+    pub part: Option<PartHeader>,
 }
 
 impl Render {
@@ -129,6 +133,21 @@ impl Render {
     /// is left at `path` if it fails.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<(), Error> {
         let path = path.as_ref();
+        if let Some(header) = &self.part {
+            // A part holds sums, to be merged: only as an EXR with its header.
+            return match ImageFormat::from_path(path)? {
+                ImageFormat::Exr => Part {
+                    header: header.clone(),
+                    sums: self.pixels.clone(),
+                }
+                .save(path),
+                ImageFormat::Png => Err(Error::Output {
+                    path: path.to_path_buf(),
+                    reason: "a render part holds sums of samples, to be merged: write it as .exr"
+                        .into(),
+                }),
+            };
+        }
         match ImageFormat::from_path(path)? {
             ImageFormat::Png => {
                 crate::save_png(path, &self.pixels, self.width, self.height, &self.tone)
@@ -239,6 +258,13 @@ pub struct Tracer {
     /// (default none): for measuring what a feature costs when present but unused (`bench
     /// --extra-feature`). The image is the same.
     pub extra_features: raylume_scene::Features,
+    /// Render only these samples of every pixel (default `None`: all of them): a render
+    /// **part**, whose image holds each pixel's *sum* over the range and whose
+    /// [`Render::part`] says what it belongs to; parts that tile `0..spp` merge into the
+    /// render of all the samples ([`crate::merge`]; [`SampleRange::part`] cuts equal parts).
+    /// No bloom runs on a part (it is not linear: run it on the merged image), and a part
+    /// cannot stop at a target error.
+    pub samples: Option<SampleRange>,
     /// Run the scene's bloom, if it has one (`--no-bloom` clears this).
     pub bloom: bool,
     /// Exposure, tone curve and encoding for `.png` output.
@@ -383,6 +409,7 @@ impl Tracer {
             bvh_layout: BvhLayout::default(),
             specialisation: Specialisation::default(),
             extra_features: raylume_scene::Features::NONE,
+            samples: None,
             bloom: true,
             tone: raylume_post::ToneMap::default(),
             progress: None,
@@ -594,6 +621,19 @@ impl Tracer {
             return Err(Error::TargetError(e));
         }
         scene.validate()?;
+        if let Some(range) = self.samples {
+            if range.is_empty() || range.end > scene.render.spp {
+                return Err(Error::Settings(format!(
+                    "samples {}..{} are not a non-empty range within the render's 0..{}",
+                    range.begin, range.end, scene.render.spp
+                )));
+            }
+            if self.target_error.is_some() {
+                return Err(Error::Settings(
+                    "a render part (a sample range) cannot also stop at a target error".into(),
+                ));
+            }
+        }
         let (use_gpu, reason) = self.choose_backend()?;
         let device_seconds = self.device_seconds.take().unwrap_or(0.0);
         let r = scene.render;
@@ -800,7 +840,7 @@ impl Tracer {
                 });
             }
         };
-        let bloom = if self.bloom {
+        let bloom = if self.bloom && self.samples.is_none() {
             scene.post.bloom.map(|b| raylume_post::BloomParams {
                 threshold: b.threshold,
                 radius: b.radius,
@@ -854,12 +894,37 @@ impl Tracer {
         if stats.seconds.trace > 0.0 {
             stats.mrays_per_s = stats.rays_traced as f64 / stats.seconds.trace / 1e6;
         }
+        let part = self.samples.map(|samples| PartHeader {
+            format: 1,
+            scene: format!(
+                "{:016x}",
+                crate::auto::fingerprint(
+                    scene,
+                    &TraceSettings {
+                        batch_spp: 1,
+                        ..settings
+                    },
+                    "part"
+                )
+            ),
+            width: r.width,
+            height: r.height,
+            spp: r.spp,
+            max_bounces: r.max_bounces,
+            seed: settings.seed,
+            estimator: self.estimator.name().into(),
+            sampler: self.sampler.name().into(),
+            russian_roulette: self.russian_roulette,
+            samples,
+        });
+        stats.samples = self.samples;
         Ok(Render {
             width: r.width,
             height: r.height,
             pixels,
             stats,
             tone: self.tone,
+            part,
         })
     }
 
@@ -885,6 +950,7 @@ impl Tracer {
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
         tracer.set_russian_roulette(self.russian_roulette);
+        tracer.set_sample_range(self.samples.map(|r| r.begin..r.end));
         if let Some(workspace) = self.gpu_workspace.take() {
             tracer.use_workspace(workspace);
         }
@@ -980,6 +1046,7 @@ impl Tracer {
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
         tracer.set_russian_roulette(self.russian_roulette);
+        tracer.set_sample_range(self.samples.map(|r| r.begin..r.end));
         let out = match target {
             None => tracer.render(settings, report)?,
             Some(t) => tracer.render_with_hook(settings, report, &mut |r| t.on_round(r))?,

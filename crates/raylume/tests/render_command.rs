@@ -664,3 +664,89 @@ fn no_vulkan_loader_noise_without_xdg_runtime_dir() {
     assert!(!err.contains("XDG_RUNTIME_DIR"), "{err}");
     assert!(!err.contains("error"), "{err}");
 }
+
+/// `render --part 1/2` and `--part 2/2`, merged by `merge`, give `render`'s image of all the
+/// samples within `raylume::merge_bound`; a missing part is refused and nothing written.
+#[test]
+fn parts_and_merge_commands_make_the_whole_render() {
+    let dir = tmp("parts");
+    let base = [
+        "scenes/cornell-box.toml",
+        "--backend",
+        "cpu",
+        "--size",
+        "12x10",
+        "--spp",
+        "4",
+        "--bounces",
+        "3",
+        "-q",
+    ];
+    let with = |extra: &[&str]| -> Vec<String> {
+        base.iter().chain(extra).map(|s| s.to_string()).collect()
+    };
+    fn s(v: &[String]) -> Vec<&str> {
+        v.iter().map(String::as_str).collect()
+    }
+    let whole = dir.join("whole.exr");
+    let o = run(&s(&with(&["-o", whole.to_str().unwrap()])));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut parts = Vec::new();
+    for i in 1..=2 {
+        let p = dir.join(format!("part-{i}.exr"));
+        let o = run(&s(&with(&[
+            "--part",
+            &format!("{i}/2"),
+            "-o",
+            p.to_str().unwrap(),
+        ])));
+        assert!(o.status.success(), "{}", stderr(&o));
+        parts.push(p);
+    }
+    let merged = dir.join("merged.exr");
+    let merge = |out: &Path, parts: &[&Path]| {
+        Command::new(common::merge_exe())
+            .arg("-o")
+            .arg(out)
+            .args(parts)
+            .output()
+            .expect("run merge")
+    };
+    let o = merge(&merged, &[&parts[1], &parts[0]]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let a = image::open(&merged).unwrap().into_rgb32f();
+    let b = image::open(&whole).unwrap().into_rgb32f();
+    let bound = raylume::merge_bound(4);
+    for (x, y) in a.pixels().zip(b.pixels()) {
+        for k in 0..3 {
+            let (x, y) = (f64::from(x[k]), f64::from(y[k]));
+            assert!((x - y).abs() <= bound * y.abs(), "{x} vs {y}");
+        }
+    }
+    // A missing part: an error naming the samples, no output.
+    let lonely = dir.join("lonely.png");
+    let o = merge(&lonely, &[&parts[0]]);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("samples 2..4 of every pixel are in no part"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!lonely.exists());
+    // A part as PNG, and a bad part flag, are refused before rendering.
+    let o = run(&s(&with(&[
+        "--part",
+        "1/2",
+        "-o",
+        dir.join("p.png").to_str().unwrap(),
+    ])));
+    assert!(!o.status.success() && stderr(&o).contains("write it as .exr"));
+    let o = run(&s(&with(&[
+        "--part",
+        "3/2",
+        "-o",
+        dir.join("p.exr").to_str().unwrap(),
+    ])));
+    assert!(!o.status.success() && stderr(&o).contains("--part wants I/N"));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -11,7 +11,7 @@ use raylume_bvh::GpuBvh;
 use raylume_scene::Scene;
 use rayon::prelude::*;
 
-use crate::batches::{RoundFlow, RoundHook, RoundSums, ends_round, into_rounds, plan_batches};
+use crate::batches::{RoundFlow, RoundHook, RoundSums, ends_round, into_rounds};
 use crate::gpu_types::{RayState, SceneUniforms};
 use crate::scene_data::SceneData;
 use crate::surface::Globals;
@@ -44,6 +44,16 @@ impl CpuTracer {
     /// Where the paths' random numbers come from (default [`crate::Sampler::Independent`]).
     pub fn set_sampler(&mut self, sampler: crate::Sampler) {
         self.data.sampler = sampler;
+    }
+
+    /// Trace only samples `range` of every pixel (`None`, the default: all of them) and
+    /// leave each pixel's *sum* over the range in the image, not its mean: a render part, to
+    /// be added to the other parts' sums and divided by the total count. The random numbers
+    /// of a sample depend on its index, not on the range, so parts that tile `0..spp` sum to
+    /// the samples of the whole render. A range must lie within `0..spp` (checked when
+    /// rendering); round hooks (target error) see the part's sums.
+    pub fn set_sample_range(&mut self, range: Option<std::ops::Range<u32>>) {
+        self.data.sample_range = range;
     }
 
     /// Flattens `scene` for the primitives of `bvh` (built from this scene).
@@ -113,12 +123,12 @@ impl CpuTracer {
     ) -> Result<TraceOutput, KernelError> {
         settings.validate()?;
         let pixels = settings.width * settings.height;
-        let mut batches = plan_batches(
+        let mut batches = crate::batches::plan_render(
             pixels,
-            settings.spp,
-            settings.batch_spp,
+            settings,
+            self.data.sample_range.as_ref(),
             CPU_MAX_RAYS_PER_BATCH,
-        );
+        )?;
         if hook.is_some() {
             into_rounds(&mut batches);
         }

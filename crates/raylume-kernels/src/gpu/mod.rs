@@ -308,6 +308,13 @@ impl<'a> GpuTracer<'a> {
         self.data.sampler = sampler;
     }
 
+    /// Trace only samples `range` of every pixel (`None`, the default: all of them) and
+    /// leave each pixel's *sum* over the range in the image, not its mean: a render part
+    /// (`CpuTracer::set_sample_range`, the same rules).
+    pub fn set_sample_range(&mut self, range: Option<std::ops::Range<u32>>) {
+        self.data.sample_range = range;
+    }
+
     /// The features the pipelines are specialised on.
     pub fn features(&self) -> Features {
         self.pipelines.features()

@@ -16,7 +16,6 @@ use super::{
 };
 use crate::batches::{
     RoundFlow, RoundHook, RoundSums, dispatch_size, ends_round, into_rounds, mean_of_sum,
-    plan_batches,
 };
 use crate::gpu_types::{RayState, SceneUniforms};
 use crate::{KernelError, ReorderMode, Schedule, TraceSettings, WORKGROUP_SIZE};
@@ -91,7 +90,12 @@ impl GpuTracer<'_> {
         };
         let max_rays =
             (ctx.max_binding_bytes() / per_ray).min(self.batch_ray_limit.unwrap_or(u64::MAX));
-        let mut batches = plan_batches(pixels, settings.spp, settings.batch_spp, max_rays);
+        let mut batches = crate::batches::plan_render(
+            pixels,
+            settings,
+            self.data.sample_range.as_ref(),
+            max_rays,
+        )?;
         if hook.is_some() {
             into_rounds(&mut batches);
         }
