@@ -34,7 +34,8 @@ struct Args {
     /// Output image: .png (tone-mapped sRGB) or .exr (linear radiance).
     #[arg(short = 'o', long = "output")]
     output: PathBuf,
-    /// auto (hardware GPU, else CPU), gpu (any adapter, software included) or cpu.
+    /// auto (hardware GPU, else CPU), gpu (any adapter, software included), gpus (every
+    /// hardware GPU at once, the samples split between them) or cpu.
     #[arg(long, default_value = "auto")]
     backend: Backend,
     /// Samples per pixel (with --target-error: the most it may trace).

@@ -57,6 +57,28 @@ pub struct GpuContext {
     uncaptured: Arc<Mutex<Option<wgpu::Error>>>,
 }
 
+/// The adapters of the first backend that has any, in [`backend_order`].
+fn enumerate_adapters() -> Vec<wgpu::Adapter> {
+    for backends in backend_order() {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+        desc.backends = backends;
+        // wgpu re-validates every indirect dispatch with an extra compute pass (~40 us
+        // per radix sort on the H100, about 90 indirect dispatches per sorted batch).
+        // raylume's indirect arguments all come from its own kernels (`prepare_propagate`,
+        // `sort_setup`), which clamp them to the device's limits, so the check is left
+        // out; `WGPU_VALIDATION_INDIRECT_CALL=1` turns it back on.
+        let mut flags = wgpu::InstanceFlags::from_build_config();
+        flags.remove(wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL);
+        desc.flags = flags.with_env();
+        let instance = wgpu::Instance::new(desc);
+        let adapters = pollster::block_on(instance.enumerate_adapters(backends));
+        if !adapters.is_empty() {
+            return adapters;
+        }
+    }
+    Vec::new()
+}
+
 impl std::fmt::Debug for GpuContext {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("GpuContext")
@@ -127,24 +149,7 @@ impl GpuContext {
     ) -> Result<Self, GpuError> {
         // Vulkan/Metal/DX12 first; GL only when they offer nothing (initialising EGL prints
         // noise on headless machines and is never the better choice).
-        let mut adapters = Vec::new();
-        for backends in backend_order() {
-            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
-            desc.backends = backends;
-            // wgpu re-validates every indirect dispatch with an extra compute pass (~40 us
-            // per radix sort on the H100, about 90 indirect dispatches per sorted batch).
-            // raylume's indirect arguments all come from its own kernels (`prepare_propagate`,
-            // `sort_setup`), which clamp them to the device's limits, so the check is left
-            // out; `WGPU_VALIDATION_INDIRECT_CALL=1` turns it back on.
-            let mut flags = wgpu::InstanceFlags::from_build_config();
-            flags.remove(wgpu::InstanceFlags::VALIDATION_INDIRECT_CALL);
-            desc.flags = flags.with_env();
-            let instance = wgpu::Instance::new(desc);
-            adapters = pollster::block_on(instance.enumerate_adapters(backends));
-            if !adapters.is_empty() {
-                break;
-            }
-        }
+        let adapters = enumerate_adapters();
         let name_filter = opts
             .adapter_name
             .clone()
@@ -188,6 +193,34 @@ impl GpuContext {
             return Err(GpuError::NoAdapter { tried });
         };
         Self::from_adapter_with_binding_limit(adapter, max_binding_bytes)
+    }
+
+    /// A context on **every** adapter `opts` allows (best first, as [`GpuContext::new`] ranks
+    /// them): the devices of a several-GPU render. The adapters of the first backend that has
+    /// any (Vulkan before GL), as `new` looks; an error when there is none.
+    pub fn all(opts: &ContextOptions) -> Result<Vec<Self>, GpuError> {
+        let adapters = enumerate_adapters();
+        let name_filter = opts.adapter_name.as_ref().map(|s| s.to_lowercase());
+        let mut chosen: Vec<wgpu::Adapter> = adapters
+            .into_iter()
+            .filter(|a| {
+                let i = a.get_info();
+                (opts.choice == AdapterChoice::Any || i.device_type != wgpu::DeviceType::Cpu)
+                    && name_filter
+                        .as_ref()
+                        .is_none_or(|f| i.name.to_lowercase().contains(f.as_str()))
+            })
+            .collect();
+        chosen.sort_by_key(|a| {
+            let i = a.get_info();
+            (type_rank(i.device_type), backend_rank(i.backend))
+        });
+        if chosen.is_empty() {
+            return Err(GpuError::NoAdapter {
+                tried: "no adapter of the kind asked for".into(),
+            });
+        }
+        chosen.into_iter().map(Self::from_adapter).collect()
     }
 
     /// Creates the device on a given adapter, with the adapter's full limits.

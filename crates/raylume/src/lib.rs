@@ -69,6 +69,7 @@
 mod auto;
 mod build;
 mod error;
+mod gpus;
 mod output;
 mod parts;
 mod stats;
@@ -78,6 +79,7 @@ mod tracer;
 pub use auto::AutoDecision;
 pub use build::{MaterialId, SceneBuilder, Transform};
 pub use error::Error;
+pub use gpus::WorkerStats;
 pub use output::{ImageFormat, save_exr, save_png};
 pub use parts::{Part, PartHeader, SampleRange, merge, merge_bound};
 pub use stats::{DepthSeconds, LightStats, NO_LIGHT_WARNING, RenderStats, StageSeconds};

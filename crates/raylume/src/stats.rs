@@ -86,6 +86,8 @@ pub struct RenderStats {
     /// On the GPU, the features the pipelines were compiled for: the scene's, or every one
     /// for the generic baseline (`Tracer::specialisation`). Empty on the CPU.
     pub pipeline_features: Vec<&'static str>,
+    /// `Backend::Gpus`: what each device did (its adapter, samples, seconds, rays).
+    pub workers: Vec<crate::WorkerStats>,
     /// For a render part (`Tracer::samples`), the samples of every pixel it traced.
     pub samples: Option<crate::SampleRange>,
     /// On the GPU, how the pipelines were specialised: `"composed"`, `"overrides"` or

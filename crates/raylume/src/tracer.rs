@@ -31,6 +31,12 @@ pub enum Backend {
     Gpu,
     /// The Rust CPU path (rayon), the reference the GPU kernels mirror.
     Cpu,
+    /// Every hardware GPU adapter at once ([`Tracer::with_gpu_contexts`] chooses the devices):
+    /// the samples of every pixel are split between them in proportion to the speed each
+    /// showed in the tracer's last render (equally at first), each renders its range in a
+    /// thread of its own, and the sums are merged exactly as render parts are
+    /// ([`crate::merge`]). The stats list each device's samples and time (`workers`).
+    Gpus,
 }
 
 impl std::str::FromStr for Backend {
@@ -40,7 +46,8 @@ impl std::str::FromStr for Backend {
             "auto" => Ok(Backend::Auto),
             "gpu" => Ok(Backend::Gpu),
             "cpu" => Ok(Backend::Cpu),
-            _ => Err(format!("unknown backend `{s}`: use auto, gpu or cpu")),
+            "gpus" => Ok(Backend::Gpus),
+            _ => Err(format!("unknown backend `{s}`: use auto, gpu, gpus or cpu")),
         }
     }
 }
@@ -271,7 +278,11 @@ pub struct Tracer {
     pub tone: raylume_post::ToneMap,
     progress: Option<ProgressFn>,
     on_start: Option<StartFn>,
-    gpu: Option<GpuContext>,
+    pub(crate) gpu: Option<GpuContext>,
+    /// [`Backend::Gpus`]: one tracer per device, and the samples per second each traced in
+    /// the last render (the split's weights).
+    pub(crate) gpu_workers: Vec<Tracer>,
+    pub(crate) worker_speeds: Vec<f64>,
     gpu_bloom: Option<raylume_post::GpuBloom>,
     /// The GPU work buffers and ray sorters of the last render, handed to the next one so that
     /// repeated renders reuse them instead of reallocating (see `GpuWorkspace`).
@@ -288,7 +299,7 @@ pub struct Tracer {
     /// geometry, preset and layout it was built from: rendering the same scene again (another
     /// spp, size, seed, or a benchmark's repeats, also alternating the two layouts) skips the
     /// build.
-    bvh_cache: Vec<BvhCacheEntry>,
+    pub(crate) bvh_cache: Vec<BvhCacheEntry>,
 }
 
 /// BVHs the tracer keeps: two, so that a benchmark alternating layouts or presets on one
@@ -300,16 +311,16 @@ const BVH_CACHE_ENTRIES: usize = 2;
 const PIPELINE_CACHE_ENTRIES: usize = 4;
 
 /// A built BVH and the exact geometry it was built from.
-struct BvhCacheEntry {
-    key: GeometryKey,
-    bvh: GpuBvh,
+pub(crate) struct BvhCacheEntry {
+    pub(crate) key: GeometryKey,
+    pub(crate) bvh: GpuBvh,
 }
 
 /// What a BVH depends on: every triangle vertex and sphere, bit for bit (a 64-bit hash plus
 /// the counts and bounds), the build preset and the layout. Materials, camera and settings do
 /// not matter to it.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
-struct GeometryKey {
+pub(crate) struct GeometryKey {
     hash: u64,
     triangles: usize,
     spheres: usize,
@@ -319,7 +330,7 @@ struct GeometryKey {
 }
 
 impl GeometryKey {
-    fn of(scene: &Scene, quality: BvhQuality, layout: BvhLayout) -> Self {
+    pub(crate) fn of(scene: &Scene, quality: BvhQuality, layout: BvhLayout) -> Self {
         // A multiply-rotate hash over the raw bits (FxHash's step), per run of 16,384
         // triangles on every core, the runs' hashes then hashed in order: ~1 ms for 140k
         // triangles.
@@ -415,6 +426,8 @@ impl Tracer {
             progress: None,
             on_start: None,
             gpu: None,
+            gpu_workers: Vec::new(),
+            worker_speeds: Vec::new(),
             gpu_bloom: None,
             gpu_workspace: None,
             auto: HashMap::new(),
@@ -465,6 +478,50 @@ impl Tracer {
         self.gpu_bloom = None;
         self.gpu_workspace = None;
         self.gpu_pipelines.clear();
+    }
+
+    /// The header of a part of `scene` rendered with this tracer's settings (its range: the
+    /// whole render; the caller sets it).
+    pub(crate) fn part_header(
+        &self,
+        scene: &Scene,
+        r: raylume_scene::RenderSettings,
+    ) -> PartHeader {
+        let settings = TraceSettings {
+            batch_spp: 1,
+            seed: self.seed.unwrap_or(r.seed),
+            ..TraceSettings::from_render(&r)
+        };
+        PartHeader {
+            format: 1,
+            scene: format!(
+                "{:016x}",
+                crate::auto::fingerprint(scene, &settings, "part")
+            ),
+            width: r.width,
+            height: r.height,
+            spp: r.spp,
+            max_bounces: r.max_bounces,
+            seed: settings.seed,
+            estimator: self.estimator.name().into(),
+            sampler: self.sampler.name().into(),
+            russian_roulette: self.russian_roulette,
+            samples: SampleRange {
+                begin: 0,
+                end: r.spp,
+            },
+        }
+    }
+
+    /// A [`Backend::Gpus`] tracer over these devices (two contexts on one adapter work too:
+    /// the tests split a render between two lavapipe devices).
+    pub fn with_gpu_contexts(contexts: Vec<GpuContext>) -> Self {
+        let mut t = Tracer::new(Backend::Gpus);
+        t.gpu_workers = contexts
+            .into_iter()
+            .map(|c| Tracer::new(Backend::Gpu).with_gpu_context(c))
+            .collect();
+        t
     }
 
     /// Uses an existing GPU context (and its adapter) for GPU renders.
@@ -575,6 +632,10 @@ impl Tracer {
     fn choose_backend_inner(&mut self) -> Result<(bool, String), Error> {
         match self.backend {
             Backend::Cpu => Ok((false, "requested".into())),
+            Backend::Gpus => {
+                self.open_gpu_workers()?;
+                Ok((true, "requested".into()))
+            }
             Backend::Gpu => {
                 if self.gpu.is_none() {
                     self.gpu = Some(GpuContext::new(&ContextOptions {
@@ -621,6 +682,9 @@ impl Tracer {
             return Err(Error::TargetError(e));
         }
         scene.validate()?;
+        if self.backend == Backend::Gpus {
+            return self.render_gpus(scene, t_total);
+        }
         if let Some(range) = self.samples {
             if range.is_empty() || range.end > scene.render.spp {
                 return Err(Error::Settings(format!(
@@ -895,27 +959,8 @@ impl Tracer {
             stats.mrays_per_s = stats.rays_traced as f64 / stats.seconds.trace / 1e6;
         }
         let part = self.samples.map(|samples| PartHeader {
-            format: 1,
-            scene: format!(
-                "{:016x}",
-                crate::auto::fingerprint(
-                    scene,
-                    &TraceSettings {
-                        batch_spp: 1,
-                        ..settings
-                    },
-                    "part"
-                )
-            ),
-            width: r.width,
-            height: r.height,
-            spp: r.spp,
-            max_bounces: r.max_bounces,
-            seed: settings.seed,
-            estimator: self.estimator.name().into(),
-            sampler: self.sampler.name().into(),
-            russian_roulette: self.russian_roulette,
             samples,
+            ..self.part_header(scene, r)
         });
         stats.samples = self.samples;
         Ok(Render {
