@@ -14,7 +14,9 @@
 # counts tried besides the default, RAYLUME_PERSISTENT_THREADS), T1_PARTS (which parts run: "plain
 # nee threads mitsuba first-image large specialise", all by default; `specialise` is issue 14's:
 # every scene with its pipelines composed, overridden and generic, then with each absent feature
-# compiled in (present but unused); `large` is issue 19's: the 3M-triangle
+# compiled in (present but unused); `parts` is issue 16's: a render whole and as 4 parts in
+# separate processes (the overhead of splitting), merged, and --backend gpus on the one GPU;
+# `large` is issue 19's: the 3M-triangle
 # grid of tools/large made there and rendered from file to a 10-spp PNG by raylume and by
 # Mitsuba, T1_GRID quads a side, default 1224). Results: $OUT/table1.tgz.
 set -euo pipefail
@@ -26,8 +28,8 @@ stage() {
   cd "$root"
   [ -d .gl ] || ../shared/gpu/prepare.sh
   mkdir -p .gpu
-  cargo build --release -p raylume --example bench --example render --example make_grid
-  for b in bench render make_grid; do
+  cargo build --release -p raylume --example bench --example render --example make_grid --example merge
+  for b in bench render make_grid merge; do
     cp target/release/examples/$b .gpu/$b && strip .gpu/$b && xz -f -T2 .gpu/$b
   done
   [ -f .gpu/mitsuba-trim.tar.xz ] || ../shared/peers/mitsuba/pack.sh
@@ -46,7 +48,7 @@ device() {
   el() { echo $(($(date +%s) - T0)); }
   R=/tmp/t1; rm -rf $R; mkdir -p $R
   trap 'tar czf "$OUT/table1.tgz" -C '$R' . ; echo "== done at $(el) s"' EXIT
-  for b in bench render make_grid; do xz -dc .gpu/$b.xz > /tmp/$b && chmod +x /tmp/$b; done
+  for b in bench render make_grid merge; do xz -dc .gpu/$b.xz > /tmp/$b && chmod +x /tmp/$b; done
   m=$(mktemp -d); tar -C "$m" -xJf .gpu/mitsuba-trim.tar.xz
   export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
   cp .gpu/commit.txt $R/
@@ -54,7 +56,7 @@ device() {
   S=${T1_SCENES:-"scenes/cornell-box.toml scenes/living-room/scene.json scenes/teapot.toml scenes/glass-teapot.toml scenes/spheres.toml scenes/cornell-plus.toml"}
   [ "${T1_QUICK:-0}" = 1 ] && S="scenes/cornell-box.toml scenes/living-room/scene.json"
   local common="--backend gpu --spp ${T1_SPP:-1,10,100} --repeat 3 --schedule ${T1_SCHEDULES:-megakernel,wavefront,persistent} --reorder ${T1_REORDER:-off,on} --bvh ${T1_BVH:-binary,wide}"
-  local parts=" ${T1_PARTS:-plain nee threads mitsuba first-image large specialise} "
+  local parts=" ${T1_PARTS:-plain nee threads mitsuba first-image large specialise parts} "
   if [[ $parts == *" plain "* ]]; then
   echo "== Table 1, plain estimator (at $(el) s)"
   timeout 300 /tmp/bench $common --json $R/plain.json $S > $R/plain.md 2> $R/plain.log || echo "bench plain: exit $?"
@@ -119,6 +121,25 @@ device() {
     --extra-feature diffuse,metal,rough_metal,glass,rough_glass,plastic,emission,spheres,textures,shading_normals,constant_environment,environment_map \
     --json $R/extra.json $S6 > $R/extra.md 2> $R/extra.log || echo "bench: exit $?"
   awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/extra.md
+  fi
+  if [[ $parts == *" parts "* ]]; then
+  echo "== issue 16: whole renders against 4 parts in separate processes, 1000x1000, 100 spp (at $(el) s)"
+  local sc k i
+  for sc in scenes/cornell-box.toml scenes/living-room/scene.json; do
+    local tag; tag=$(basename "$(dirname "$sc")")-$(basename "$sc" .toml)
+    for k in 1 2; do
+      timeout 60 /tmp/render $sc -o /tmp/whole.exr --backend gpu --size 1000x1000 --spp 100 \
+        --stats $R/parts-$tag-whole-$k.json -q 2>&1 | grep -E '^raylume: trace' | sed "s|^|$tag whole $k: |"
+    done
+    timeout 60 /tmp/render $sc -o /tmp/gpus.exr --backend gpus --size 1000x1000 --spp 100 \
+      --stats $R/parts-$tag-gpus.json -q 2>&1 | grep -E '^raylume: trace' | sed "s|^|$tag gpus (1 device): |"
+    for i in 1 2 3 4; do
+      timeout 60 /tmp/render $sc -o /tmp/part-$i.exr --backend gpu --size 1000x1000 --spp 100 --part $i/4 \
+        --stats $R/parts-$tag-part-$i.json -q 2>&1 | grep -E '^raylume: trace' | sed "s|^|$tag part $i/4: |"
+    done
+    TIMEFORMAT="$tag merge of 4 parts: %R s"
+    time (/tmp/merge -o /tmp/merged.exr /tmp/part-1.exr /tmp/part-2.exr /tmp/part-3.exr /tmp/part-4.exr 2>&1 | tail -1)
+  done
   fi
   if [[ $parts == *" large "* ]]; then
   echo "== issue 19: the ${T1_GRID:-1224}^2-quad grid from file to a 10-spp PNG (at $(el) s)"
