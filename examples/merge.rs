@@ -10,7 +10,8 @@
 //! every pixel's samples without gap or overlap; otherwise a message says which part is wrong
 //! and nothing is written. The merged image equals one render of all the samples within the
 //! float-rounding bound of `raylume::merge_bound` (bit for bit for a single part of all of
-//! them). `.png` output is tone-mapped as `render`'s (`--exposure`).
+//! them). `.png` output is tone-mapped as `render`'s (`--exposure`). With `--part`, parts that
+//! follow each other are joined into one part instead (a part resumed with more samples).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -26,6 +27,11 @@ struct Args {
     /// Exposure in stops for .png output.
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     exposure: f32,
+    /// Write the joined parts as one part (.exr of sums with a header) instead of the image:
+    /// the parts need only follow each other, not cover every sample. A part resumed with
+    /// more samples: `merge --part -o p.exr p.exr more.exr`.
+    #[arg(long)]
+    part: bool,
     /// The parts (.exr files written by `render --part`).
     #[arg(required = true)]
     parts: Vec<PathBuf>,
@@ -37,6 +43,19 @@ fn run(args: &Args) -> Result<String, String> {
         parts.push(raylume::Part::load(p).map_err(|e| e.to_string())?);
     }
     let names: Vec<String> = args.parts.iter().map(|p| p.display().to_string()).collect();
+    if args.part {
+        let joined = raylume::join(&parts, &names).map_err(|e| e.to_string())?;
+        joined.save(&args.output).map_err(|e| e.to_string())?;
+        let r = joined.header.samples;
+        return Ok(format!(
+            "joined {} parts into {} (samples {}..{} of {})",
+            parts.len(),
+            args.output.display(),
+            r.begin,
+            r.end,
+            joined.header.spp
+        ));
+    }
     let (header, pixels) = raylume::merge(&parts, &names).map_err(|e| e.to_string())?;
     let render = raylume::Render {
         width: header.width,

@@ -81,7 +81,7 @@ pub use build::{MaterialId, SceneBuilder, Transform};
 pub use error::Error;
 pub use gpus::WorkerStats;
 pub use output::{ImageFormat, save_exr, save_png};
-pub use parts::{Part, PartHeader, SampleRange, merge, merge_bound};
+pub use parts::{Part, PartHeader, SampleRange, join, merge, merge_bound};
 pub use stats::{DepthSeconds, LightStats, NO_LIGHT_WARNING, RenderStats, StageSeconds};
 pub use tracer::{
     Backend, CPU_RAYS_PER_SECOND_PER_THREAD, GPU_RAYS_PER_SECOND, Progress, Render, ReorderPolicy,

@@ -230,10 +230,10 @@ pub fn merge_bound(spp: u32) -> f64 {
     f64::from(spp) * f64::from(f32::EPSILON)
 }
 
-/// Merges parts of one render into its image (each pixel's mean over all `spp` samples):
-/// the parts must be of the same render (the same header but for the range) and their
-/// ranges must tile `0..spp` without gap or overlap; `names` label them in errors.
-pub fn merge(parts: &[Part], names: &[String]) -> Result<(PartHeader, Vec<[f32; 3]>), Error> {
+/// Joins parts of one render whose sample ranges follow each other without gap or overlap
+/// into one part of their union (sums added, nothing divided): a part resumed with more
+/// samples, or parts gathered to merge later. `names` label the parts in errors.
+pub fn join(parts: &[Part], names: &[String]) -> Result<Part, Error> {
     let name = |i: usize| {
         names
             .get(i)
@@ -257,7 +257,8 @@ pub fn merge(parts: &[Part], names: &[String]) -> Result<(PartHeader, Vec<[f32; 
     }
     let mut order: Vec<usize> = (0..parts.len()).collect();
     order.sort_by_key(|&i| (parts[i].header.samples.begin, parts[i].header.samples.end));
-    let mut next = 0u32;
+    let begin = parts[order[0]].header.samples.begin;
+    let mut next = begin;
     for &i in &order {
         let r = parts[i].header.samples;
         if r.begin > next {
@@ -276,27 +277,43 @@ pub fn merge(parts: &[Part], names: &[String]) -> Result<(PartHeader, Vec<[f32; 
         }
         next = r.end;
     }
-    let spp = first.header.spp;
-    if next != spp {
-        return Err(Error::Parts(format!(
-            "samples {next}..{spp} of every pixel are in no part (missing a part?)"
-        )));
-    }
-    let scale = 1.0 / spp as f32;
-    let mut out = vec![[0.0f32; 3]; first.sums.len()];
+    let mut sums = vec![[0.0f32; 3]; first.sums.len()];
     for &i in &order {
-        for (o, s) in out.iter_mut().zip(&parts[i].sums) {
+        for (o, s) in sums.iter_mut().zip(&parts[i].sums) {
             for k in 0..3 {
                 o[k] += s[k];
             }
         }
     }
+    let mut header = first.header.clone();
+    header.samples = SampleRange { begin, end: next };
+    Ok(Part { header, sums })
+}
+
+/// Merges parts of one render into its image (each pixel's mean over all `spp` samples):
+/// the parts must be of the same render (the same header but for the range) and their
+/// ranges must tile `0..spp` without gap or overlap ([`join`]); `names` label them in errors.
+pub fn merge(parts: &[Part], names: &[String]) -> Result<(PartHeader, Vec<[f32; 3]>), Error> {
+    let joined = join(parts, names)?;
+    let (r, spp) = (joined.header.samples, joined.header.spp);
+    if r.begin > 0 {
+        return Err(Error::Parts(format!(
+            "samples 0..{} of every pixel are in no part (missing a part?)",
+            r.begin
+        )));
+    }
+    if r.end != spp {
+        return Err(Error::Parts(format!(
+            "samples {}..{spp} of every pixel are in no part (missing a part?)",
+            r.end
+        )));
+    }
+    let scale = 1.0 / spp as f32;
+    let mut out = joined.sums;
     for o in &mut out {
         for v in o.iter_mut() {
             *v *= scale;
         }
     }
-    let mut header = first.header.clone();
-    header.samples = SampleRange { begin: 0, end: spp };
-    Ok((header, out))
+    Ok((joined.header, out))
 }

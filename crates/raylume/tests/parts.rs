@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use raylume::{Backend, Part, SampleRange, Scene, Tracer, merge, merge_bound};
+use raylume::{Backend, Part, SampleRange, Scene, Tracer, join, merge, merge_bound};
 
 fn cornell() -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box.toml");
@@ -95,6 +95,22 @@ fn bad_part_sets_are_refused() {
     assert!(msg(&[p2.clone(), p3.clone()]).contains("samples 0..2"));
     assert!(msg(&[p1.clone(), p1.clone(), p2.clone(), p3.clone()]).contains("overlaps"));
     assert!(msg(&[]).contains("no parts"));
+    // Resuming: a part joined with the samples after it is one part of their union, and
+    // merges like the parts it came from.
+    let first_two = join(&[p2.clone(), p1.clone()], &names).unwrap();
+    assert_eq!(first_two.header.samples, SampleRange { begin: 0, end: 4 });
+    let (_, resumed) = merge(&[first_two, p3.clone()], &names).unwrap();
+    let (_, direct) = merge(&[p1.clone(), p2.clone(), p3.clone()], &names).unwrap();
+    assert!(
+        resumed
+            .iter()
+            .zip(&direct)
+            .all(|(a, b)| (0..3).all(|k| (a[k] - b[k]).abs() <= 1e-6 * b[k].abs()))
+    );
+    assert!(
+        join(&[p1.clone(), p3.clone()], &names).is_err(),
+        "a gap cannot be joined"
+    );
     // A part of another render: another seed, another scene.
     let mut seeded = Tracer::new(Backend::Cpu);
     seeded.seed = Some(99);
