@@ -16,6 +16,8 @@
 # every scene with its pipelines composed, overridden and generic, then with each absent feature
 # compiled in (present but unused); `parts` is issue 16's: a render whole and as 4 parts in
 # separate processes (the overhead of splitting), merged, and --backend gpus on the one GPU;
+# `workgroup` times the Cornell box and the living room with RAYLUME_WORKGROUP_SIZE in
+# T1_WORKGROUPS (default "32 64 128 256");
 # `large` is issue 19's: the 3M-triangle
 # grid of tools/large made there and rendered from file to a 10-spp PNG by raylume and by
 # Mitsuba, T1_GRID quads a side, default 1224). Results: $OUT/table1.tgz.
@@ -56,7 +58,7 @@ device() {
   S=${T1_SCENES:-"scenes/cornell-box.toml scenes/living-room/scene.json scenes/teapot.toml scenes/glass-teapot.toml scenes/spheres.toml scenes/cornell-plus.toml"}
   [ "${T1_QUICK:-0}" = 1 ] && S="scenes/cornell-box.toml scenes/living-room/scene.json"
   local common="--backend gpu --spp ${T1_SPP:-1,10,100} --repeat 3 --schedule ${T1_SCHEDULES:-megakernel,wavefront,persistent} --reorder ${T1_REORDER:-off,on} --bvh ${T1_BVH:-binary,wide}"
-  local parts=" ${T1_PARTS:-plain nee threads mitsuba first-image large specialise parts} "
+  local parts=" ${T1_PARTS:-plain nee threads mitsuba first-image large specialise parts workgroup} "
   if [[ $parts == *" plain "* ]]; then
   echo "== Table 1, plain estimator (at $(el) s)"
   timeout 300 /tmp/bench $common --json $R/plain.json $S > $R/plain.md 2> $R/plain.log || echo "bench plain: exit $?"
@@ -121,6 +123,19 @@ device() {
     --extra-feature diffuse,metal,rough_metal,glass,rough_glass,plastic,emission,spheres,textures,shading_normals,constant_environment,environment_map \
     --json $R/extra.json $S6 > $R/extra.md 2> $R/extra.log || echo "bench: exit $?"
   awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/extra.md
+  fi
+  if [[ $parts == *" workgroup "* ]]; then
+  local wg est
+  for wg in ${T1_WORKGROUPS:-32 64 128 256}; do
+    for est in plain nee; do
+      echo "== workgroup size $wg, $est (at $(el) s)"
+      RAYLUME_WORKGROUP_SIZE=$wg timeout 120 /tmp/bench --backend gpu --spp 100 --repeat 3 \
+        --schedule megakernel,persistent --reorder off --bvh wide --estimator $est --rr-depth 5 \
+        --json $R/wg-$wg-$est.json scenes/cornell-box.toml scenes/living-room/scene.json \
+        > $R/wg-$wg-$est.md 2> $R/wg-$wg-$est.log || echo "bench: exit $?"
+      grep -E '^\| scenes.* \| 100 \|' $R/wg-$wg-$est.md || true
+    done
+  done
   fi
   if [[ $parts == *" parts "* ]]; then
   echo "== issue 16: whole renders against 4 parts in separate processes, 1000x1000, 100 spp (at $(el) s)"

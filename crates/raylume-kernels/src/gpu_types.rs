@@ -362,7 +362,7 @@ pub fn wgsl_constants() -> String {
     s += &u("SAMPLER_ZSOBOL", SAMPLER_ZSOBOL);
     s += &u("NO_ROULETTE", NO_ROULETTE);
     s += &u("RAY_ALIVE", RAY_ALIVE);
-    s += &u("WORKGROUP_SIZE", crate::WORKGROUP_SIZE);
+    s += &u("WORKGROUP_SIZE", crate::workgroup_size());
     // `{:e}` prints the shortest representation that round-trips, so the WGSL literal is the
     // same f32.
     s += &format!("const SHADOW_T_SCALE: f32 = {:e};\n", SHADOW_T_SCALE);

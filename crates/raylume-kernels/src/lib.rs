@@ -97,6 +97,20 @@ use raylume_scene::RenderSettings;
 /// Threads per workgroup of every 1D kernel (the paper used 128 threads per block).
 pub const WORKGROUP_SIZE: u32 = 64;
 
+/// The workgroup size the tracer's 1D kernels are compiled and dispatched with:
+/// [`WORKGROUP_SIZE`], or `RAYLUME_WORKGROUP_SIZE` (a multiple of 32 from 32 to 1024; read once
+/// per process) for measuring others (`docs/RESULTS.md`).
+pub fn workgroup_size() -> u32 {
+    static SIZE: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
+    *SIZE.get_or_init(|| {
+        std::env::var("RAYLUME_WORKGROUP_SIZE")
+            .ok()
+            .and_then(|v| v.trim().parse::<u32>().ok())
+            .filter(|n| (32..=1024).contains(n) && n % 32 == 0)
+            .unwrap_or(WORKGROUP_SIZE)
+    })
+}
+
 /// The largest `max_bounces` accepted (the random-number key holds the bounce in 28 bits;
 /// this leaves room and catches nonsense).
 pub const MAX_BOUNCES_LIMIT: u32 = 1 << 16;

@@ -18,7 +18,7 @@ use crate::batches::{
     RoundFlow, RoundHook, RoundSums, dispatch_size, ends_round, into_rounds, mean_of_sum,
 };
 use crate::gpu_types::{RayState, SceneUniforms};
-use crate::{KernelError, ReorderMode, Schedule, TraceSettings, WORKGROUP_SIZE};
+use crate::{KernelError, ReorderMode, Schedule, TraceSettings, workgroup_size};
 
 /// A sorter failure as a kernel error: GPU failures pass through; the rest (a sorter too small,
 /// bad options) would be a bug here, reported as settings the sorter cannot run.
@@ -244,14 +244,14 @@ impl GpuTracer<'_> {
                     .capture
                     .as_ref()
                     .and_then(|c| Some((c.depth, c.buffers.as_ref()?))),
-                ray_groups: dispatch_size(b.rays(), WORKGROUP_SIZE, max_dim),
+                ray_groups: dispatch_size(b.rays(), workgroup_size(), max_dim),
                 persistent_groups: dispatch_size(
                     b.rays()
                         .min(self.persistent_threads.unwrap_or(default_threads)),
-                    WORKGROUP_SIZE,
+                    workgroup_size(),
                     max_dim,
                 ),
-                pixel_groups: dispatch_size(b.pixel_count, WORKGROUP_SIZE, max_dim),
+                pixel_groups: dispatch_size(b.pixel_count, workgroup_size(), max_dim),
             }
             .stages(&plan, max_bounces);
             let times = clock.run(&during, &batch_stages)?;
