@@ -243,7 +243,6 @@ impl Tracer {
             .collect::<Vec<_>>()
             .join(" + ");
         stats.spp = r.spp;
-        stats.samples = self.samples;
         stats.seconds.device = device_seconds;
         stats.seconds.bvh = bvh_seconds;
         stats.seconds.post = t_post.elapsed().as_secs_f64();
@@ -261,18 +260,7 @@ impl Tracer {
             0.0
         };
         stats.workers = worker_stats;
-        let part = self.samples.map(|samples| crate::PartHeader {
-            samples,
-            ..self.part_header(scene, r)
-        });
-        Ok(Render {
-            width: r.width,
-            height: r.height,
-            pixels,
-            stats,
-            tone: self.tone,
-            part,
-        })
+        Ok(self.make_render(scene, pixels, stats))
     }
 
     /// One worker per hardware adapter, unless there are workers already.

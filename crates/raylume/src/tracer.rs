@@ -958,19 +958,30 @@ impl Tracer {
         if stats.seconds.trace > 0.0 {
             stats.mrays_per_s = stats.rays_traced as f64 / stats.seconds.trace / 1e6;
         }
-        let part = self.samples.map(|samples| PartHeader {
-            samples,
-            ..self.part_header(scene, r)
-        });
+        Ok(self.make_render(scene, pixels, stats))
+    }
+
+    /// The [`Render`] of `scene` with these pixels and stats, with a part's header when this
+    /// tracer renders a part ([`Tracer::samples`]).
+    pub(crate) fn make_render(
+        &self,
+        scene: &Scene,
+        pixels: Vec<[f32; 3]>,
+        mut stats: RenderStats,
+    ) -> Render {
+        let r = scene.render;
         stats.samples = self.samples;
-        Ok(Render {
+        Render {
             width: r.width,
             height: r.height,
             pixels,
             stats,
             tone: self.tone,
-            part,
-        })
+            part: self.samples.map(|samples| PartHeader {
+                samples,
+                ..self.part_header(scene, r)
+            }),
+        }
     }
 
     /// Traces on the GPU (with `Auto`'s policy under `auto_key`, if given), runs bloom on the

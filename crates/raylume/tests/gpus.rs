@@ -2,28 +2,13 @@
 //! lavapipe devices (two contexts on the one software adapter CI has), equals the render on
 //! one device within `raylume::merge_bound`, with each device's share in the stats.
 
-use std::path::Path;
+mod common;
 
-use raylume::{Backend, SampleRange, Scene, Tracer, merge_bound};
+use raylume::{Backend, SampleRange, Tracer, merge_bound};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext};
 
-fn cornell() -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box.toml");
-    let mut s = Scene::load(path).unwrap();
-    s.render.width = 16;
-    s.render.height = 12;
-    s.render.spp = 8;
-    s.render.max_bounces = 3;
-    s
-}
-
-fn worst_relative(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
-    a.iter()
-        .zip(b)
-        .flat_map(|(x, y)| (0..3).map(move |k| (f64::from(x[k]), f64::from(y[k]))))
-        .map(|(x, y)| (x - y).abs() / y.abs().max(1e-30))
-        .fold(0.0, f64::max)
-}
+/// Samples per pixel of the test renders.
+const SPP: u32 = 8;
 
 #[test]
 fn two_devices_render_what_one_does() {
@@ -40,7 +25,7 @@ fn two_devices_render_what_one_does() {
     ];
     let mut two = Tracer::with_gpu_contexts(devices);
     assert_eq!(two.backend, Backend::Gpus);
-    let scene = cornell();
+    let scene = common::small_cornell(SPP);
     let one = Tracer::new(Backend::Gpu).render(&scene).unwrap();
     for round in 0..2 {
         let r = two.render(&scene).unwrap();
@@ -57,7 +42,7 @@ fn two_devices_render_what_one_does() {
                 .iter()
                 .all(|w| w.trace_seconds > 0.0 && w.rays_traced > 0)
         );
-        let err = worst_relative(&r.pixels, &one.pixels);
+        let err = common::worst_relative(&r.pixels, &one.pixels);
         assert!(
             err <= merge_bound(8),
             "round {round}: {err:.3e} past {:.3e}",
@@ -78,7 +63,7 @@ fn two_devices_render_what_one_does() {
         header,
         "the same header on one or two devices"
     );
-    assert!(worst_relative(&p.pixels, &q.pixels) <= merge_bound(8));
+    assert!(common::worst_relative(&p.pixels, &q.pixels) <= merge_bound(8));
     // Unsupported: a target error.
     two.samples = None;
     two.target_error = Some(1e-3);

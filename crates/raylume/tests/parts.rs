@@ -2,19 +2,12 @@
 //! of them, within `merge_bound` (the float-rounding bound derived in `src/parts.rs`), bit for
 //! bit for one part of all the samples; on the CPU and on the GPU; bad part sets are refused.
 
-use std::path::Path;
+mod common;
 
 use raylume::{Backend, Part, SampleRange, Scene, Tracer, join, merge, merge_bound};
 
-fn cornell() -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box.toml");
-    let mut s = Scene::load(path).unwrap();
-    s.render.width = 16;
-    s.render.height = 12;
-    s.render.spp = 6;
-    s.render.max_bounces = 3;
-    s
-}
+/// Samples per pixel of the test renders.
+const SPP: u32 = 6;
 
 /// Renders part `i` of `n` with `tracer`.
 fn part(tracer: &mut Tracer, scene: &Scene, i: u32, n: u32) -> Part {
@@ -28,17 +21,8 @@ fn part(tracer: &mut Tracer, scene: &Scene, i: u32, n: u32) -> Part {
     }
 }
 
-/// The largest per-channel error of `a` against `b`, relative to `b` (floored at 1e-30).
-fn worst_relative(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
-    a.iter()
-        .zip(b)
-        .flat_map(|(x, y)| (0..3).map(move |k| (f64::from(x[k]), f64::from(y[k]))))
-        .map(|(x, y)| (x - y).abs() / y.abs().max(1e-30))
-        .fold(0.0, f64::max)
-}
-
 fn parts_merge_into_the_render(backend: Backend) {
-    let scene = cornell();
+    let scene = common::small_cornell(SPP);
     for batch_spp in [2, 4] {
         let mut t = Tracer::new(backend);
         t.batch_spp = batch_spp;
@@ -53,7 +37,7 @@ fn parts_merge_into_the_render(backend: Backend) {
             let parts: Vec<Part> = (1..=n).rev().map(|i| part(&mut t, &scene, i, n)).collect();
             let (header, merged) = merge(&parts, &[]).unwrap();
             assert_eq!(header.samples, SampleRange { begin: 0, end: 6 });
-            let err = worst_relative(&merged, &whole.pixels);
+            let err = common::worst_relative(&merged, &whole.pixels);
             assert!(
                 err <= merge_bound(scene.render.spp),
                 "{backend:?}, {n} parts, batches of {batch_spp}: relative error {err:.3e} past the bound {:.3e}",
@@ -64,7 +48,7 @@ fn parts_merge_into_the_render(backend: Backend) {
         let mut other = Tracer::new(backend);
         other.seed = Some(scene.render.seed + 1);
         let o = other.render(&scene).unwrap();
-        assert!(worst_relative(&o.pixels, &whole.pixels) > 1e3 * merge_bound(6));
+        assert!(common::worst_relative(&o.pixels, &whole.pixels) > 1e3 * merge_bound(6));
     }
 }
 
@@ -83,7 +67,7 @@ fn parts_merge_into_the_render_on_the_gpu() {
 
 #[test]
 fn bad_part_sets_are_refused() {
-    let scene = cornell();
+    let scene = common::small_cornell(SPP);
     let mut t = Tracer::new(Backend::Cpu);
     let p1 = part(&mut t, &scene, 1, 3);
     let p2 = part(&mut t, &scene, 2, 3);
@@ -168,7 +152,7 @@ fn equal_parts_tile_the_samples() {
 /// A part survives its file bit for bit; files that are not parts are refused with a reason.
 #[test]
 fn parts_round_trip_through_exr() {
-    let scene = cornell();
+    let scene = common::small_cornell(SPP);
     let p = part(&mut Tracer::new(Backend::Cpu), &scene, 2, 3);
     let dir = std::env::temp_dir().join(format!("raylume-parts-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

@@ -22,31 +22,9 @@
 //!   (more than twice the allowance is required), and the relative RMSE between the seeds is
 //!   0.15 to 8 (above 0.1 is required).
 
-use std::path::{Path, PathBuf};
+mod common;
 
-use raylume::{Backend, Scene, Tracer};
-
-fn scenes() -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
-    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    v.sort();
-    v.push(dir.join("living-room/scene.json"));
-    v
-}
-
-fn small(path: &Path) -> Scene {
-    let mut s = Scene::load(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let aspect = s.render.width as f32 / s.render.height as f32;
-    s.render.height = 20;
-    s.render.width = (20.0 * aspect).round().max(1.0) as u32;
-    s.render.spp = 2;
-    s.render.max_bounces = 4;
-    s
-}
+use raylume::{Backend, Tracer};
 
 fn rel_rmse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
     let n = (a.len() * 3) as f64;
@@ -103,8 +81,8 @@ fn every_scene_renders_the_same_paths_on_cpu_and_gpu() {
     let mut gpu = Tracer::new(Backend::Gpu);
     cpu.paper_estimator();
     gpu.paper_estimator();
-    for path in scenes() {
-        let scene = small(&path);
+    for path in common::project_scenes() {
+        let scene = common::small_scene(&path, 20);
         let c = cpu.render(&scene).unwrap();
         let g = gpu.render(&scene).unwrap();
         let name = path.display();

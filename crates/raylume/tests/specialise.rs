@@ -6,31 +6,9 @@
 //! lavapipe; a driver that compiled them differently could move a pixel by rounding, and this
 //! test would say so).
 
-use std::path::{Path, PathBuf};
+mod common;
 
-use raylume::{Backend, Scene, Specialisation, Tracer};
-
-fn scenes() -> Vec<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes");
-    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    v.sort();
-    v.push(dir.join("living-room/scene.json"));
-    v
-}
-
-fn small(path: &Path) -> Scene {
-    let mut s = Scene::load(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    let aspect = s.render.width as f32 / s.render.height as f32;
-    s.render.height = 16;
-    s.render.width = (16.0 * aspect).round().max(1.0) as u32;
-    s.render.spp = 2;
-    s.render.max_bounces = 4;
-    s
-}
+use raylume::{Backend, Specialisation, Tracer};
 
 #[test]
 fn composed_overridden_and_generic_pipelines_render_the_same_image() {
@@ -46,8 +24,8 @@ fn composed_overridden_and_generic_pipelines_render_the_same_image() {
     let mut generic = Tracer::new(Backend::Gpu);
     generic.specialisation = Specialisation::Generic;
     let all = raylume::Features::all().names();
-    for path in scenes() {
-        let scene = small(&path);
+    for path in common::project_scenes() {
+        let scene = common::small_scene(&path, 16);
         let name = path.display();
         let s = composed.render(&scene).unwrap();
         assert_eq!(s.stats.specialisation, "composed");
@@ -87,7 +65,7 @@ fn composed_overridden_and_generic_pipelines_render_the_same_image() {
     }
     // The CPU mirror is not specialised: it names no pipeline features.
     let cpu = Tracer::new(Backend::Cpu)
-        .render(&small(&scenes()[0]))
+        .render(&common::small_scene(&common::project_scenes()[0], 16))
         .unwrap();
     assert!(cpu.stats.pipeline_features.is_empty());
     assert!(cpu.stats.specialisation.is_empty());

@@ -1,4 +1,5 @@
-//! Helpers shared by the tests that run the `render` command.
+//! Helpers shared by the facade's integration tests: the example binaries, the project's
+//! scenes at test sizes, image comparison.
 
 #![allow(dead_code)] // each test binary uses its own subset
 
@@ -31,4 +32,52 @@ fn example_exe(name: &str) -> PathBuf {
         p.display()
     );
     p
+}
+
+/// The repository's root.
+pub fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// Every scene of `scenes/`: its TOML files in name order, then the living room.
+pub fn project_scenes() -> Vec<PathBuf> {
+    let dir = repo().join("scenes");
+    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    v.sort();
+    v.push(dir.join("living-room/scene.json"));
+    v
+}
+
+/// The scene at `path`, `height` pixels high (its aspect kept), 2 spp, 4 bounces.
+pub fn small_scene(path: &Path, height: u32) -> raylume::Scene {
+    let mut s = raylume::Scene::load(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let aspect = s.render.width as f32 / s.render.height as f32;
+    s.render.height = height;
+    s.render.width = (height as f32 * aspect).round().max(1.0) as u32;
+    s.render.spp = 2;
+    s.render.max_bounces = 4;
+    s
+}
+
+/// The project's Cornell box at 16x12, `spp` samples per pixel, 3 bounces.
+pub fn small_cornell(spp: u32) -> raylume::Scene {
+    let mut s = raylume::Scene::load(repo().join("scenes/cornell-box.toml")).unwrap();
+    s.render.width = 16;
+    s.render.height = 12;
+    s.render.spp = spp;
+    s.render.max_bounces = 3;
+    s
+}
+
+/// The largest per-channel difference of `a` from `b`, relative to `b` (floored at 1e-30).
+pub fn worst_relative(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    a.iter()
+        .zip(b)
+        .flat_map(|(x, y)| (0..3).map(move |k| (f64::from(x[k]), f64::from(y[k]))))
+        .map(|(x, y)| (x - y).abs() / y.abs().max(1e-30))
+        .fold(0.0, f64::max)
 }
