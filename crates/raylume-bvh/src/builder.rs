@@ -140,7 +140,7 @@ impl GpuBvh {
         profile.coincident_check = lap.next();
         if layout == BvhLayout::Wide {
             return build_wide(
-                triangles, spheres, &source, &aabbs, coincident, quality, params, profile, lap,
+                triangles, spheres, &source, aabbs, coincident, quality, params, profile, lap,
                 start,
             );
         }
@@ -199,7 +199,7 @@ fn build_wide(
     triangles: &[Triangle],
     spheres: &[Sphere],
     source: &[Primitive],
-    aabbs: &[Aabb],
+    aabbs: Vec<Aabb>,
     coincident: usize,
     quality: BvhQuality,
     params: BvhBuildParams,
@@ -207,21 +207,25 @@ fn build_wide(
     mut lap: Lap,
     start: Instant,
 ) -> Result<(GpuBvh, BuildProfile), BvhError> {
-    let median = || to_wide(build_median(aabbs, 1), source);
+    // The boxes are dropped as soon as the tree is built (a large scene's peak memory is the
+    // conversion's); the median fallback after a too-deep conversion makes them again.
+    let median = |aabbs: &[Aabb]| to_wide(build_median(aabbs, 1), source);
+    let boxes_again = || -> Vec<Aabb> { source.par_iter().map(primitive_aabb).collect() };
     let mut fallback = None;
     let mut flat = if coincident > MAX_COINCIDENT {
         fallback = Some(Fallback::CoincidentBoxes { count: coincident });
-        median()
+        median(&aabbs)
     } else {
-        match build_obvhs(triangles, aabbs, params, false, &mut profile, &mut lap)? {
+        match build_obvhs(triangles, &aabbs, params, false, &mut profile, &mut lap)? {
             Ok(bvh2) => {
+                drop(aabbs);
                 let flat = to_wide(bvh2, source);
                 profile.flatten = lap.next();
                 flat
             }
             Err(depth) => {
                 fallback = Some(Fallback::TooDeep { depth });
-                median()
+                median(&aabbs)
             }
         }
     };
@@ -229,7 +233,7 @@ fn build_wide(
         fallback = Some(Fallback::TooDeep {
             depth: flat.max_depth,
         });
-        flat = median();
+        flat = median(&boxes_again());
     }
     if flat.max_depth > WIDE_STACK_SIZE {
         return Err(BvhError::TooDeep {

@@ -72,6 +72,7 @@ pub(crate) fn to_wide(mut bvh: Bvh2, source: &[Primitive]) -> WideFlat {
         refit(&mut bvh);
     }
     let cw = crate::wide_convert::convert(&bvh, WIDE_MAX_LEAF);
+    drop(bvh); // before the primitives are gathered: a large scene's peak memory
     let nodes: Vec<WideNode> = cw.nodes.par_iter().map(|n| bytemuck::cast(*n)).collect();
     let primitives = cw
         .primitive_indices
