@@ -9,19 +9,35 @@ use raylume_sort::{RadixSorter, SortLen, SortOptions};
 
 use super::batch::BatchRecorder;
 use super::capture::CaptureBuffers;
-use super::clock::StageClock;
+use super::clock::{StageClock, StageTime};
 use super::work::{self, WorkBuffers, WorkLayouts};
 use super::{
     BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, TraceStats, TracerPipelines,
 };
 use crate::batches::{
-    RoundFlow, RoundHook, RoundSums, dispatch_size, ends_round, into_rounds, mean_of_sum,
+    Batch, RoundFlow, RoundHook, RoundSums, dispatch_size, ends_round, into_rounds, mean_of_sum,
 };
 use crate::gpu_types::{RayState, SceneUniforms};
 use crate::{KernelError, ReorderMode, Schedule, TraceSettings, workgroup_size};
 
-/// A sorter failure as a kernel error: GPU failures pass through; the rest (a sorter too small,
-/// bad options) would be a bug here, reported as settings the sorter cannot run.
+/// What a render holds from its preparation ([`GpuTracer::prepare`]) to its last batch.
+struct Prepared {
+    /// The batches, in order (rounds when a hook watches them).
+    batches: Vec<Batch>,
+    /// Every pipeline a plan of the policy may run.
+    pipes: HashMap<&'static str, wgpu::ComputePipeline>,
+    /// Rays of the largest batch: what the work buffers hold.
+    capacity: u32,
+    /// The render's uniforms, before each batch's own fields.
+    base: SceneUniforms,
+    /// Whether a plan of the policy permutes rays (a second state buffer).
+    permute: bool,
+    /// Persistent threads when the caller set none.
+    default_threads: u32,
+    /// Seconds the preparation took.
+    seconds: f64,
+}
+
 impl GpuTracer<'_> {
     /// Renders with each batch's schedule and reordering chosen by `policy`, which also sees
     /// what every batch cost (how `raylume`'s `--reorder auto` measures its candidates on the
@@ -63,6 +79,92 @@ impl GpuTracer<'_> {
         progress: &mut dyn FnMut(u32, u32),
         mut hook: Option<&mut RoundHook<'_>>,
     ) -> Result<TraceStats, KernelError> {
+        let p = self.prepare(settings, &*policy, hook.is_some())?;
+        let ctx = self.ctx;
+        let pixels = settings.width * settings.height;
+        let max_bounces = settings.max_bounces;
+        let mut clock = StageClock::new(ctx);
+        let (mut round, mut batches_run) = (0u32, 0usize);
+        let mut sums: Vec<[f32; 3]> = Vec::new();
+        let mut samples_done = 0u64;
+        let mut timings_of_batches = Vec::with_capacity(p.batches.len());
+        let mut depths: Vec<DepthTiming> = Vec::new();
+        let start = Instant::now();
+        for (bi, b) in p.batches.iter().enumerate() {
+            let plan = policy.plan(bi, &p.batches);
+            self.check_plan(&plan, settings, p.permute)?;
+            let t_batch = Instant::now();
+            let (u, times) = self.run_batch(&p, &plan, bi, settings, hook.is_some(), &mut clock)?;
+            let wall_seconds = t_batch.elapsed().as_secs_f64();
+            if let Some(c) = self.capture.as_mut()
+                && plan.schedule == Schedule::Wavefront
+                && c.depth <= max_bounces
+            {
+                c.taken = Some((plan, u.scene_min, u.scene_extent));
+            }
+            add_depth_times(&mut depths, &times);
+            let timing = BatchTiming {
+                index: bi,
+                batch: *b,
+                full: b.rays() == p.capacity,
+                plan,
+                wall_seconds,
+                stages: times,
+            };
+            policy.observe(&timing);
+            timings_of_batches.push(timing);
+            samples_done += u64::from(b.rays());
+            progress((samples_done / u64::from(pixels)) as u32, settings.spp);
+            batches_run = bi + 1;
+            if let Some(h) = hook.as_mut()
+                && ends_round(b, pixels)
+            {
+                round += 1;
+                let work = self.work.as_ref().expect("allocated by prepare");
+                sums = ctx.read_buffer::<[f32; 3]>(&work.accumulation, pixels as usize)?;
+                let round_sums = RoundSums {
+                    round,
+                    samples_done: b.sample_begin + b.sample_count,
+                    round_samples: b.sample_count,
+                    sums: &sums,
+                };
+                if h(&round_sums) == RoundFlow::Stop {
+                    break;
+                }
+            }
+        }
+        if hook.is_some() {
+            let done = p.batches[batches_run - 1];
+            let spp = done.sample_begin + done.sample_count;
+            let means: Vec<[f32; 3]> = sums.iter().map(|s| mean_of_sum(*s, spp)).collect();
+            let work = self.work.as_ref().expect("allocated by prepare");
+            ctx.scoped("writing the image's means", || {
+                ctx.queue
+                    .write_buffer(&work.accumulation, 0, bytemuck::cast_slice(&means))
+            })?;
+        }
+        let trace = start.elapsed().as_secs_f64();
+        self.last_batch = p.batches[..batches_run].last().copied();
+        self.finish(
+            &clock,
+            p.seconds,
+            trace,
+            batches_run,
+            depths,
+            timings_of_batches,
+        )
+    }
+
+    /// Everything before the first batch (pbrt-v4's wavefront `Render()` calls it the
+    /// preparation): the batches, work buffers that fit every plan the policy may choose,
+    /// those plans' pipelines, a ray sorter per key width, the capture buffers, a warm-up of
+    /// every pipeline, the accumulation cleared.
+    fn prepare(
+        &mut self,
+        settings: &TraceSettings,
+        policy: &dyn BatchPolicy,
+        rounds: bool,
+    ) -> Result<Prepared, KernelError> {
         settings.validate()?;
         let t_prepare = Instant::now();
         let ctx = self.ctx;
@@ -96,11 +198,9 @@ impl GpuTracer<'_> {
             self.data.sample_range.as_ref(),
             max_rays,
         )?;
-        if hook.is_some() {
+        if rounds {
             into_rounds(&mut batches);
         }
-        let (mut round, mut batches_run) = (0u32, 0usize);
-        let mut sums: Vec<[f32; 3]> = Vec::new();
         let capacity = batches.iter().map(|b| b.rays()).max().unwrap_or(1);
         let need = work::WorkKey {
             wavefront,
@@ -149,10 +249,50 @@ impl GpuTracer<'_> {
             .collect();
         key_bits.sort_unstable();
         key_bits.dedup();
-        // A sorter of an indirect length needs key and value buffers of its `max_len`: one
-        // per key width, for exactly the capacity of the work buffers it sorts.
-        let work_capacity = key.capacity;
-        for bits in key_bits {
+        self.prepare_sorters(&key_bits, key.capacity)?;
+        if let Some(c) = self.capture.as_mut() {
+            c.taken = None;
+            if wavefront && c.buffers.as_ref().is_none_or(|b| b.capacity != capacity) {
+                c.buffers = None;
+                c.buffers = Some(CaptureBuffers::new(ctx, capacity)?);
+            }
+        }
+        let base = self.data.uniforms(settings);
+        self.warm_pipelines(&pipes, &base, capacity)?;
+        self.work.as_mut().expect("allocated above").reset(ctx)?;
+        // Lavapipe ends every loop of a shader once its invocations have run 65,535 loop
+        // iterations together (gallivm's LP_MAX_TGSI_LOOP_ITERATIONS, "shared between every
+        // loop"), silently: a persistent thread taking dozens of samples passes it and drops
+        // the rest (seen: 16 of 4,096 samples lost with 64 threads). On a software adapter the
+        // persistent schedule therefore runs one sample a thread unless told otherwise
+        // (`set_persistent_threads`; the tests keep each thread to a few samples).
+        let default_threads = if ctx.info.is_software {
+            u32::MAX
+        } else {
+            std::env::var("RAYLUME_PERSISTENT_THREADS")
+                .ok()
+                .and_then(|v| v.parse::<u32>().ok())
+                .filter(|&t| t > 0)
+                .unwrap_or(crate::PERSISTENT_THREADS)
+        };
+        Ok(Prepared {
+            batches,
+            pipes,
+            capacity,
+            base,
+            permute,
+            default_threads,
+            seconds: t_prepare.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// A ray sorter for each key width in `key_bits`, for exactly `work_capacity` rays (a
+    /// sorter of an indirect length needs key and value buffers of its `max_len`), each run
+    /// once so that wgpu's lazy zeroing of its scratch buffers and the first use of its
+    /// pipelines do not land in a timed batch.
+    fn prepare_sorters(&mut self, key_bits: &[u32], work_capacity: u32) -> Result<(), KernelError> {
+        let ctx = self.ctx;
+        for &bits in key_bits {
             if self
                 .sorters
                 .iter()
@@ -163,9 +303,7 @@ impl GpuTracer<'_> {
             self.sorters.retain(|s| s.plan().key_bits != bits);
             let opts = SortOptions::ray_keys().with_key_bits(bits);
             let sorter = RadixSorter::new(ctx, work_capacity, opts).map_err(KernelError::from)?;
-            // One sort now, so that wgpu's lazy zeroing of the sorter's scratch buffers and
-            // the first use of its pipelines do not land in a timed batch.
-            let w = self.work.as_ref().expect("allocated above");
+            let w = self.work.as_ref().expect("allocated by prepare");
             let primed = ctx.scoped("preparing the ray sorter", || {
                 let mut enc = ctx.device.create_command_encoder(&Default::default());
                 let r = sorter.encode(
@@ -182,144 +320,75 @@ impl GpuTracer<'_> {
             ctx.wait("preparing the ray sorter")?;
             self.sorters.push(sorter);
         }
-        if let Some(c) = self.capture.as_mut() {
-            c.taken = None;
-            if wavefront && c.buffers.as_ref().is_none_or(|b| b.capacity != capacity) {
-                c.buffers = None;
-                c.buffers = Some(CaptureBuffers::new(ctx, capacity)?);
-            }
-        }
-        let base = self.data.uniforms(settings);
-        self.warm_pipelines(&pipes, &base, capacity)?;
-        self.work.as_mut().expect("allocated above").reset(ctx)?;
+        Ok(())
+    }
 
+    /// Batch `bi` of `p` under `plan`: its uniforms written (sums kept undivided when
+    /// `rounds`), its stages recorded by a [`BatchRecorder`] and run on `clock`. Returns the
+    /// uniforms and the stages' times.
+    fn run_batch(
+        &mut self,
+        p: &Prepared,
+        plan: &BatchPlan,
+        bi: usize,
+        settings: &TraceSettings,
+        rounds: bool,
+        clock: &mut StageClock<'_>,
+    ) -> Result<(SceneUniforms, Vec<StageTime>), KernelError> {
+        let ctx = self.ctx;
+        let b = &p.batches[bi];
+        let max_bounces = settings.max_bounces;
+        let mut u = b.uniforms(&p.base, bi as u32, settings.spp, p.capacity);
+        if rounds {
+            u.resolve_scale = 1.0; // sums until the hook stops; divided at the end
+        }
+        ctx.queue
+            .write_buffer(&self.scene.uniforms, 0, bytemuck::bytes_of(&u));
+        if plan.schedule == Schedule::Wavefront {
+            self.work
+                .as_mut()
+                .expect("allocated by prepare")
+                .write_bounces(ctx, max_bounces, plan.reorder);
+        }
+        let work = self.work.as_ref().expect("allocated by prepare");
         let max_dim = ctx.limits.max_compute_workgroups_per_dimension;
-        let mut clock = StageClock::new(ctx);
-        let mut samples_done = 0u64;
-        let mut timings_of_batches = Vec::with_capacity(batches.len());
-        let mut depths: Vec<DepthTiming> = Vec::new();
-        let full_rays = capacity;
-        // Lavapipe ends every loop of a shader once its invocations have run 65,535 loop
-        // iterations together (gallivm's LP_MAX_TGSI_LOOP_ITERATIONS, "shared between every
-        // loop"), silently: a persistent thread taking dozens of samples passes it and drops
-        // the rest (seen: 16 of 4,096 samples lost with 64 threads). On a software adapter the
-        // persistent schedule therefore runs one sample a thread unless told otherwise
-        // (`set_persistent_threads`; the tests keep each thread to a few samples).
-        let default_threads = if ctx.info.is_software {
-            u32::MAX
-        } else {
-            std::env::var("RAYLUME_PERSISTENT_THREADS")
-                .ok()
-                .and_then(|v| v.parse::<u32>().ok())
-                .filter(|&t| t > 0)
-                .unwrap_or(crate::PERSISTENT_THREADS)
-        };
-        let prepare = t_prepare.elapsed().as_secs_f64();
-        let start = Instant::now();
-        for (bi, b) in batches.iter().enumerate() {
-            let plan = policy.plan(bi, &batches);
-            self.check_plan(&plan, settings, permute)?;
-            let t_batch = Instant::now();
-            let mut u = b.uniforms(&base, bi as u32, settings.spp, capacity);
-            if hook.is_some() {
-                u.resolve_scale = 1.0; // sums until the hook stops; divided below
-            }
-            ctx.queue
-                .write_buffer(&self.scene.uniforms, 0, bytemuck::bytes_of(&u));
-            if plan.schedule == Schedule::Wavefront {
-                self.work.as_mut().expect("allocated above").write_bounces(
-                    ctx,
-                    max_bounces,
-                    plan.reorder,
-                );
-            }
-            let work = self.work.as_ref().expect("allocated above");
-            let during = format!("rendering batch {} of {}", bi + 1, batches.len());
-            let batch_stages = BatchRecorder {
-                work,
-                pipes: &pipes,
-                scene_bg: &self.scene.bind_group,
-                sorters: &self.sorters,
-                capture: self
-                    .capture
-                    .as_ref()
-                    .and_then(|c| Some((c.depth, c.buffers.as_ref()?))),
-                ray_groups: dispatch_size(b.rays(), workgroup_size(), max_dim),
-                persistent_groups: dispatch_size(
-                    b.rays()
-                        .min(self.persistent_threads.unwrap_or(default_threads)),
-                    workgroup_size(),
-                    max_dim,
-                ),
-                pixel_groups: dispatch_size(b.pixel_count, workgroup_size(), max_dim),
-            }
-            .stages(&plan, max_bounces);
-            let times = clock.run(&during, &batch_stages)?;
-            let wall_seconds = t_batch.elapsed().as_secs_f64();
-            drop(batch_stages);
-            if let Some(c) = self.capture.as_mut()
-                && plan.schedule == Schedule::Wavefront
-                && c.depth <= max_bounces
-            {
-                c.taken = Some((plan, u.scene_min, u.scene_extent));
-            }
-            for st in &times {
-                let Some(d) = st.depth else { continue };
-                if depths.len() <= d as usize {
-                    depths.resize_with(d as usize + 1, Default::default);
-                }
-                let e = &mut depths[d as usize];
-                e.depth = d;
-                match st.label {
-                    "propagate" => e.propagate += st.seconds,
-                    "sort_keys" => e.sort += st.seconds,
-                    "permute_rays" => e.permute += st.seconds,
-                    _ => {}
-                }
-            }
-            let timing = BatchTiming {
-                index: bi,
-                batch: *b,
-                full: b.rays() == full_rays,
-                plan,
-                wall_seconds,
-                stages: times,
-            };
-            policy.observe(&timing);
-            timings_of_batches.push(timing);
-            samples_done += u64::from(b.rays());
-            progress((samples_done / u64::from(pixels)) as u32, settings.spp);
-            batches_run = bi + 1;
-            if let Some(h) = hook.as_mut()
-                && ends_round(b, pixels)
-            {
-                round += 1;
-                let work = self.work.as_ref().expect("allocated above");
-                sums = ctx.read_buffer::<[f32; 3]>(&work.accumulation, pixels as usize)?;
-                let round_sums = RoundSums {
-                    round,
-                    samples_done: b.sample_begin + b.sample_count,
-                    round_samples: b.sample_count,
-                    sums: &sums,
-                };
-                if h(&round_sums) == RoundFlow::Stop {
-                    break;
-                }
-            }
+        let during = format!("rendering batch {} of {}", bi + 1, p.batches.len());
+        let stages = BatchRecorder {
+            work,
+            pipes: &p.pipes,
+            scene_bg: &self.scene.bind_group,
+            sorters: &self.sorters,
+            capture: self
+                .capture
+                .as_ref()
+                .and_then(|c| Some((c.depth, c.buffers.as_ref()?))),
+            ray_groups: dispatch_size(b.rays(), workgroup_size(), max_dim),
+            persistent_groups: dispatch_size(
+                b.rays()
+                    .min(self.persistent_threads.unwrap_or(p.default_threads)),
+                workgroup_size(),
+                max_dim,
+            ),
+            pixel_groups: dispatch_size(b.pixel_count, workgroup_size(), max_dim),
         }
-        let work = self.work.as_ref().expect("allocated above");
-        if hook.is_some() {
-            let done = batches[batches_run - 1];
-            let spp = done.sample_begin + done.sample_count;
-            let means: Vec<[f32; 3]> = sums.iter().map(|p| mean_of_sum(*p, spp)).collect();
-            ctx.scoped("writing the image's means", || {
-                ctx.queue
-                    .write_buffer(&work.accumulation, 0, bytemuck::cast_slice(&means))
-            })?;
-        }
-        let trace = start.elapsed().as_secs_f64();
-        self.last_batch = batches[..batches_run].last().copied();
-        let stats: Vec<u32> = ctx.read_buffer(&work.batch_stats, 4 * batches_run)?;
+        .stages(plan, max_bounces);
+        let times = clock.run(&during, &stages)?;
+        Ok((u, times))
+    }
+
+    /// After the last batch: the rays traced and the samples dropped read back, and the
+    /// timings (upload, preparation, each stage's total, the whole trace).
+    fn finish(
+        &self,
+        clock: &StageClock<'_>,
+        prepare: f64,
+        trace: f64,
+        batches_run: usize,
+        depths: Vec<DepthTiming>,
+        batches: Vec<BatchTiming>,
+    ) -> Result<TraceStats, KernelError> {
+        let work = self.work.as_ref().expect("allocated by prepare");
+        let stats: Vec<u32> = self.ctx.read_buffer(&work.batch_stats, 4 * batches_run)?;
         let (mut rays_traced, mut dropped_samples) = (0u64, 0u64);
         for s in stats.chunks_exact(4) {
             rays_traced += u64::from(s[0]) | (u64::from(s[1]) << 32);
@@ -344,7 +413,7 @@ impl GpuTracer<'_> {
             dropped_samples,
             timings,
             depths,
-            batches: timings_of_batches,
+            batches,
         })
     }
 
@@ -427,6 +496,25 @@ impl GpuTracer<'_> {
                 "a batch policy asked for `{}`, which none of its candidates prepared for",
                 plan.describe(settings.max_bounces)
             )))
+        }
+    }
+}
+
+/// Adds the bounce-stage times of one batch (`propagate`, `sort_keys`, `permute_rays`, each
+/// with its depth) to the render's per-depth totals.
+fn add_depth_times(depths: &mut Vec<DepthTiming>, times: &[StageTime]) {
+    for st in times {
+        let Some(d) = st.depth else { continue };
+        if depths.len() <= d as usize {
+            depths.resize_with(d as usize + 1, Default::default);
+        }
+        let e = &mut depths[d as usize];
+        e.depth = d;
+        match st.label {
+            "propagate" => e.propagate += st.seconds,
+            "sort_keys" => e.sort += st.seconds,
+            "permute_rays" => e.permute += st.seconds,
+            _ => {}
         }
     }
 }
