@@ -83,8 +83,8 @@ pub use wide_traverse::{WIDE_INV_DIR_LIMIT, WIDE_QUANT_PAD, WIDE_T_FAR_SCALE};
 /// constants (`INVALID_INDEX`, `MAX_STACK_DEPTH`, `PRIM_TRIANGLE`, `PRIM_SPHERE`, `T_MISS`,
 /// `T_MAX_LIMIT`, `AABB_T_FAR_SCALE`) and the functions `intersect_aabb`,
 /// `intersect_triangle`, `intersect_sphere`, `intersect_primitive`, `trace_closest`,
-/// `trace_any` (plus helpers `bvh_dot`, `shear_ray`, `intersect_leaf_closest`,
-/// `intersect_leaf_any`).
+/// `trace_any` (plus helpers `bvh_dot`, `shear_ray`, `intersect_leaf` and `binary_walk`, the
+/// one walk of both queries).
 ///
 /// It declares no bindings. Concatenate it with a shader that declares, at module scope,
 ///

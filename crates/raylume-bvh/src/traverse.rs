@@ -37,16 +37,18 @@ const _: () = assert!(size_of::<Hit>() == 16);
 const _: () = assert!(std::mem::offset_of!(Hit, prim) == 4);
 const _: () = assert!(std::mem::offset_of!(Hit, v) == 12);
 
-/// Intersects `primitives[first .. first + count]`, keeping the closest hit in `hit`.
+/// Intersects `primitives[first .. first + count]`, keeping the closest hit in `hit`; with
+/// `any_hit`, returns true at the first hit (then `hit` holds it).
 #[inline(always)]
-fn intersect_leaf_closest(
+fn intersect_leaf(
     primitives: &[Primitive],
     ray: &ShearedRay,
     first: u32,
     count: u32,
     t_min: f32,
     hit: &mut Hit,
-) {
+    any_hit: bool,
+) -> bool {
     for i in first..first + count {
         let r = intersect_primitive(&primitives[i as usize], ray, t_min, hit.t);
         if r.x < hit.t {
@@ -56,24 +58,9 @@ fn intersect_leaf_closest(
                 u: r.y,
                 v: r.z,
             };
-        }
-    }
-}
-
-/// True if any of `primitives[first .. first + count]` is hit within `(t_min, t_max)`.
-#[inline(always)]
-fn intersect_leaf_any(
-    primitives: &[Primitive],
-    ray: &ShearedRay,
-    first: u32,
-    count: u32,
-    t_min: f32,
-    t_max: f32,
-) -> bool {
-    for i in first..first + count {
-        let r = intersect_primitive(&primitives[i as usize], ray, t_min, t_max);
-        if r.x < t_max {
-            return true;
+            if any_hit {
+                return true;
+            }
         }
     }
     false
@@ -133,20 +120,26 @@ fn order_children(
     }
 }
 
-/// The closest hit with `t_min < t < t_max` in the tree `nodes` over `primitives`, or a miss
-/// (`prim == INVALID_INDEX`).
+/// The walk both queries share (obvhs' `traverse!` likewise takes the leaf test as a
+/// parameter): the closest hit with `t_min < t < t_max` in the tree `nodes` over
+/// `primitives`, or with `any_hit` the first one found; a miss has `prim == INVALID_INDEX` and
+/// `t == min(t_max, T_MAX_LIMIT)`.
 ///
 /// At each node both child boxes are tested with the current closest `t`; hit leaves are
 /// intersected at once (nearer first), and of the hit inner children the nearer is entered and
 /// the farther pushed, each only if its entry distance is still within the (possibly shrunken)
 /// closest `t`. The stack never holds more than `depth - 1` entries, which `validate` bounds by
-/// `MAX_STACK_DEPTH`.
-pub fn trace_closest(
+/// `MAX_STACK_DEPTH`. (A box the slab test accepts has `t_near <= t_max * AABB_T_FAR_SCALE`,
+/// a missed one `T_MISS`: for the any-hit walk, whose `t` stays `t_max` until it returns,
+/// "within the closest `t`" is "not missed".)
+#[inline(always)]
+pub fn binary_walk(
     nodes: &[BvhNode],
     primitives: &[Primitive],
     ray: &Ray,
     t_min: f32,
     t_max: f32,
+    any_hit: bool,
 ) -> Hit {
     let inv_dir = Vec3::ONE / ray.dir;
     let sheared = shear_ray(ray);
@@ -163,13 +156,21 @@ pub fn trace_closest(
         let node = &nodes[node_index as usize];
         let (t_near, near_index, near_count, t_far, far_index, far_count) =
             order_children(node, ray.origin, inv_dir, t_min, hit.t);
-        if near_count > 0 && t_near <= hit.t * AABB_T_FAR_SCALE {
-            intersect_leaf_closest(
-                primitives, &sheared, near_index, near_count, t_min, &mut hit,
-            );
+        if near_count > 0
+            && t_near <= hit.t * AABB_T_FAR_SCALE
+            && intersect_leaf(
+                primitives, &sheared, near_index, near_count, t_min, &mut hit, any_hit,
+            )
+        {
+            return hit;
         }
-        if far_count > 0 && t_far <= hit.t * AABB_T_FAR_SCALE {
-            intersect_leaf_closest(primitives, &sheared, far_index, far_count, t_min, &mut hit);
+        if far_count > 0
+            && t_far <= hit.t * AABB_T_FAR_SCALE
+            && intersect_leaf(
+                primitives, &sheared, far_index, far_count, t_min, &mut hit, any_hit,
+            )
+        {
+            return hit;
         }
         let go_near = near_count == 0 && t_near <= hit.t * AABB_T_FAR_SCALE;
         let go_far = far_count == 0 && t_far <= hit.t * AABB_T_FAR_SCALE;
@@ -192,8 +193,20 @@ pub fn trace_closest(
     hit
 }
 
-/// True if anything is hit with `t_min < t < t_max`: [`trace_closest`]'s walk, returning at
-/// the first primitive hit (a shadow ray).
+/// The closest hit with `t_min < t < t_max` in the tree `nodes` over `primitives`, or a miss
+/// (`prim == INVALID_INDEX`): [`binary_walk`].
+pub fn trace_closest(
+    nodes: &[BvhNode],
+    primitives: &[Primitive],
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Hit {
+    binary_walk(nodes, primitives, ray, t_min, t_max, false)
+}
+
+/// True if anything is hit with `t_min < t < t_max`: [`binary_walk`] returning at the first
+/// primitive hit (a shadow ray).
 pub fn trace_any(
     nodes: &[BvhNode],
     primitives: &[Primitive],
@@ -201,47 +214,7 @@ pub fn trace_any(
     t_min: f32,
     t_max: f32,
 ) -> bool {
-    let inv_dir = Vec3::ONE / ray.dir;
-    let sheared = shear_ray(ray);
-    let t_max = t_max.min(T_MAX_LIMIT);
-    let mut stack = [0u32; MAX_STACK_DEPTH];
-    let mut sp = 0usize;
-    let mut node_index = 0u32;
-    loop {
-        let node = &nodes[node_index as usize];
-        let (t_near, near_index, near_count, t_far, far_index, far_count) =
-            order_children(node, ray.origin, inv_dir, t_min, t_max);
-        if near_count > 0
-            && t_near < T_MISS
-            && intersect_leaf_any(primitives, &sheared, near_index, near_count, t_min, t_max)
-        {
-            return true;
-        }
-        if far_count > 0
-            && t_far < T_MISS
-            && intersect_leaf_any(primitives, &sheared, far_index, far_count, t_min, t_max)
-        {
-            return true;
-        }
-        let go_near = near_count == 0 && t_near < T_MISS;
-        let go_far = far_count == 0 && t_far < T_MISS;
-        if go_near {
-            if go_far {
-                debug_assert!(sp < MAX_STACK_DEPTH);
-                stack[sp] = far_index;
-                sp += 1;
-            }
-            node_index = near_index;
-        } else if go_far {
-            node_index = far_index;
-        } else if sp > 0 {
-            sp -= 1;
-            node_index = stack[sp];
-        } else {
-            break;
-        }
-    }
-    false
+    binary_walk(nodes, primitives, ray, t_min, t_max, true).prim != INVALID_INDEX
 }
 
 impl GpuBvh {
