@@ -149,7 +149,15 @@ impl GpuBvh {
             fallback = Some(Fallback::CoincidentBoxes { count: coincident });
             flatten(&build_median(&aabbs, LEAF_SIZE), &source)
         } else {
-            match build_obvhs(triangles, &aabbs, params, true, &mut profile, &mut lap)? {
+            match build_obvhs(
+                triangles,
+                &aabbs,
+                params,
+                quality,
+                true,
+                &mut profile,
+                &mut lap,
+            )? {
                 Ok(bvh2) => {
                     let flat = flatten(&bvh2, &source);
                     profile.flatten = lap.next();
@@ -216,7 +224,15 @@ fn build_wide(
         fallback = Some(Fallback::CoincidentBoxes { count: coincident });
         median(&aabbs)
     } else {
-        match build_obvhs(triangles, &aabbs, params, false, &mut profile, &mut lap)? {
+        match build_obvhs(
+            triangles,
+            &aabbs,
+            params,
+            quality,
+            false,
+            &mut profile,
+            &mut lap,
+        )? {
             Ok(bvh2) => {
                 drop(aabbs);
                 let flat = to_wide(bvh2, source);
@@ -412,6 +428,7 @@ fn build_obvhs(
     triangles: &[Triangle],
     aabbs: &[Aabb],
     params: BvhBuildParams,
+    quality: BvhQuality,
     collapse_leaves: bool,
     profile: &mut BuildProfile,
     lap: &mut Lap,
@@ -461,13 +478,19 @@ fn build_obvhs(
         });
     }
 
-    let mut bvh2 = PlocBuilder::with_capacity(boxes.len()).build(
-        params.ploc_search_distance,
-        &boxes,
-        indices,
-        params.sort_precision,
-        params.search_depth_threshold,
-    );
+    // `Fastest` builds the linear BVH (`lbvh.rs`), which runs on every core; the other
+    // presets obvhs' PLOC.
+    let mut bvh2 = if quality == BvhQuality::Fastest && !params.pre_split {
+        crate::lbvh::build_lbvh(&boxes)
+    } else {
+        PlocBuilder::with_capacity(boxes.len()).build(
+            params.ploc_search_distance,
+            &boxes,
+            indices,
+            params.sort_precision,
+            params.search_depth_threshold,
+        )
+    };
     bvh2.uses_spatial_splits = params.pre_split;
     profile.ploc = lap.next();
     // obvhs records a bound on the PLOC tree's depth (its merge rounds plus one, at least

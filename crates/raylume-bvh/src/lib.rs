@@ -50,6 +50,7 @@ mod builder;
 mod error;
 mod flatten;
 mod gpu_bvh;
+mod lbvh;
 mod median;
 mod quality;
 mod stats;

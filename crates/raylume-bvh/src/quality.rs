@@ -38,10 +38,12 @@ use obvhs::BvhBuildParams;
 /// weighs build against trace (the facade's choice when the preset is not set).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum BvhQuality {
-    /// PLOC with the shortest search radius, the least reinsertion, SAH leaf collapse, no
-    /// splits: obvhs' `very_fast_build()`. For a quick look at a large scene (a few rays per
-    /// primitive): 1.26 s against `Fast`'s 1.56 s for the 3M-triangle grid's eight-wide tree
-    /// on the 2-core machine, SAH 3 % higher.
+    /// A linear BVH (Karras 2012: the binary radix tree over the primitives' Morton codes,
+    /// `lbvh.rs`, built on every core), then obvhs' `very_fast_build()` passes (the least
+    /// reinsertion, SAH leaf collapse, no splits). For a quick look at a large scene (a few
+    /// rays per primitive): the 3M-triangle grid's eight-wide tree in 1.01 s against `Fast`'s
+    /// 1.24 s on the 2-core machine (SAH 17 % higher); on the H200 host's 16 cores obvhs' PLOC
+    /// hardly scales (351 of 654 ms with PLOC in this preset), the radix tree does.
     Fastest,
     /// PLOC with a short search radius, a little reinsertion, SAH leaf collapse, no splits:
     /// obvhs' `fast_build()`. For scenes rebuilt often or so large that build time shows.
@@ -58,6 +60,7 @@ impl BvhQuality {
     /// The obvhs build parameters of this preset.
     pub const fn params(self) -> BvhBuildParams {
         match self {
+            // The tree itself is the LBVH (`lbvh.rs`); these are the passes after it.
             BvhQuality::Fastest => BvhBuildParams::very_fast_build(),
             BvhQuality::Fast => BvhBuildParams::fast_build(),
             BvhQuality::Quality => BvhBuildParams::very_slow_build(),
