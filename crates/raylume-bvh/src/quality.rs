@@ -132,10 +132,10 @@ impl std::str::FromStr for BvhQuality {
 
 /// What each preset's build costs beyond `Fastest`'s, seconds per primitive on one thread
 /// ([`BvhQuality::ALL`]'s order), from the eight-wide builds of `benches/build.rs`'s grids on
-/// the 2-core machine (2026-12-02, best of 3, 2 threads): at 3M triangles `Fast` 1.56 s
-/// against `Fastest`'s 1.26 s, so 0.30 x 2 / 3e6 = 0.2 us; at 1M `Quality` 2.06 s against
-/// `Fast`'s 0.63 s, 1.43 x 2 / 1e6 = 2.9 us more (the 100k grid and the living room measure
-/// 1.6–3 us; reinsertion grows a little faster than linearly).
+/// the 2-core machine (2026-12-02, best of 3, 2 threads): at 3M triangles `Fast` 1.24–1.56 s
+/// against `Fastest`'s 1.01–1.26 s (obvhs' PLOC then, the LBVH now), so 0.15–0.2 us; at 1M
+/// `Quality` 2.06 s against `Fast`'s 0.63 s, 1.43 x 2 / 1e6 = 2.9 us more (the 100k grid and
+/// the living room measure 1.6–3 us; reinsertion grows a little faster than linearly).
 pub const PRESET_BUILD_SECONDS: [f64; 3] = [0.0, 0.2e-6, 3.1e-6];
 
 /// Each preset's trace time relative to `Fastest`'s ([`BvhQuality::ALL`]'s order): the
