@@ -90,7 +90,7 @@ fn wide_traverse_wgsl_validates_inside_a_kernel() {
     // The wide layout's struct and constants as Rust has them.
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(module.to_ctx()).expect("layout");
-    check_struct(
+    raylume_gpu::testing::check_wgsl_struct(
         &module,
         &layouter,
         "WideNode",
@@ -121,34 +121,6 @@ fn wide_traverse_wgsl_validates_inside_a_kernel() {
         naga::Literal::F32(WIDE_INV_DIR_LIMIT)
     );
     assert_eq!(value("T_MAX_LIMIT"), naga::Literal::F32(T_MAX_LIMIT));
-}
-
-/// Asserts that WGSL struct `name` has Rust's size and (member, offset) list.
-fn check_struct(
-    module: &naga::Module,
-    layouter: &naga::proc::Layouter,
-    name: &str,
-    size: usize,
-    fields: &[(&str, usize)],
-) {
-    let (handle, ty) = module
-        .types
-        .iter()
-        .find(|(_, t)| t.name.as_deref() == Some(name))
-        .unwrap_or_else(|| panic!("WGSL has no struct {name}"));
-    let naga::TypeInner::Struct { members, span } = &ty.inner else {
-        panic!("{name} is not a struct in WGSL");
-    };
-    assert_eq!(*span as usize, size, "size of {name}");
-    assert_eq!(
-        layouter[handle].size as usize, size,
-        "layout size of {name}"
-    );
-    let wgsl: Vec<(&str, usize)> = members
-        .iter()
-        .map(|m| (m.name.as_deref().unwrap_or(""), m.offset as usize))
-        .collect();
-    assert_eq!(wgsl, fields, "members and offsets of {name}");
 }
 
 /// The literal value of WGSL constant `name`.
@@ -188,7 +160,7 @@ fn structs_have_the_rust_layouts() {
     let (module, _) = parse();
     let mut layouter = naga::proc::Layouter::default();
     layouter.update(module.to_ctx()).expect("layout");
-    check_struct(
+    raylume_gpu::testing::check_wgsl_struct(
         &module,
         &layouter,
         "BvhNode",
@@ -204,7 +176,7 @@ fn structs_have_the_rust_layouts() {
             ("right_count", offset_of!(BvhNode, right_count)),
         ],
     );
-    check_struct(
+    raylume_gpu::testing::check_wgsl_struct(
         &module,
         &layouter,
         "Primitive",
@@ -215,7 +187,7 @@ fn structs_have_the_rust_layouts() {
             ("c", offset_of!(Primitive, c)),
         ],
     );
-    check_struct(
+    raylume_gpu::testing::check_wgsl_struct(
         &module,
         &layouter,
         "Hit",

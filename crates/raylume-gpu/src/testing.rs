@@ -11,6 +11,8 @@
 //! straight to the process's standard error, which the harness does not capture (it captures
 //! only `print!`/`eprint!`), so the line shows in the ordinary `cargo test` output beside the
 //! test's `ok`. With `RAYLUME_REQUIRE_GPU=1` (CI) the test fails instead.
+//!
+//! Also [`check_wgsl_struct`], the layout check of WGSL structs shared with Rust.
 
 use std::collections::HashSet;
 use std::io::Write;
@@ -105,4 +107,34 @@ pub fn context_with_binding_limit_or_skip(
         "the lowered limit is in force"
     );
     Some(ctx)
+}
+
+/// Asserts that the WGSL struct `name` in `module` has Rust's `size` and `(member, offset)`
+/// list (naga's layouter computes the WGSL side; the caller gives Rust's, from `size_of!` and
+/// `offset_of!`): the check every crate with WGSL structs shared with Rust runs in its tests.
+pub fn check_wgsl_struct(
+    module: &crate::wgpu::naga::Module,
+    layouter: &crate::wgpu::naga::proc::Layouter,
+    name: &str,
+    size: usize,
+    fields: &[(&str, usize)],
+) {
+    let (handle, ty) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("WGSL has no struct {name}"));
+    let crate::wgpu::naga::TypeInner::Struct { members, span } = &ty.inner else {
+        panic!("{name} is not a struct in WGSL");
+    };
+    assert_eq!(*span as usize, size, "size of {name}");
+    assert_eq!(
+        layouter[handle].size as usize, size,
+        "layout size of {name}"
+    );
+    let wgsl: Vec<(&str, usize)> = members
+        .iter()
+        .map(|m| (m.name.as_deref().unwrap_or("?"), m.offset as usize))
+        .collect();
+    assert_eq!(wgsl, fields, "members and offsets of {name}");
 }

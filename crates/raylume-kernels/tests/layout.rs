@@ -77,24 +77,7 @@ fn layout_matches_wgsl() {
         rust_layout!(BounceUniforms; depth, sort_next, sort_shift, _pad2),
     ];
     for (name, size, fields) in expected {
-        let (handle, ty) = module
-            .types
-            .iter()
-            .find(|(_, t)| t.name.as_deref() == Some(name))
-            .unwrap_or_else(|| panic!("WGSL has no struct {name}"));
-        let naga::TypeInner::Struct { members, span } = &ty.inner else {
-            panic!("{name} is not a struct in WGSL");
-        };
-        assert_eq!(*span as usize, size, "size of {name}");
-        assert_eq!(
-            layouter[handle].size as usize, size,
-            "layout size of {name}"
-        );
-        let wgsl: Vec<(&str, usize)> = members
-            .iter()
-            .map(|m| (m.name.as_deref().unwrap_or("?"), m.offset as usize))
-            .collect();
-        assert_eq!(wgsl, fields, "members of {name}");
+        raylume_gpu::testing::check_wgsl_struct(&module, &layouter, name, size, &fields);
     }
 }
 
