@@ -225,6 +225,8 @@ struct Knobs {
     bounces: u32,
     batch: u32,
     reorder: ReorderPolicy,
+    /// NEE toward the environment guided by the learned visibility (`Tracer::environment_guide`).
+    guide: bool,
 }
 
 fn reorder_name(r: ReorderPolicy) -> &'static str {
@@ -266,9 +268,16 @@ impl Knobs {
                     .map_err(|_| format!("batch `{value}`: a number"))?
             }
             "reorder" => self.reorder = value.parse()?,
+            "guide" => {
+                self.guide = match value {
+                    "on" => true,
+                    "off" => false,
+                    _ => return Err(format!("guide `{value}`: on or off")),
+                }
+            }
             _ => {
                 return Err(format!(
-                    "unknown knob `{key}`: estimator, sampler, rr, bounces, batch, reorder"
+                    "unknown knob `{key}`: estimator, sampler, rr, bounces, batch, reorder, guide"
                 ));
             }
         }
@@ -293,6 +302,7 @@ impl Knobs {
             "bounces": self.bounces,
             "batch": self.batch,
             "reorder": reorder_name(self.reorder),
+            "guide": if self.guide { "on" } else { "off" },
         })
     }
 
@@ -306,6 +316,7 @@ impl Knobs {
             "bounces" => format!("{} bounces", self.bounces),
             "batch" => format!("batch {}", self.batch),
             "reorder" => format!("reorder {}", reorder_name(self.reorder)),
+            "guide" => format!("guide {}", if self.guide { "on" } else { "off" }),
             _ => format!(
                 "{}, {}, rr {}, {} bounces, batch {}",
                 self.estimator.name(),
@@ -324,6 +335,7 @@ impl Knobs {
         tracer.reorder = self.reorder;
         tracer.sampler = self.sampler;
         tracer.russian_roulette = self.rr;
+        tracer.environment_guide = self.guide;
         Ok(())
     }
 }
@@ -336,7 +348,7 @@ struct Config {
     knobs: Knobs,
 }
 
-const KNOBS: [&str; 7] = [
+const KNOBS: [&str; 8] = [
     "spp",
     "bounces",
     "estimator",
@@ -344,6 +356,7 @@ const KNOBS: [&str; 7] = [
     "sampler",
     "batch",
     "reorder",
+    "guide",
 ];
 
 fn standard_configs(args: &RunArgs, base: &Knobs) -> Result<Vec<Config>, String> {
@@ -398,6 +411,7 @@ fn standard_configs(args: &RunArgs, base: &Knobs) -> Result<Vec<Config>, String>
                 }
             }
             "reorder" => push("reorder", "reorder", "on")?,
+            "guide" => push("guide", "guide", if base.guide { "off" } else { "on" })?,
             other => {
                 return Err(format!("unknown knob `{other}`: use {}", KNOBS.join(", ")));
             }
@@ -620,6 +634,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
         bounces: scene.render.max_bounces,
         batch: Tracer::DEFAULT_BATCH_SPP,
         reorder: ReorderPolicy::Off,
+        guide: true,
     };
     base.apply(&args.baseline)?;
     let configs = standard_configs(args, &base)?;

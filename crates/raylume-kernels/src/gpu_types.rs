@@ -99,7 +99,7 @@ pub const T_MAX: f32 = f32::MAX;
 
 /// Scene-constant data and the current batch, in a uniform buffer.
 ///
-/// `repr(C)`, `Pod`, 192 bytes. WGSL: `SceneUniforms`.
+/// `repr(C)`, `Pod`, 224 bytes. WGSL: `SceneUniforms`.
 ///
 /// The camera is a pinhole: a pixel's ray is
 /// `normalize(camera_forward + sx * camera_right + sy * camera_up)` with `sx, sy` in
@@ -170,6 +170,20 @@ pub struct SceneUniforms {
     /// the index in `texels` (floats, not texels) of its row CDF (`environment_height`
     /// floats), followed by each row's column CDF (`environment_width` floats per row).
     pub environment_cdf: u32,
+    /// The guide's cells per unit of scene coordinate along each axis (`environment_grid` over
+    /// `scene_extent`; 0 along an axis of one cell): a point's cell is
+    /// [`crate::surface::environment_cell`]. Zero without a spatial guide.
+    pub environment_grid_scale: [f32; 3],
+    /// Columns of the grid(s) that `environment_cdf` describes; 0: no distribution (a
+    /// constant environment sampled uniformly over the sphere). A map's own size when sampled
+    /// by radiance; a guide's grid ([`crate::env_guide`]) otherwise.
+    pub environment_cdf_width: u32,
+    /// Cells of the guide along x, y, z over the scene's bounds (`[1, 1, 1]`, or zeros,
+    /// without a spatial guide): each cell has its own distribution, `environment_cdf_height +
+    /// environment_cdf_width * environment_cdf_height` floats after the previous cell's.
+    pub environment_grid: [u32; 3],
+    /// Rows of the grid(s) that `environment_cdf` describes.
+    pub environment_cdf_height: u32,
 }
 
 /// One material.
@@ -300,7 +314,9 @@ pub struct BounceUniforms {
 }
 
 const _: () = assert!(size_of::<BounceUniforms>() == 16);
-const _: () = assert!(size_of::<SceneUniforms>() == 192);
+const _: () = assert!(size_of::<SceneUniforms>() == 224);
+const _: () = assert!(offset_of!(SceneUniforms, environment_grid_scale) == 192);
+const _: () = assert!(offset_of!(SceneUniforms, environment_grid) == 208);
 const _: () = assert!(offset_of!(SceneUniforms, rr_depth) == 176);
 const _: () = assert!(offset_of!(SceneUniforms, sampler) == 180);
 const _: () = assert!(offset_of!(SceneUniforms, width) == 12);

@@ -36,6 +36,10 @@ struct SceneUniforms {
     sampler: u32,
     environment_select: f32,
     environment_cdf: u32,
+    environment_grid_scale: vec3<f32>,
+    environment_cdf_width: u32,
+    environment_grid: vec3<u32>,
+    environment_cdf_height: u32,
 }
 
 struct GpuMaterial {

@@ -74,6 +74,7 @@ pub mod batches;
 pub mod bsdf;
 pub mod camera;
 pub mod cpu;
+pub mod env_guide;
 mod error;
 pub mod gpu;
 pub mod gpu_types;
@@ -91,6 +92,7 @@ pub use gpu::{
     BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, GpuWorkspace, SortCapture,
     Specialisation, StageTime, TraceStats, WavefrontBuffers,
 };
+pub use scene_data::SceneOptions;
 
 use raylume_scene::RenderSettings;
 

@@ -14,6 +14,10 @@ use crate::KernelError;
 use crate::TraceSettings;
 use crate::bsdf::RoughPlasticTable;
 use crate::camera::camera_basis;
+use crate::env_guide::{
+    GUIDE_HEIGHT, GUIDE_WIDTH, cdf_from_weights, guided_constant_cdf, guided_map_cdf,
+    learn_environment_guide,
+};
 use crate::gpu_types::LUMINANCE;
 use crate::gpu_types::{
     ENVIRONMENT_BLACK, ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuLight, GpuMaterial,
@@ -57,6 +61,15 @@ pub struct SceneData {
     pub environment_cdf: u32,
     /// The environment's selection probability in `lights` (0 when it is not there).
     pub environment_select: f32,
+    /// The guided sampling distributions of the environment ([`crate::env_guide`]) in
+    /// `texels`; `None` without an environment, without geometry, or when the walks found too
+    /// few escapes.
+    pub environment_guided_cdf: Option<GuidedCdf>,
+    /// What the guide's walks found (`None` when no guide was learned).
+    pub environment_guide_walks: Option<(u32, u64)>,
+    /// Whether next-event estimation samples the environment by the guided distribution
+    /// (when there is one; [`SceneData::uniforms`]).
+    pub environment_guide: bool,
     pub scene_min: Vec3,
     pub scene_extent: Vec3,
     /// The emissive triangles, for next-event estimation (empty when none emits).
@@ -75,6 +88,31 @@ pub struct SceneData {
     /// The samples of every pixel the next renders trace: all of them (`None`, the default,
     /// each pixel's mean), or a range (each pixel's sum over it: a render part).
     pub sample_range: Option<std::ops::Range<u32>>,
+}
+
+/// What a tracer prepares for a scene beyond its own data (`CpuTracer::with_options`,
+/// `GpuTracer::with_options`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SceneOptions {
+    /// Learn where the environment is visible from ([`crate::env_guide`]: diffuse walks from
+    /// the camera, a fraction of a second on large scenes) and sample it by that; off by
+    /// default (the kernels' defaults are the paper's). A tracer made with it can still turn
+    /// it off (`set_environment_guide`).
+    pub environment_guide: bool,
+}
+
+/// Where the guided environment distributions are and how they are laid out (the uniforms'
+/// `environment_cdf*` and `environment_grid*` fields).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GuidedCdf {
+    /// Float index in `texels` of the first cell's distribution.
+    pub offset: u32,
+    /// Direction grid: columns, rows.
+    pub width: u32,
+    pub height: u32,
+    /// Spatial cells along x, y, z and per unit of scene coordinate.
+    pub grid: [u32; 3],
+    pub grid_scale: Vec3,
 }
 
 /// Every emitter that next-event estimation samples, with its selection probability
@@ -154,6 +192,25 @@ fn light_list(scene: &Scene, environment_power: f32) -> (Vec<GpuLight>, f32, f32
 /// drawn. Returns the CDFs and the map's mean luminance over the sphere of directions
 /// (solid-angle weighted, before `strength`).
 pub fn environment_distribution(image: &Texture) -> (Vec<f32>, f32) {
+    let (weights, mean) = environment_weights(image);
+    (
+        cdf_from_weights(image.width as usize, image.height as usize, &weights),
+        mean,
+    )
+}
+
+/// `texels.len()` as the index of what is appended next, or an error past 2^32 floats.
+fn texel_index(texels: &[f32]) -> Result<u32, KernelError> {
+    u32::try_from(texels.len()).map_err(|_| {
+        KernelError::InvalidScene(
+            "the textures and the environment's distributions hold more than 2^32 floats".into(),
+        )
+    })
+}
+
+/// The texel weights of [`environment_distribution`] (`(luminance + floor) sin θ_y`,
+/// row-major) and the map's mean luminance.
+pub fn environment_weights(image: &Texture) -> (Vec<f64>, f32) {
     let (w, h) = (image.width as usize, image.height as usize);
     let lum = |t: &[f32; 3]| f64::from(Vec3::from(*t).dot(Vec3::from(LUMINANCE)).max(0.0));
     let plain_mean = image.texels.iter().map(lum).sum::<f64>() / (w * h).max(1) as f64;
@@ -162,35 +219,18 @@ pub fn environment_distribution(image: &Texture) -> (Vec<f32>, f32) {
     } else {
         1.0
     };
-    let mut rows = vec![0.0f64; h];
-    let mut columns = vec![0.0f32; w * h];
+    let mut weights = vec![0.0f64; w * h];
     let (mut weighted, mut solid) = (0.0f64, 0.0f64);
     for y in 0..h {
         let sin = ((y as f64 + 0.5) / h as f64 * std::f64::consts::PI).sin();
-        let mut run = 0.0f64;
         for x in 0..w {
             let l = lum(&image.texels[y * w + x]);
             weighted += l * sin;
             solid += sin;
-            run += (l + floor) * sin;
-            columns[y * w + x] = run as f32;
+            weights[y * w + x] = (l + floor) * sin;
         }
-        for c in &mut columns[y * w..(y + 1) * w] {
-            *c = (f64::from(*c) / run) as f32;
-        }
-        columns[y * w + w - 1] = 1.0;
-        rows[y] = run;
     }
-    let total: f64 = rows.iter().sum();
-    let mut cdf = Vec::with_capacity(h + w * h);
-    let mut run = 0.0f64;
-    for r in &rows {
-        run += r;
-        cdf.push((run / total) as f32);
-    }
-    cdf[h - 1] = 1.0;
-    cdf.extend(columns);
-    (cdf, (weighted / solid) as f32)
+    (weights, (weighted / solid) as f32)
 }
 
 /// Each rough plastic's table key ([`table_key`]) to its index in the table buffer.
@@ -265,6 +305,15 @@ fn append_texture(texels: &mut Vec<f32>, t: &Texture, what: &str) -> Result<u32,
 impl SceneData {
     /// Flattens `scene` for the primitives of `bvh` (which must have been built from it).
     pub fn new(scene: &Scene, bvh: &GpuBvh) -> Result<Self, KernelError> {
+        Self::with_options(scene, bvh, &SceneOptions::default())
+    }
+
+    /// [`SceneData::new`], also preparing what `options` asks for.
+    pub fn with_options(
+        scene: &Scene,
+        bvh: &GpuBvh,
+        options: &SceneOptions,
+    ) -> Result<Self, KernelError> {
         if bvh.triangle_count as usize != scene.triangles.len()
             || bvh.sphere_count as usize != scene.spheres.len()
         {
@@ -427,6 +476,9 @@ impl SceneData {
             environment_offset: 0,
             environment_cdf: 0,
             environment_select: 0.0,
+            environment_guided_cdf: None,
+            environment_guide_walks: None,
+            environment_guide: false,
             scene_min: Vec3::ZERO,
             scene_extent: Vec3::ZERO,
             lights: Vec::new(),
@@ -468,25 +520,60 @@ impl SceneData {
             Environment::Map {
                 image, strength, ..
             } => {
-                let (cdf, mean) = environment_distribution(image);
-                data.environment_cdf = u32::try_from(texels.len()).map_err(|_| {
-                    KernelError::InvalidScene(
-                        "the textures and the environment map's distribution hold more than \
-                         2^32 floats"
-                            .into(),
-                    )
-                })?;
-                texels.extend(cdf);
+                let (weights, mean) = environment_weights(image);
+                data.environment_cdf = texel_index(&texels)?;
+                texels.extend(cdf_from_weights(
+                    image.width as usize,
+                    image.height as usize,
+                    &weights,
+                ));
                 environment_luminance = mean * strength;
             }
             _ => {}
         }
-        data.texels = texels;
         let bounds = scene.bounds();
         if !bounds.is_empty() {
             data.scene_min = bounds.min;
             data.scene_extent = bounds.extent();
         }
+        if options.environment_guide && environment_luminance > 0.0 && !bvh.primitives.is_empty() {
+            data.environment_guide = true;
+            let guide =
+                learn_environment_guide(&scene.camera, bvh, data.scene_min, data.scene_extent);
+            data.environment_guide_walks = Some((guide.walks, guide.escapes));
+            if guide.is_useful() {
+                let offset = texel_index(&texels)?;
+                data.environment_guided_cdf = Some(match &scene.environment {
+                    Environment::Map {
+                        image, rotation, ..
+                    } => {
+                        let (weights, _) = environment_weights(image);
+                        let (w, h) = (image.width as usize, image.height as usize);
+                        texels.extend(guided_map_cdf(&guide, w, h, rotation / 360.0, &weights));
+                        GuidedCdf {
+                            offset,
+                            width: image.width,
+                            height: image.height,
+                            grid: [1, 1, 1],
+                            grid_scale: Vec3::ZERO,
+                        }
+                    }
+                    _ => {
+                        texels.extend(guided_constant_cdf(&guide));
+                        GuidedCdf {
+                            offset,
+                            width: GUIDE_WIDTH,
+                            height: GUIDE_HEIGHT,
+                            grid: guide.grid,
+                            grid_scale: guide.grid_scale,
+                        }
+                    }
+                });
+                // The buffer must stay addressable with u32 float indices.
+                texel_index(&texels)?;
+            }
+        }
+        data.texels = texels;
         // pbrt's estimate of an infinite light's power: its radiance over a disc of the
         // scene's bounding radius.
         let radius = if bounds.is_empty() {
@@ -504,6 +591,25 @@ impl SceneData {
     pub fn uniforms(&self, settings: &TraceSettings) -> SceneUniforms {
         let [origin, forward, right, up] =
             camera_basis(&self.camera, settings.width, settings.height);
+        // The distribution NEE samples the environment by: the guided ones when asked for and
+        // learned, else a map's by radiance, else uniform over the sphere (no grid).
+        let cdf = match self.environment_guided_cdf {
+            Some(guided) if self.environment_guide => guided,
+            _ if self.environment_kind == ENVIRONMENT_MAP => GuidedCdf {
+                offset: self.environment_cdf,
+                width: self.environment_width,
+                height: self.environment_height,
+                grid: [1, 1, 1],
+                grid_scale: Vec3::ZERO,
+            },
+            _ => GuidedCdf {
+                offset: 0,
+                width: 0,
+                height: 0,
+                grid: [1, 1, 1],
+                grid_scale: Vec3::ZERO,
+            },
+        };
         SceneUniforms {
             camera_origin: origin.into(),
             width: settings.width,
@@ -536,7 +642,11 @@ impl SceneData {
                 Estimator::Plain => 0.0,
                 Estimator::Nee => self.environment_select,
             },
-            environment_cdf: self.environment_cdf,
+            environment_cdf: cdf.offset,
+            environment_cdf_width: cdf.width,
+            environment_cdf_height: cdf.height,
+            environment_grid: cdf.grid,
+            environment_grid_scale: cdf.grid_scale.into(),
             ..Default::default()
         }
     }

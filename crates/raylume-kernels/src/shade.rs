@@ -46,8 +46,8 @@ use crate::rng::rand4;
 use crate::sampling::{sample_diffuse, sample_sphere_cap, sphere_cap_pdf};
 use crate::sobol::{sobol2, sobol4};
 use crate::surface::{
-    Globals, SurfaceHit, environment_pdf, environment_radiance, material_at, offset_ray_origin,
-    sample_environment, surface_at,
+    Globals, SurfaceHit, environment_cell, environment_pdf, environment_radiance, material_at,
+    offset_ray_origin, sample_environment, surface_at,
 };
 
 /// A path between two segments, as a thread holds it in registers.
@@ -250,7 +250,8 @@ pub fn trace_ray(
         let w = if path.mis_pdf > 0.0 && g.scene.environment_select > 0.0 {
             mis_weight(
                 path.mis_pdf,
-                g.scene.environment_select * environment_pdf(g, path.dir),
+                g.scene.environment_select
+                    * environment_pdf(g, path.dir, environment_cell(g, path.origin)),
             )
         } else {
             1.0
@@ -450,6 +451,9 @@ pub fn sample_lights(
         -hit.shading_normal
     };
     let origin = offset_ray_origin(hit, dir_in, ng_facing);
+    // The environment's guide cell: that of the origin a reflected ray leaves from, the same
+    // point whose cell weighs such a ray if it escapes (`trace_ray`).
+    let cell = environment_cell(g, origin);
     let emission = Vec3::from(light.emission);
     // The light's direction, the shadow ray's reach and the side it leaves from, per kind;
     // then one shadow ray and one BSDF evaluation whatever the kind (as the WGSL, where that
@@ -459,7 +463,7 @@ pub fn sample_lights(
     let (wi, t_max, side, env_pdf, dist2, cos_l);
     if is_env {
         // A direction toward the sky; the shadow ray must escape the scene.
-        let (dir, pdf) = sample_environment(g, Vec2::new(rnd.y, rnd.z));
+        let (dir, pdf) = sample_environment(g, Vec2::new(rnd.y, rnd.z), cell);
         wi = dir;
         env_pdf = pdf;
         side = light_side(mat, ns_facing, ng_facing, wi);
@@ -526,7 +530,10 @@ pub fn sample_lights(
     }
     let f = eval_material(g, mat, dir_in, ns_facing, wi, front);
     if is_env {
-        let w = mis_weight(g.scene.environment_select * environment_pdf(g, wi), f.pdf);
+        let w = mis_weight(
+            g.scene.environment_select * environment_pdf(g, wi, cell),
+            f.pdf,
+        );
         return f.value * environment_radiance(g, wi) * (w / (p_select * env_pdf));
     }
     if is_sphere {

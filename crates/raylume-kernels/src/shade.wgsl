@@ -93,7 +93,7 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
         // shade.rs: weighed against the shadow ray toward the environment.
         var w_env = 1.0;
         if ((*path).mis_pdf > 0.0 && scene.environment_select > 0.0) {
-            w_env = mis_weight((*path).mis_pdf, scene.environment_select * environment_pdf((*path).dir));
+            w_env = mis_weight((*path).mis_pdf, scene.environment_select * environment_pdf((*path).dir, environment_cell((*path).origin)));
         }
         (*path).radiance += (*path).throughput * environment_radiance((*path).dir) * w_env;
         (*path).alive = false;
@@ -238,6 +238,8 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
     let ng_facing = select(-ng, ng, front);
     let ns_facing = select(-hit.shading_normal, hit.shading_normal, front);
     let origin = offset_ray_origin(hit, dir_in, ng_facing);
+    // shade.rs: the environment's guide cell, that of the origin a reflected ray leaves from.
+    let cell = environment_cell(origin);
     // The light's direction, the shadow ray's reach and the side it leaves from, per kind;
     // then one shadow ray and one BSDF evaluation whatever the kind (one inlined traversal and
     // material switch instead of two: the pipeline compiles faster).
@@ -251,7 +253,7 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
     var cos_l = 1.0;
     if (is_env) {
         // A direction toward the sky; the shadow ray must escape the scene.
-        let es = sample_environment(rnd.yz);
+        let es = sample_environment(rnd.yz, cell);
         wi = es.dir;
         env_pdf = es.pdf;
         side = light_side(mat, ns_facing, ng_facing, wi);
@@ -299,7 +301,7 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
     }
     let f = eval_material(mat, dir_in, ns_facing, wi, front);
     if (is_env) {
-        let we = mis_weight(scene.environment_select * environment_pdf(wi), f.pdf);
+        let we = mis_weight(scene.environment_select * environment_pdf(wi, cell), f.pdf);
         return f.value * environment_radiance(wi) * (we / (p_select * env_pdf));
     }
 //#if spheres

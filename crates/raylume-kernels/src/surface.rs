@@ -253,13 +253,35 @@ fn cdf_step(g: &Globals, base: u32, i: u32) -> (f32, f32) {
     (g.texels[(base + i) as usize] - before, before)
 }
 
-/// The solid-angle pdf with which [`sample_environment`] draws `dir` (no selection
-/// probability): `1 / 4π` for a constant environment; for a map, its texel's probability
-/// times `width * height` over the Jacobian `2π² sin θ` of the equirectangular mapping.
+/// The guide cell ([`crate::env_guide`]) of point `p` (a vertex's outgoing ray origin on
+/// its front side): its grid cell over the scene's bounds, x fastest; 0 without a spatial
+/// guide (`environment_grid` of ones, zero scale).
 #[inline]
-pub fn environment_pdf(g: &Globals, dir: Vec3) -> f32 {
+pub fn environment_cell(g: &Globals, p: Vec3) -> u32 {
     let s = &g.scene;
-    if s.environment_kind != ENVIRONMENT_MAP {
+    let q = (p - Vec3::from(s.scene_min)) * Vec3::from(s.environment_grid_scale);
+    let [nx, ny, nz] = s.environment_grid;
+    let c = |v: f32, n: u32| v.max(0.0).min(n.max(1) as f32 - 1.0) as u32;
+    (c(q.z, nz) * ny.max(1) + c(q.y, ny)) * nx.max(1) + c(q.x, nx)
+}
+
+/// The first float of cell `cell`'s distribution: each cell's takes `h + w h` floats.
+#[inline]
+fn environment_cdf_base(g: &Globals, cell: u32) -> u32 {
+    let s = &g.scene;
+    let h = s.environment_cdf_height;
+    s.environment_cdf + cell * (h + s.environment_cdf_width * h)
+}
+
+/// The solid-angle pdf with which [`sample_environment`] draws `dir` from guide cell `cell`
+/// (no selection probability): `1 / 4π` without a distribution (`environment_cdf_width == 0`: a constant
+/// environment, unguided); with one (a map's, or a guide's, [`crate::env_guide`]), its
+/// cell's probability times `width * height` over the Jacobian `2π² sin θ` of the
+/// equirectangular mapping.
+#[inline]
+pub fn environment_pdf(g: &Globals, dir: Vec3, cell: u32) -> f32 {
+    let s = &g.scene;
+    if s.environment_cdf_width == 0 {
         return 0.25 * INV_PI;
     }
     let sin_theta = (1.0 - dir.y * dir.y).max(0.0).sqrt();
@@ -269,32 +291,37 @@ pub fn environment_pdf(g: &Globals, dir: Vec3) -> f32 {
     let e = direction_to_equirect(dir);
     let u = e.x + s.environment_rotation;
     let u = u - u.floor();
-    let (w, h) = (s.environment_width, s.environment_height);
+    let (w, h) = (s.environment_cdf_width, s.environment_cdf_height);
     let x = ((u * w as f32) as u32).min(w - 1);
     let y = ((e.y.clamp(0.0, 1.0) * h as f32) as u32).min(h - 1);
-    let (p_row, _) = cdf_step(g, s.environment_cdf, y);
-    let (p_col, _) = cdf_step(g, s.environment_cdf + h + y * w, x);
+    let base = environment_cdf_base(g, cell);
+    let (p_row, _) = cdf_step(g, base, y);
+    let (p_col, _) = cdf_step(g, base + h + y * w, x);
     p_row * p_col * (w * h) as f32 / (2.0 * PI * PI * sin_theta)
 }
 
-/// A direction toward the environment from `u` and its solid-angle pdf: uniform on the
-/// sphere for a constant environment; for a map, a texel drawn by its luminance times
-/// `sin θ` (the row from `u.x`, the column from `u.y`), uniform within it in the map's
-/// `(u, v)`, and turned into a direction by the inverse of [`direction_to_equirect`] (with the
-/// map's rotation). Pdf 0 (a direction to ignore) at the poles.
+/// A direction toward the environment from `u` and its solid-angle pdf, for a vertex in guide
+/// cell `cell` ([`environment_cell`]): uniform on the
+/// sphere without a distribution (`environment_cdf_width == 0`); with one, a cell of its grid
+/// drawn by its probability (a map's texel by its luminance times `sin θ`, or a guide's
+/// cell, [`crate::env_guide`]; the row from `u.x`, the column from `u.y`), uniform within it
+/// in `(u, v)`, and turned into a direction by the inverse of [`direction_to_equirect`] (with
+/// the map's rotation; a constant environment has none). Pdf 0 (a direction to ignore) at the
+/// poles.
 #[inline]
-pub fn sample_environment(g: &Globals, u: Vec2) -> (Vec3, f32) {
+pub fn sample_environment(g: &Globals, u: Vec2, cell: u32) -> (Vec3, f32) {
     let s = &g.scene;
-    if s.environment_kind != ENVIRONMENT_MAP {
+    if s.environment_cdf_width == 0 {
         let z = 1.0 - 2.0 * u.x;
         let r = (1.0 - z * z).max(0.0).sqrt();
         let phi = 2.0 * PI * u.y;
         return (Vec3::new(r * phi.cos(), z, r * phi.sin()), 0.25 * INV_PI);
     }
-    let (w, h) = (s.environment_width, s.environment_height);
-    let y = cdf_search(g, s.environment_cdf, h, u.x);
-    let (p_row, row_before) = cdf_step(g, s.environment_cdf, y);
-    let columns = s.environment_cdf + h + y * w;
+    let (w, h) = (s.environment_cdf_width, s.environment_cdf_height);
+    let base = environment_cdf_base(g, cell);
+    let y = cdf_search(g, base, h, u.x);
+    let (p_row, row_before) = cdf_step(g, base, y);
+    let columns = base + h + y * w;
     let x = cdf_search(g, columns, w, u.y);
     let (p_col, col_before) = cdf_step(g, columns, x);
     let fv = ((u.x - row_before) / p_row).clamp(0.0, 1.0);
@@ -427,6 +454,8 @@ mod tests {
             environment_height: h,
             environment_offset: 0,
             environment_cdf: base,
+            environment_cdf_width: w,
+            environment_cdf_height: h,
             environment_rotation: 0.3,
             environment_color: [1.0; 3],
             ..Default::default()
@@ -472,7 +501,7 @@ mod tests {
         for i in 0..n {
             for j in 0..n {
                 let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-                let (dir, pdf) = sample_environment(&g, u);
+                let (dir, pdf) = sample_environment(&g, u, 0);
                 assert!(
                     (dir.length() - 1.0).abs() < 1e-5 && pdf > 0.0,
                     "{dir} {pdf}"
@@ -485,7 +514,7 @@ mod tests {
                 // 2. The pdf it reports is the one environment_pdf gives that direction
                 // (which multiple importance sampling uses), except where the polynomial
                 // atan2/acos put a direction on a texel border into the neighbour.
-                let again = environment_pdf(&g, dir);
+                let again = environment_pdf(&g, dir, 0);
                 if (again - pdf).abs() > 1e-3 * pdf {
                     mismatched += 1;
                 }
@@ -513,6 +542,7 @@ mod tests {
                 sum += f64::from(environment_pdf(
                     &g,
                     Vec3::new(r * phi.cos(), z, r * phi.sin()),
+                    0,
                 ));
             }
         }

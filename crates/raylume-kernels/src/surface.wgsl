@@ -146,7 +146,7 @@ fn environment_radiance(dir: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-//#if environment_map
+//#if constant_environment|environment_map
 // surface.rs `cdf_search`: the first i < count with cdf[i] > u, the CDF at texels[base..].
 fn cdf_search(base: u32, count: u32, u: f32) -> u32 {
     var lo = 0u;
@@ -163,7 +163,7 @@ fn cdf_search(base: u32, count: u32, u: f32) -> u32 {
 }
 //#endif
 
-//#if environment_map
+//#if constant_environment|environment_map
 // surface.rs `cdf_step`: (cdf[i] - cdf[i - 1], cdf[i - 1]).
 fn cdf_step(base: u32, i: u32) -> vec2<f32> {
     var before = 0.0;
@@ -174,12 +174,29 @@ fn cdf_step(base: u32, i: u32) -> vec2<f32> {
 }
 //#endif
 
+// surface.rs `environment_cell`: the guide cell of point p.
+fn environment_cell(p: vec3<f32>) -> u32 {
+    let q = (p - scene.scene_min) * scene.environment_grid_scale;
+    let n = max(scene.environment_grid, vec3<u32>(1u));
+    let top = vec3<f32>(n) - vec3<f32>(1.0);
+    let c = vec3<u32>(min(max(q, vec3<f32>(0.0)), top));
+    return (c.z * n.y + c.y) * n.x + c.x;
+}
+
+//#if constant_environment|environment_map
+// surface.rs `environment_cdf_base`: the first float of cell `cell`'s distribution.
+fn environment_cdf_base(cell: u32) -> u32 {
+    let h = scene.environment_cdf_height;
+    return scene.environment_cdf + cell * (h + scene.environment_cdf_width * h);
+}
+//#endif
+
 // surface.rs `environment_pdf`.
-fn environment_pdf(dir: vec3<f32>) -> f32 {
-    if (!(HAS_ENVIRONMENT_MAP && scene.environment_kind == ENVIRONMENT_MAP)) {
+fn environment_pdf(dir: vec3<f32>, cell: u32) -> f32 {
+    if (!((HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && scene.environment_cdf_width != 0u)) {
         return 0.25 * INV_PI;
     }
-//#if environment_map
+//#if constant_environment|environment_map
     let sin_theta = sqrt(max(1.0 - dir.y * dir.y, 0.0));
     if (!(sin_theta > 0.0)) {
         return 0.0;
@@ -187,12 +204,13 @@ fn environment_pdf(dir: vec3<f32>) -> f32 {
     let e = direction_to_equirect(dir);
     let u0 = e.x + scene.environment_rotation;
     let u = u0 - floor(u0);
-    let w = scene.environment_width;
-    let h = scene.environment_height;
+    let w = scene.environment_cdf_width;
+    let h = scene.environment_cdf_height;
     let x = min(u32(u * f32(w)), w - 1u);
     let y = min(u32(min(max(e.y, 0.0), 1.0) * f32(h)), h - 1u);
-    let p_row = cdf_step(scene.environment_cdf, y).x;
-    let p_col = cdf_step(scene.environment_cdf + h + y * w, x).x;
+    let base = environment_cdf_base(cell);
+    let p_row = cdf_step(base, y).x;
+    let p_col = cdf_step(base + h + y * w, x).x;
     return p_row * p_col * f32(w * h) / (2.0 * PI * PI * sin_theta);
 //#else
     return 0.25 * INV_PI;
@@ -205,19 +223,20 @@ struct EnvironmentSample {
     pdf: f32,
 }
 
-fn sample_environment(u: vec2<f32>) -> EnvironmentSample {
-    if (!(HAS_ENVIRONMENT_MAP && scene.environment_kind == ENVIRONMENT_MAP)) {
+fn sample_environment(u: vec2<f32>, cell: u32) -> EnvironmentSample {
+    if (!((HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && scene.environment_cdf_width != 0u)) {
         let z = 1.0 - 2.0 * u.x;
         let r = sqrt(max(1.0 - z * z, 0.0));
         let phi = 2.0 * PI * u.y;
         return EnvironmentSample(vec3<f32>(r * cos(phi), z, r * sin(phi)), 0.25 * INV_PI);
     }
-//#if environment_map
-    let w = scene.environment_width;
-    let h = scene.environment_height;
-    let y = cdf_search(scene.environment_cdf, h, u.x);
-    let row = cdf_step(scene.environment_cdf, y);
-    let columns = scene.environment_cdf + h + y * w;
+//#if constant_environment|environment_map
+    let w = scene.environment_cdf_width;
+    let h = scene.environment_cdf_height;
+    let base = environment_cdf_base(cell);
+    let y = cdf_search(base, h, u.x);
+    let row = cdf_step(base, y);
+    let columns = base + h + y * w;
     let x = cdf_search(columns, w, u.y);
     let col = cdf_step(columns, x);
     let fv = clamp((u.x - row.y) / row.x, 0.0, 1.0);

@@ -56,13 +56,37 @@ fn compare_all(
     (estimator, roulette, sampler): (Estimator, Option<u32>, Sampler),
     layout: BvhLayout,
 ) {
+    compare_guided(
+        name,
+        scene,
+        [w, h, spp, bounces],
+        schedule,
+        (estimator, roulette, sampler),
+        layout,
+        false,
+    );
+}
+
+/// [`compare_all`], with NEE toward the environment by the learned guide when `guide`.
+fn compare_guided(
+    name: &str,
+    scene: &raylume_scene::Scene,
+    [w, h, spp, bounces]: [u32; 4],
+    schedule: Schedule,
+    (estimator, roulette, sampler): (Estimator, Option<u32>, Sampler),
+    layout: BvhLayout,
+    guide: bool,
+) {
+    let options = raylume_kernels::SceneOptions {
+        environment_guide: guide,
+    };
     let Some(ctx) = raylume_gpu::testing::context_or_skip(name) else {
         return;
     };
     let s = settings(w, h, spp, bounces, schedule);
     let bvh = bvh_with_layout(scene, layout);
     let cpu_with = || {
-        let mut t = CpuTracer::new(scene, &bvh).unwrap();
+        let mut t = CpuTracer::with_options(scene, &bvh, &options).unwrap();
         t.set_estimator(estimator);
         t.set_russian_roulette(roulette);
         t.set_sampler(sampler);
@@ -70,7 +94,9 @@ fn compare_all(
     };
     let cpu_tracer = cpu_with();
     let cpu = cpu_with().render(&s, &mut |_, _| {}).unwrap();
-    let mut gpu_tracer = GpuTracer::new(ctx, scene, &bvh).unwrap();
+    let features = scene.features();
+    let pipelines = raylume_kernels::gpu::TracerPipelines::new(ctx, features, bvh.layout).unwrap();
+    let mut gpu_tracer = GpuTracer::with_options(ctx, scene, &bvh, pipelines, &options).unwrap();
     // The persistent schedule with half the samples' threads: each takes two, the second
     // started at whatever depth the others are (not more: with the ZSobol sampler's digit
     // loops and NEE, lavapipe's loop limit (GpuTracer::set_persistent_threads) cut threads of
@@ -321,5 +347,31 @@ fn wide_and_binary_bvh_render_the_same_image() {
             binary.rays_traced,
             wide.rays_traced
         );
+    }
+}
+
+/// NEE toward the environment by the learned guide: the same distributions (learned once on
+/// the CPU, uploaded) and the same samples on both backends, in both schedules, for a constant
+/// sky (one distribution per cell of the scene's grid: the spheres, the skylight room) and a
+/// sky map (all cells' guide times its luminance).
+#[test]
+fn guided_environment_matches_cpu() {
+    for schedule in [Schedule::Megakernel, Schedule::Wavefront] {
+        for (name, scene, bounces) in [
+            ("spheres", spheres(), 6),
+            ("environment lit", environment_lit(), 4),
+            ("skylight room", skylight_room(0.8), 4),
+        ] {
+            eprintln!("guided_environment_matches_cpu: {name}, {schedule:?}");
+            compare_guided(
+                "guided_environment_matches_cpu",
+                &scene,
+                [32, 32, 4, bounces],
+                schedule,
+                (Estimator::Nee, Some(2), Sampler::ZSobol),
+                BvhLayout::Wide,
+                true,
+            );
+        }
     }
 }

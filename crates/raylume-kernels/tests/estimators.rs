@@ -15,6 +15,8 @@ struct Config {
     estimator: Estimator,
     sampler: Sampler,
     roulette: Option<u32>,
+    /// NEE toward the environment by the learned guide (`SceneOptions::environment_guide`).
+    guide: bool,
 }
 
 fn render(scene: &Scene, c: Config, size: u32, spp: u32, bounces: u32, seed: u32) -> Vec<[f32; 3]> {
@@ -22,7 +24,10 @@ fn render(scene: &Scene, c: Config, size: u32, spp: u32, bounces: u32, seed: u32
         seed,
         ..settings(size, size, spp, bounces, Schedule::Megakernel)
     };
-    let mut t = CpuTracer::new(scene, &bvh(scene)).unwrap();
+    let options = raylume_kernels::SceneOptions {
+        environment_guide: c.guide,
+    };
+    let mut t = CpuTracer::with_options(scene, &bvh(scene), &options).unwrap();
     t.set_estimator(c.estimator);
     t.set_sampler(c.sampler);
     t.set_russian_roulette(c.roulette);
@@ -46,6 +51,7 @@ fn every_estimator_and_sampler_converges_to_the_same_mean() {
         estimator: Estimator::Plain,
         sampler: Sampler::Independent,
         roulette: None,
+        guide: false,
     };
     let configs = [
         (
@@ -69,6 +75,24 @@ fn every_estimator_and_sampler_converges_to_the_same_mean() {
                 estimator: Estimator::Nee,
                 sampler: Sampler::ZSobol,
                 roulette: Some(1),
+                guide: false,
+            },
+        ),
+        (
+            "nee guided",
+            Config {
+                estimator: Estimator::Nee,
+                guide: true,
+                ..plain
+            },
+        ),
+        (
+            "nee zsobol roulette guided",
+            Config {
+                estimator: Estimator::Nee,
+                sampler: Sampler::ZSobol,
+                roulette: Some(5),
+                guide: true,
             },
         ),
         (
@@ -94,6 +118,7 @@ fn every_estimator_and_sampler_converges_to_the_same_mean() {
         ("spheres", spheres()),
         ("environment-lit spheres", environment_lit()),
         ("materials", materials()),
+        ("skylight room", skylight_room(0.8)),
     ] {
         let seeds = 8u32;
         let estimate = |c: Config, spp: u32| -> [(f64, f64); 3] {
@@ -138,6 +163,7 @@ fn zsobol_has_less_error_than_independent_samples() {
         estimator: Estimator::Nee,
         sampler,
         roulette: None,
+        guide: false,
     };
     let reference = render(&scene, nee(Sampler::Independent), 16, 4096, 1, 7);
     for spp in [16, 64] {
@@ -201,6 +227,7 @@ fn a_convex_diffuse_object_under_a_constant_sky_is_lit_exactly() {
             estimator: Estimator::Nee,
             sampler,
             roulette: None,
+            guide: false,
         };
         let img = render(&scene, c, 8, 16, 4, 5);
         let m = mean(&img);

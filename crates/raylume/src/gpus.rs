@@ -66,6 +66,7 @@ impl Tracer {
         w.schedule = self.schedule;
         w.estimator = self.estimator;
         w.sampler = self.sampler;
+        w.environment_guide = self.environment_guide;
         w.russian_roulette = self.russian_roulette;
         w.bvh_layout = self.bvh_layout;
         w.specialisation = self.specialisation;

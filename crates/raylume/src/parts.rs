@@ -91,13 +91,17 @@ pub struct PartHeader {
     pub sampler: String,
     /// The segment Russian roulette starts at, if it is on.
     pub russian_roulette: Option<u32>,
+    /// Whether NEE sampled the environment by the learned guide (`Tracer::environment_guide`;
+    /// `false` in parts written before it existed).
+    #[serde(default)]
+    pub environment_guide: bool,
     /// The samples this part holds.
     pub samples: SampleRange,
 }
 
 impl PartHeader {
     /// The settings that must agree between parts of one render, named, for error messages.
-    fn identity(&self) -> [(&'static str, String); 9] {
+    fn identity(&self) -> [(&'static str, String); 10] {
         [
             ("format", self.format.to_string()),
             ("scene", self.scene.clone()),
@@ -108,6 +112,7 @@ impl PartHeader {
             ("estimator", self.estimator.clone()),
             ("sampler", self.sampler.clone()),
             ("russian roulette", format!("{:?}", self.russian_roulette)),
+            ("environment guide", self.environment_guide.to_string()),
         ]
     }
 }

@@ -220,6 +220,14 @@ pub struct Tracer {
     /// After each hit of a segment `>= start` the path goes on with probability
     /// `min(max throughput, 0.95)` and its throughput is divided by it: unbiased, fewer rays.
     pub russian_roulette: Option<u32>,
+    /// Next-event estimation samples the environment by where the scene leaves it visible
+    /// (`true`, the default): before the render, diffuse random walks from the camera count
+    /// the directions in which they escape, and the sky is sampled by that (mixed with the
+    /// unguided distribution; `raylume_kernels::env_guide`). In a room lit through its windows
+    /// most shadow rays toward a uniformly sampled sky hit walls; guided, most pass. `false`:
+    /// by the environment's radiance alone, as Mitsuba 3. Unbiased either way; the same on both
+    /// backends. [`RenderStats::environment_guide`] says what was learned.
+    pub environment_guide: bool,
     /// Render until the image's relative MSE (as `raylume_post::relative_mse` measures it
     /// against the converged image), estimated from the spread of its own batches, is below
     /// this value; the scene's `spp` is then the cap. `None` (the default): render the
@@ -415,6 +423,7 @@ impl Tracer {
             estimator: Estimator::Nee,
             sampler: Sampler::ZSobol,
             russian_roulette: Some(Self::DEFAULT_RUSSIAN_ROULETTE),
+            environment_guide: true,
             target_error: None,
             bvh_quality: None,
             bvh_layout: BvhLayout::default(),
@@ -437,12 +446,22 @@ impl Tracer {
         }
     }
 
+    /// What the kernels prepare for the next render: the environment guide when NEE will
+    /// use it.
+    fn scene_options(&self) -> raylume_kernels::SceneOptions {
+        raylume_kernels::SceneOptions {
+            environment_guide: self.environment_guide && self.estimator == Estimator::Nee,
+        }
+    }
+
     /// Sets the paper's estimator: [`Estimator::Plain`], [`Sampler::Independent`], no Russian
-    /// roulette (what the kernels do by default, and what `bench` compares with the paper).
+    /// roulette, no environment guide (what the kernels do by default, and what `bench`
+    /// compares with the paper).
     pub fn paper_estimator(&mut self) -> &mut Self {
         self.estimator = Estimator::Plain;
         self.sampler = Sampler::Independent;
         self.russian_roulette = None;
+        self.environment_guide = false;
         self
     }
 
@@ -506,6 +525,7 @@ impl Tracer {
             estimator: self.estimator.name().into(),
             sampler: self.sampler.name().into(),
             russian_roulette: self.russian_roulette,
+            environment_guide: self.environment_guide,
             samples: SampleRange {
                 begin: 0,
                 end: r.spp,
@@ -1002,9 +1022,16 @@ impl Tracer {
         let ctx = self.gpu.as_ref().expect("the backend choice created it");
         stats.adapter = ctx.describe();
         let t = Instant::now();
-        let mut tracer = GpuTracer::with_pipelines(ctx, scene, bvh, pipelines)?;
+        let mut tracer =
+            GpuTracer::with_options(ctx, scene, bvh, pipelines, &self.scene_options())?;
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
+        tracer.set_environment_guide(self.environment_guide);
+        stats.environment_guide = describe_guide(
+            self.estimator,
+            self.environment_guide,
+            tracer.environment_guide_walks(),
+        );
         tracer.set_russian_roulette(self.russian_roulette);
         tracer.set_sample_range(self.samples.map(|r| r.begin..r.end));
         if let Some(workspace) = self.gpu_workspace.take() {
@@ -1098,9 +1125,15 @@ impl Tracer {
         stats: &mut RenderStats,
         report: &mut dyn FnMut(u32, u32),
     ) -> Result<Vec<[f32; 3]>, Error> {
-        let mut tracer = CpuTracer::new(scene, bvh)?;
+        let mut tracer = CpuTracer::with_options(scene, bvh, &self.scene_options())?;
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
+        tracer.set_environment_guide(self.environment_guide);
+        stats.environment_guide = describe_guide(
+            self.estimator,
+            self.environment_guide,
+            tracer.environment_guide_walks(),
+        );
         tracer.set_russian_roulette(self.russian_roulette);
         tracer.set_sample_range(self.samples.map(|r| r.begin..r.end));
         let out = match target {
@@ -1128,5 +1161,18 @@ fn schedules_run(out: &TraceStats) -> String {
         (true, true) => "megakernel + wavefront (auto trials)".into(),
         (false, true) => "wavefront".into(),
         _ => "megakernel".into(),
+    }
+}
+
+/// [`RenderStats::environment_guide`]'s words.
+fn describe_guide(estimator: Estimator, on: bool, walks: Option<(u32, u64)>) -> String {
+    match (estimator, on, walks) {
+        (Estimator::Plain, _, _) => "unused (plain estimator)".into(),
+        (_, _, None) => "none (no environment or no geometry)".into(),
+        (_, false, Some((w, e))) => format!("off ({e} of {w} walks escaped)"),
+        (_, true, Some((w, e))) if e < raylume_kernels::env_guide::GUIDE_MIN_ESCAPES => {
+            format!("too few escapes ({e} of {w} walks): sampled by radiance")
+        }
+        (_, true, Some((w, e))) => format!("guided ({e} of {w} walks escaped)"),
     }
 }

@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 use crate::batches::{RoundFlow, RoundHook, RoundSums, ends_round, into_rounds};
 use crate::gpu_types::{RayState, SceneUniforms};
-use crate::scene_data::SceneData;
+use crate::scene_data::{SceneData, SceneOptions};
 use crate::surface::Globals;
 use crate::{KernelError, Schedule, TraceOutput, TraceSettings};
 
@@ -46,6 +46,20 @@ impl CpuTracer {
         self.data.sampler = sampler;
     }
 
+    /// Whether next-event estimation samples the environment by where the scene leaves it
+    /// visible ([`crate::env_guide`]), when the guide was learned ([`SceneOptions`]; then on
+    /// by default): `false` samples by its radiance alone. Unbiased either way; without a
+    /// learned guide (not asked for, no environment, no geometry, too few escapes) the
+    /// environment is sampled by radiance whatever this says.
+    pub fn set_environment_guide(&mut self, on: bool) {
+        self.data.environment_guide = on;
+    }
+
+    /// The guide's walks and escapes, if one was learned for this scene.
+    pub fn environment_guide_walks(&self) -> Option<(u32, u64)> {
+        self.data.environment_guide_walks
+    }
+
     /// Trace only samples `range` of every pixel (`None`, the default: all of them) and
     /// leave each pixel's *sum* over the range in the image, not its mean: a render part, to
     /// be added to the other parts' sums and divided by the total count. The random numbers
@@ -58,8 +72,17 @@ impl CpuTracer {
 
     /// Flattens `scene` for the primitives of `bvh` (built from this scene).
     pub fn new(scene: &Scene, bvh: &GpuBvh) -> Result<Self, KernelError> {
+        Self::with_options(scene, bvh, &SceneOptions::default())
+    }
+
+    /// [`CpuTracer::new`], also preparing what `options` asks for (the environment guide).
+    pub fn with_options(
+        scene: &Scene,
+        bvh: &GpuBvh,
+        options: &SceneOptions,
+    ) -> Result<Self, KernelError> {
         let t = Instant::now();
-        let data = SceneData::new(scene, bvh)?;
+        let data = SceneData::with_options(scene, bvh, options)?;
         Ok(Self {
             bvh: bvh.clone(),
             data,

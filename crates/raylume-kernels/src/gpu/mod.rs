@@ -28,7 +28,7 @@ use raylume_sort::RadixSorter;
 use crate::batches::Batch;
 use crate::bsdf::RoughPlasticTable;
 use crate::gpu_types::{GpuLight, GpuMaterial, SceneUniforms, TextureHeader, TriangleShading};
-use crate::scene_data::SceneData;
+use crate::scene_data::{SceneData, SceneOptions};
 use crate::{KernelError, TraceOutput, TraceSettings};
 use layout::upload;
 use policy::Fixed;
@@ -149,6 +149,18 @@ impl<'a> GpuTracer<'a> {
         bvh: &GpuBvh,
         pipelines: Arc<TracerPipelines>,
     ) -> Result<Self, KernelError> {
+        Self::with_options(ctx, scene, bvh, pipelines, &SceneOptions::default())
+    }
+
+    /// [`GpuTracer::with_pipelines`], also preparing what `options` asks for (the environment
+    /// guide, learned on the CPU before the upload).
+    pub fn with_options(
+        ctx: &'a GpuContext,
+        scene: &Scene,
+        bvh: &GpuBvh,
+        pipelines: Arc<TracerPipelines>,
+        options: &SceneOptions,
+    ) -> Result<Self, KernelError> {
         let features = pipelines.features();
         // Bloom is a post pass, not tracer code.
         let needed = scene.features().bits() & !(Feature::Bloom as u32);
@@ -166,7 +178,7 @@ impl<'a> GpuTracer<'a> {
             )));
         }
         let start = Instant::now();
-        let mut data = SceneData::new(scene, bvh)?;
+        let mut data = SceneData::with_options(scene, bvh, options)?;
         let device = &ctx.device;
 
         let uniforms = ctx.scoped("creating the scene uniform buffer", || {
@@ -306,6 +318,19 @@ impl<'a> GpuTracer<'a> {
     /// Where the paths' random numbers come from (default [`crate::Sampler::Independent`]).
     pub fn set_sampler(&mut self, sampler: crate::Sampler) {
         self.data.sampler = sampler;
+    }
+
+    /// Whether next-event estimation samples the environment by where the scene leaves it
+    /// visible ([`crate::env_guide`]), when the guide was learned
+    /// ([`crate::scene_data::SceneOptions`]; then on by default): `false` samples by its
+    /// radiance alone (`CpuTracer::set_environment_guide`, the same rules).
+    pub fn set_environment_guide(&mut self, on: bool) {
+        self.data.environment_guide = on;
+    }
+
+    /// The guide's walks and escapes, if one was learned for this scene.
+    pub fn environment_guide_walks(&self) -> Option<(u32, u64)> {
+        self.data.environment_guide_walks
     }
 
     /// Trace only samples `range` of every pixel (`None`, the default: all of them) and

@@ -455,3 +455,72 @@ pub fn mean(img: &[[f32; 3]]) -> [f64; 3] {
     }
     m.map(|x| x / img.len() as f64)
 }
+
+/// A closed room [-1, 1] x [0, 2] x [-1, 1] of grey diffuse walls lit only by a constant sky
+/// through a square skylight `opening` wide in the middle of its ceiling (none: a closed box),
+/// the camera inside looking at the far wall and the floor.
+pub fn skylight_room(opening: f32) -> Scene {
+    let m = 0;
+    let mut triangles = Vec::new();
+    // Floor, four walls (normals inward does not matter: the shading flips them).
+    triangles.extend(flat_quad(
+        Vec3::new(-1., 0., -1.),
+        Vec3::new(0., 0., 2.),
+        Vec3::new(2., 0., 0.),
+        m,
+    ));
+    triangles.extend(flat_quad(
+        Vec3::new(-1., 0., -1.),
+        Vec3::new(2., 0., 0.),
+        Vec3::new(0., 2., 0.),
+        m,
+    ));
+    triangles.extend(flat_quad(
+        Vec3::new(-1., 0., 1.),
+        Vec3::new(0., 2., 0.),
+        Vec3::new(2., 0., 0.),
+        m,
+    ));
+    triangles.extend(flat_quad(
+        Vec3::new(-1., 0., -1.),
+        Vec3::new(0., 2., 0.),
+        Vec3::new(0., 0., 2.),
+        m,
+    ));
+    triangles.extend(flat_quad(
+        Vec3::new(1., 0., -1.),
+        Vec3::new(0., 0., 2.),
+        Vec3::new(0., 2., 0.),
+        m,
+    ));
+    // The ceiling at y = 2 around the opening [-h, h]^2 (x, z).
+    let h = opening * 0.5;
+    let y = 2.0;
+    let mut ceiling = |x0: f32, x1: f32, z0: f32, z1: f32| {
+        if x1 > x0 && z1 > z0 {
+            triangles.extend(flat_quad(
+                Vec3::new(x0, y, z0),
+                Vec3::new(x1 - x0, 0., 0.),
+                Vec3::new(0., 0., z1 - z0),
+                m,
+            ));
+        }
+    };
+    ceiling(-1.0, -h, -1.0, 1.0);
+    ceiling(h, 1.0, -1.0, 1.0);
+    ceiling(-h, h, -1.0, -h);
+    ceiling(-h, h, h, 1.0);
+    Scene {
+        camera: Camera {
+            position: Vec3::new(0.0, 1.0, 0.9),
+            look_at: Vec3::new(0.0, 0.6, -1.0),
+            up: Vec3::Y,
+            fov: 70.0,
+            fov_axis: FovAxis::Vertical,
+        },
+        materials: vec![Material::diffuse("walls", Vec3::splat(0.6))],
+        triangles,
+        environment: Environment::Constant(Vec3::new(1.0, 0.9, 0.8)),
+        ..Default::default()
+    }
+}
