@@ -101,6 +101,10 @@ struct Args {
     /// (the paper's, the default here).
     #[arg(long, default_value = "off", value_parser = parse_rr_depth)]
     rr_depth: RrDepth,
+    /// With --estimator nee, sample the environment by the learned guide (on) or by its
+    /// radiance (off, the default here: Mitsuba's `path`).
+    #[arg(long, default_value = "off", value_parser = parse_on_off, action = clap::ArgAction::Set)]
+    environment_guide: bool,
     /// Best of at least this many runs per cell (see --min-seconds).
     #[arg(long, default_value_t = 3)]
     repeat: u32,
@@ -124,6 +128,14 @@ struct Args {
 /// `--rr-depth`: a segment number or `off`.
 #[derive(Clone, Copy, Debug)]
 struct RrDepth(Option<u32>);
+
+fn parse_on_off(s: &str) -> Result<bool, String> {
+    match s.trim() {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        _ => Err(format!("`{s}`: on or off")),
+    }
+}
 
 fn parse_rr_depth(s: &str) -> Result<RrDepth, String> {
     match s.trim() {
@@ -360,6 +372,7 @@ fn run(args: Args) -> Result<(), String> {
     tracer.estimator = args.estimator;
     tracer.sampler = args.sampler;
     tracer.russian_roulette = args.rr_depth.0;
+    tracer.environment_guide = args.environment_guide;
     tracer.bvh_quality = Some(args.bvh_preset);
     if let Some(b) = args.batch_spp {
         tracer.batch_spp = b;

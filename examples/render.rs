@@ -93,6 +93,11 @@ struct Args {
     /// Russian roulette from this path segment on (default 5, as Mitsuba 3's `path`), or off.
     #[arg(long, default_value = "5", value_parser = parse_rr_depth)]
     rr_depth: RrDepth,
+    /// Environment sampling for nee: on (the default: shadow rays toward the sky go where
+    /// short diffuse walks from the camera found it visible, learned per region of the scene
+    /// before rendering) or off (by the sky's radiance alone, as Mitsuba 3).
+    #[arg(long, default_value = "on", value_parser = parse_on_off, action = clap::ArgAction::Set)]
+    environment_guide: bool,
     /// Skip the scene's bloom pass.
     #[arg(long)]
     no_bloom: bool,
@@ -119,6 +124,14 @@ fn parse_rr_depth(s: &str) -> Result<RrDepth, String> {
         .parse()
         .map(|d| RrDepth(Some(d)))
         .map_err(|_| format!("`{s}` is not a path segment number or `off`"))
+}
+
+fn parse_on_off(s: &str) -> Result<bool, String> {
+    match s.trim() {
+        "on" => Ok(true),
+        "off" => Ok(false),
+        _ => Err(format!("`{s}`: on or off")),
+    }
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -245,6 +258,7 @@ fn run(args: Args) -> Result<(), String> {
     tracer.estimator = args.estimator;
     tracer.sampler = args.sampler;
     tracer.russian_roulette = args.rr_depth.0;
+    tracer.environment_guide = args.environment_guide;
     tracer.target_error = args.target_error;
     if let Some((i, n)) = args.part {
         let range =
@@ -334,8 +348,8 @@ fn run(args: Args) -> Result<(), String> {
         None => "roulette off".into(),
     };
     eprintln!(
-        "raylume: rendered {} ({}x{}, {} spp, {} bounces; estimator {}, sampler {}, {roulette}) \
-         on {} [{}]: {} (reorder {})",
+        "raylume: rendered {} ({}x{}, {} spp, {} bounces; estimator {}, sampler {}, {roulette}, \
+         environment {}) on {} [{}]: {} (reorder {})",
         args.scene.display(),
         s.width,
         s.height,
@@ -343,6 +357,7 @@ fn run(args: Args) -> Result<(), String> {
         s.max_bounces,
         s.estimator,
         s.sampler,
+        s.environment_guide,
         s.backend.to_uppercase(),
         s.adapter,
         s.backend_reason,

@@ -103,8 +103,9 @@ pub struct RenderStats {
     /// The segment from which Russian roulette may end a path; `None` (JSON `null`): off.
     pub russian_roulette: Option<u32>,
     /// How next-event estimation sampled the environment (`Tracer::environment_guide`):
-    /// `guided (E of W walks escaped)`, `off (...)`, `too few escapes (...)`, `none (no
-    /// environment or no geometry)` or `unused (plain estimator)`.
+    /// `guided (E escapes from W walks)`, `by radiance (guide off)`, `by radiance (too few
+    /// escapes ...)`, `no guide (no environment or no geometry)` or `unused (plain
+    /// estimator)`.
     pub environment_guide: String,
     /// The reorder policy and what it ran: `off`, `on: wavefront, sort-index before depths
     /// 1..=10`, `auto: <the plan> (fastest measured per N-ray batch: ...)`, `auto: still

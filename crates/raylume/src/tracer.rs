@@ -1168,11 +1168,11 @@ fn schedules_run(out: &TraceStats) -> String {
 fn describe_guide(estimator: Estimator, on: bool, walks: Option<(u32, u64)>) -> String {
     match (estimator, on, walks) {
         (Estimator::Plain, _, _) => "unused (plain estimator)".into(),
-        (_, _, None) => "none (no environment or no geometry)".into(),
-        (_, false, Some((w, e))) => format!("off ({e} of {w} walks escaped)"),
+        (_, true, None) => "no guide (no environment or no geometry)".into(),
+        (_, false, _) => "by radiance (guide off)".into(),
         (_, true, Some((w, e))) if e < raylume_kernels::env_guide::GUIDE_MIN_ESCAPES => {
-            format!("too few escapes ({e} of {w} walks): sampled by radiance")
+            format!("by radiance (too few escapes to guide: {e} from {w} walks)")
         }
-        (_, true, Some((w, e))) => format!("guided ({e} of {w} walks escaped)"),
+        (_, true, Some((w, e))) => format!("guided ({e} escapes from {w} walks)"),
     }
 }
