@@ -80,7 +80,11 @@ const ONLY_FOR: [(&[Feature], &[&str]); 5] = [
         &[Feature::Spheres],
         &["sample_sphere_cap", "sphere_cap_pdf"],
     ),
-    (&[Feature::EnvironmentMap], &["cdf_search", "cdf_step"]),
+    // A constant sky samples its guide's distributions with them too (env_guide).
+    (
+        &[Feature::EnvironmentMap, Feature::ConstantEnvironment],
+        &["cdf_search", "cdf_step", "environment_cdf_base"],
+    ),
 ];
 
 /// Without a feature, its functions are absent from the module (naga's function list) and
