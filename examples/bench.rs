@@ -94,7 +94,7 @@ struct Args {
     /// (`--sampler`, `--rr-depth` change that).
     #[arg(long, default_value = "plain")]
     estimator: raylume::Estimator,
-    /// Random numbers: independent (the paper's, the default here) or zsobol.
+    /// Random numbers: independent (the paper's, the default here), sobol or zsobol.
     #[arg(long, default_value = "independent")]
     sampler: raylume::Sampler,
     /// Russian roulette from this path segment on (Mitsuba 3's `path` starts at 5), or off

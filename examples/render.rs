@@ -86,9 +86,10 @@ struct Args {
     /// small lights) or plain (the paper's).
     #[arg(long, default_value = "nee")]
     estimator: Estimator,
-    /// Random numbers: zsobol (the default: scrambled Sobol' points, pbrt-v4's) or
-    /// independent (the paper's).
-    #[arg(long, default_value = "zsobol")]
+    /// Random numbers: sobol (the default: scrambled Sobol' points, each pixel's a net),
+    /// zsobol (pbrt-v4's: the same nets with blue noise across pixels, ~1.3x slower on the
+    /// GPU) or independent (the paper's).
+    #[arg(long, default_value = "sobol")]
     sampler: Sampler,
     /// Russian roulette from this path segment on (default 5, as Mitsuba 3's `path`), or off.
     #[arg(long, default_value = "5", value_parser = parse_rr_depth)]

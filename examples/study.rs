@@ -31,9 +31,9 @@
 //! (except the `bounces` knob's, which are biased against it on purpose).
 //!
 //! **Knobs** (`--knobs`, all by default): `spp` (the baseline alone), `bounces` (bias),
-//! `estimator` (plain vs nee), `rr` (Russian roulette start), `sampler` (independent vs zsobol),
+//! `estimator` (plain vs nee), `rr` (Russian roulette start), `sampler` (sobol vs zsobol vs independent),
 //! `batch` (samples per batch) and `reorder` (ray sorting, GPU only): each varies one knob of
-//! the baseline (`--baseline`, default nee, zsobol, rr 5, the tracer's batch size, reorder
+//! the baseline (`--baseline`, default nee, sobol, rr 5, the tracer's batch size, reorder
 //! off), the baseline itself in every plot. `--config NAME:KNOB:key=value,...` adds more.
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -102,7 +102,7 @@ struct RunArgs {
     )]
     knobs: Vec<String>,
     /// The baseline's settings, `key=value,...` (keys: estimator, sampler, rr, bounces, batch,
-    /// reorder), over nee, zsobol, rr 5, the tracer's default batch, reorder off.
+    /// reorder), over nee, sobol, rr 5, the tracer's default batch, reorder off.
     #[arg(long, default_value = "")]
     baseline: String,
     /// Bounce counts of the `bounces` knob (the baseline's is added).
@@ -399,11 +399,11 @@ fn standard_configs(args: &RunArgs, base: &Knobs) -> Result<Vec<Config>, String>
                 }
             }
             "sampler" => {
-                let other = match base.sampler {
-                    Sampler::ZSobol => "independent",
-                    Sampler::Independent => "zsobol",
-                };
-                push("sampler", "sampler", other)?;
+                for other in [Sampler::Sobol, Sampler::ZSobol, Sampler::Independent] {
+                    if other != base.sampler {
+                        push("sampler", "sampler", other.name())?;
+                    }
+                }
             }
             "batch" => {
                 for b in &args.batch_list {
@@ -629,7 +629,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
     let date = utc_now();
     let mut base = Knobs {
         estimator: Estimator::Nee,
-        sampler: Sampler::ZSobol,
+        sampler: Sampler::Sobol,
         rr: Some(5),
         bounces: scene.render.max_bounces,
         batch: Tracer::DEFAULT_BATCH_SPP,
@@ -828,7 +828,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
             "rel_mse": p.rel_mse, "mean_ratio": p.mean_ratio, "reference": "own",
             "width": w, "height": h, "backend": st.backend, "adapter": st.adapter,
             "trace_s": st.seconds.trace, "upload_s": st.seconds.upload, "bvh_s": st.seconds.bvh,
-            "bvh_cached": st.bvh_cached, "schedule": st.schedule, "reorder_run": st.reorder,
+            "bvh_cached": st.bvh_cached, "scene_cached": st.scene_cached, "schedule": st.schedule, "reorder_run": st.reorder,
             "batch_run": st.batch_spp, "rays": st.rays_traced, "commit": commit, "date": date,
         });
         append(&args.out, args.csv.as_deref(), &rec)?;

@@ -20,7 +20,7 @@
 #   STUDY_MI_SAMPLERS  multijitter,independent Mitsuba's samplers
 #   STUDY_KNOBS     spp,bounces,estimator,rr,sampler,batch,reorder / the same less reorder
 #                   (the CPU never sorts rays)
-#   STUDY_BASELINE  (empty: nee, zsobol, rr 5, batch 20, reorder off) study's --baseline
+#   STUDY_BASELINE  (empty: nee, sobol, rr 5, batch 20, reorder off) study's --baseline
 #   STUDY_EXTRA     more flags for `study run` (e.g. "--bounces-list 1,3 --batch-list 5,64")
 #   STUDY_BACKEND   gpu / cpu                  raylume's --backend
 #   STUDY_VARIANT   cuda_ad_rgb                Mitsuba's variant

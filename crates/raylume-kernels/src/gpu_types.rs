@@ -69,6 +69,8 @@ pub const LIGHT_ENVIRONMENT: u32 = 2;
 pub const SAMPLER_INDEPENDENT: u32 = 0;
 /// `SceneUniforms::sampler`: ZSobol, `sobol4`.
 pub const SAMPLER_ZSOBOL: u32 = 1;
+/// `SceneUniforms::sampler`: ZSobol with Burley's shuffle, `shuffled_sobol4`.
+pub const SAMPLER_SOBOL: u32 = 2;
 /// Random-number dimensions (groups of four) a path segment may draw: `DIM_CAMERA` ..
 /// `DIM_ROULETTE`. ZSobol numbers segment `b`'s dimension `d` as pair group
 /// `b * DIMS_PER_BOUNCE + d`.
@@ -160,7 +162,8 @@ pub struct SceneUniforms {
     /// Russian roulette decides after every hit of a segment `>= rr_depth` whether the path
     /// goes on ([`NO_ROULETTE`]: never).
     pub rr_depth: u32,
-    /// [`SAMPLER_INDEPENDENT`] or [`SAMPLER_ZSOBOL`]: where the path's random numbers come from.
+    /// [`SAMPLER_INDEPENDENT`], [`SAMPLER_ZSOBOL`] or [`SAMPLER_SOBOL`]: where the path's
+    /// random numbers come from.
     pub sampler: u32,
     /// The environment's selection probability in the light list (its share of
     /// `light_power`); 0 when next-event estimation does not sample it (then an escaping path
@@ -376,6 +379,7 @@ pub fn wgsl_constants() -> String {
     s += &u("LIGHT_ENVIRONMENT", LIGHT_ENVIRONMENT);
     s += &u("SAMPLER_INDEPENDENT", SAMPLER_INDEPENDENT);
     s += &u("SAMPLER_ZSOBOL", SAMPLER_ZSOBOL);
+    s += &u("SAMPLER_SOBOL", SAMPLER_SOBOL);
     s += &u("NO_ROULETTE", NO_ROULETTE);
     s += &u("RAY_ALIVE", RAY_ALIVE);
     s += &u("WORKGROUP_SIZE", crate::workgroup_size());

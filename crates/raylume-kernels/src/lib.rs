@@ -89,8 +89,8 @@ pub mod surface;
 pub use cpu::CpuTracer;
 pub use error::KernelError;
 pub use gpu::{
-    BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, GpuWorkspace, SortCapture,
-    Specialisation, StageTime, TraceStats, WavefrontBuffers,
+    BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuScene, GpuTracer, GpuWorkspace,
+    SortCapture, Specialisation, StageTime, TraceStats, WavefrontBuffers,
 };
 pub use scene_data::SceneOptions;
 
@@ -144,6 +144,11 @@ pub enum Sampler {
     /// pixel's samples a (0, 2)-net per pair of dimensions and neighbouring pixels' errors
     /// blue noise, [`sobol::sobol4`]. Less error per sample on smooth integrands.
     ZSobol,
+    /// ZSobol with Burley's hash shuffle of the indices in place of its 16 digit
+    /// permutations ([`sobol::shuffled_sobol4`]): the same nets in every pixel, so the same
+    /// error per sample, at a fraction of the arithmetic (the living room's NEE trace on the
+    /// H200: ZSobol 1.34x slower than independent numbers); weaker blue noise across pixels.
+    Sobol,
 }
 
 impl Sampler {
@@ -151,6 +156,7 @@ impl Sampler {
         match self {
             Sampler::Independent => "independent",
             Sampler::ZSobol => "zsobol",
+            Sampler::Sobol => "sobol",
         }
     }
 
@@ -159,6 +165,7 @@ impl Sampler {
         match self {
             Sampler::Independent => gpu_types::SAMPLER_INDEPENDENT,
             Sampler::ZSobol => gpu_types::SAMPLER_ZSOBOL,
+            Sampler::Sobol => gpu_types::SAMPLER_SOBOL,
         }
     }
 }
@@ -166,12 +173,15 @@ impl Sampler {
 impl std::str::FromStr for Sampler {
     type Err = String;
 
-    /// `independent` or `zsobol`.
+    /// `independent`, `zsobol` or `sobol`.
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
             "independent" => Ok(Sampler::Independent),
             "zsobol" => Ok(Sampler::ZSobol),
-            _ => Err(format!("unknown sampler `{s}`: use independent or zsobol")),
+            "sobol" => Ok(Sampler::Sobol),
+            _ => Err(format!(
+                "unknown sampler `{s}`: use independent, zsobol or sobol"
+            )),
         }
     }
 }

@@ -38,13 +38,13 @@ use crate::bsdf::{
 use crate::gpu_types::{
     DIM_CAMERA, DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE, GpuMaterial,
     LIGHT_ENVIRONMENT, LIGHT_SPHERE, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL,
-    MATERIAL_PLASTIC, MATERIAL_TWO_SIDED, RAY_ALIVE, RR_MAX_SURVIVAL, RayState, SAMPLER_ZSOBOL,
-    SHADOW_T_SCALE, SceneUniforms, T_MAX,
+    MATERIAL_PLASTIC, MATERIAL_TWO_SIDED, RAY_ALIVE, RR_MAX_SURVIVAL, RayState,
+    SAMPLER_INDEPENDENT, SAMPLER_SOBOL, SHADOW_T_SCALE, SceneUniforms, T_MAX,
 };
 use crate::math::{INV_PI, PI};
 use crate::rng::rand4;
 use crate::sampling::{sample_diffuse, sample_sphere_cap, sphere_cap_pdf};
-use crate::sobol::{sobol2, sobol4};
+use crate::sobol::{sobol2_of, sobol4_of};
 use crate::surface::{
     Globals, SurfaceHit, environment_cell, environment_pdf, environment_radiance, material_at,
     offset_ray_origin, sample_environment, surface_at,
@@ -199,32 +199,22 @@ pub fn shade_hit(
 
 /// The four random numbers of dimension `dim` (a `DIM_*` constant) at segment `bounce` of
 /// sample `sample` of pixel `pixel` (row-major), from the sampler the uniforms name:
-/// [`rand4`] (independent), or [`sobol4`] (ZSobol) with pair group
+/// [`rand4`] (independent), or [`sobol4_of`] (ZSobol, shuffled for `SAMPLER_SOBOL`) with pair group
 /// `bounce * DIMS_PER_BOUNCE + dim`, the pixel's (x, y) and the render's spp. Every random
 /// number of a path comes from here, so both samplers serve every estimator.
 #[inline]
 pub fn path_rand4(scene: &SceneUniforms, pixel: u32, sample: u32, bounce: u32, dim: u32) -> Vec4 {
-    if scene.sampler == SAMPLER_ZSOBOL {
+    if scene.sampler != SAMPLER_INDEPENDENT {
+        let shuffled = scene.sampler == SAMPLER_SOBOL;
         let xy = glam::UVec2::new(pixel % scene.width, pixel / scene.width);
+        let group = bounce * DIMS_PER_BOUNCE + dim;
         if dim == DIM_CAMERA || dim == DIM_ROULETTE {
             // These use x and y only (`DIM_CAMERA`, `DIM_ROULETTE`): their second pair is not
             // computed, and z, w are 0.
-            let v = sobol2(
-                scene.seed,
-                xy,
-                sample,
-                scene.spp,
-                bounce * DIMS_PER_BOUNCE + dim,
-            );
+            let v = sobol2_of(shuffled, scene.seed, xy, sample, scene.spp, group);
             return Vec4::new(v.x, v.y, 0.0, 0.0);
         }
-        return sobol4(
-            scene.seed,
-            xy,
-            sample,
-            scene.spp,
-            bounce * DIMS_PER_BOUNCE + dim,
-        );
+        return sobol4_of(shuffled, scene.seed, xy, sample, scene.spp, group);
     }
     rand4(scene.seed, pixel, sample, bounce, dim)
 }

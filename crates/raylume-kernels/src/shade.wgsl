@@ -76,13 +76,15 @@ fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, 
 
 // shade.rs `path_rand4`.
 fn path_rand4(pixel: u32, sample: u32, bounce: u32, dim: u32) -> vec4<f32> {
-    if (scene.sampler == SAMPLER_ZSOBOL) {
+    if (scene.sampler != SAMPLER_INDEPENDENT) {
+        let shuffled = select(0u, 1u, scene.sampler == SAMPLER_SOBOL);
         let xy = vec2<u32>(pixel % scene.width, pixel / scene.width);
+        let group = bounce * DIMS_PER_BOUNCE + dim;
         if (dim == DIM_CAMERA || dim == DIM_ROULETTE) {
-            let v = sobol2(scene.seed, xy, sample, scene.spp, bounce * DIMS_PER_BOUNCE + dim);
+            let v = sobol2_of(shuffled, scene.seed, xy, sample, scene.spp, group);
             return vec4<f32>(v.x, v.y, 0.0, 0.0);
         }
-        return sobol4(scene.seed, xy, sample, scene.spp, bounce * DIMS_PER_BOUNCE + dim);
+        return sobol4_of(shuffled, scene.seed, xy, sample, scene.spp, group);
     }
     return rand4(scene.seed, pixel, sample, bounce, dim);
 }

@@ -1,8 +1,9 @@
 //! A low-discrepancy sampler: ZSobol (Ahmed & Wonka 2020, "Screen-space blue-noise diffusion
 //! of Monte Carlo sampling error via hierarchical ordering of pixels", SIGGRAPH Asia), after
 //! pbrt-v4's `ZSobolSampler` with `RandomizeStrategy::FastOwen` (`samplers.h`,
-//! `util/lowdiscrepancy.h`). Identical in WGSL (`sobol.wgsl`) and Rust; not yet used by the
-//! tracer (which draws [`crate::rng::rand4`]).
+//! `util/lowdiscrepancy.h`), and a cheaper variant of it (below). Identical in WGSL (`sobol.wgsl`)
+//! and Rust; the tracer draws from it through `shade::path_rand4` (`Sampler::ZSobol`,
+//! `Sampler::Sobol`).
 //!
 //! Like [`crate::rng::rand4`] it is a pure function of its key, so no state travels with a
 //! ray: [`sobol4`]`(seed, pixel, sample, spp, dim)` gives four numbers in `[0, 1)`, two
@@ -33,6 +34,15 @@
 //! in base 2, and both the digit permutation (which maps blocks to blocks) and Owen scrambling
 //! keep that: for spp = `2^k`, each pair of a pixel's samples has exactly one point in each
 //! of the `2^k` elementary intervals of area `2^-k` (tested below).
+//!
+//! **The shuffled variant** ([`shuffled_sobol4`], `Sampler::Sobol`) replaces step 2 by
+//! Burley's shuffle (Burley 2020, "Practical Hash-based Owen Scrambling"): the index is
+//! nested-uniform scrambled by one Laine-Karras hash ([`shuffled_sample_index`]) instead of
+//! 16 digit permutations, each with its own hash. Aligned blocks still map to aligned blocks,
+//! so every pixel's samples are the same kind of net and different pairs still see them in
+//! unrelated orders; what it gives up is part of ZSobol's freedom in placing the pixels'
+//! blocks (their errors' blue noise). On the H200 the 16 hashes per pair made the living
+//! room's NEE trace 1.34x slower than independent numbers (commit 7121aa9, 500x500, 256 spp).
 //!
 //! Differences from pbrt-v4, all for a u32-only GPU mirror: the index is 32 bits (pbrt: 64),
 //! so the Morton code of the pixel plus `log2(spp)` bits must fit in 32 (e.g. 4096x4096 at
@@ -146,15 +156,21 @@ pub fn sobol_log2_spp(spp: u32) -> u32 {
 #[inline]
 pub fn zsobol_morton_index(pixel: UVec2, sample: u32, log2_spp: u32) -> u32 {
     let morton = encode_morton2(pixel.x, pixel.y);
-    let low = if log2_spp == 0 {
-        0
-    } else {
-        sample & (u32::MAX >> (32 - log2_spp))
-    };
+    let low = zsobol_sample_bits(sample, log2_spp);
     if log2_spp >= 32 {
         low
     } else {
         (morton << log2_spp) | low
+    }
+}
+
+/// The low `log2_spp` bits of [`zsobol_morton_index`]: the sample's.
+#[inline]
+pub fn zsobol_sample_bits(sample: u32, log2_spp: u32) -> u32 {
+    if log2_spp == 0 {
+        0
+    } else {
+        sample & (u32::MAX >> (32 - log2_spp))
     }
 }
 
@@ -222,18 +238,38 @@ pub fn fast_owen(v: u32, seed: u32) -> u32 {
     v.reverse_bits()
 }
 
+/// Burley's shuffle (Burley 2020, "Practical Hash-based Owen Scrambling", section 4, after
+/// Laine & Karras 2011): `m` nested-uniform scrambled under `key`, each bit flipped by a hash
+/// of the bits above it, which is [`fast_owen`]`(m, key)`. Like [`zsobol_sample_index`] a
+/// bijection mapping every aligned block of `2^j` indices onto an aligned block of `2^j`
+/// (a pixel's samples stay one block, their power-of-2 prefixes nets, and each pair gets its
+/// own order of them: the padding), at the cost of one hash for all 32 bits instead of one
+/// hash per base-4 digit. It permutes each block's two halves by a hash bit where ZSobol
+/// permutes a block's four quarters by one of the 24 permutations: the pixels' blocks are
+/// shuffled less freely across the image (the blue noise of neighbouring pixels' errors is
+/// weaker), each pixel's own points are the same kind of net.
+#[inline]
+pub fn shuffled_sample_index(m: u32, key: u32) -> u32 {
+    fast_owen(m, key)
+}
+
 /// The 32-bit Sobol' points of one pair: dimensions 0 and 1 of the permuted index of
-/// (pixel, sample) under `key`, Owen-scrambled with `scramble_x` and `scramble_y`.
+/// [`zsobol_morton_index`] `m` under `key` ([`shuffled_sample_index`] when `shuffled`, else
+/// [`zsobol_sample_index`]), Owen-scrambled with `scramble_x` and `scramble_y`.
 #[inline]
 pub fn zsobol_pair_bits(
-    pixel: UVec2,
-    sample: u32,
+    m: u32,
     log2_spp: u32,
     key: u32,
     scramble_x: u32,
     scramble_y: u32,
+    shuffled: bool,
 ) -> [u32; 2] {
-    let index = zsobol_sample_index(zsobol_morton_index(pixel, sample, log2_spp), log2_spp, key);
+    let index = if shuffled {
+        shuffled_sample_index(m, key)
+    } else {
+        zsobol_sample_index(m, log2_spp, key)
+    };
     [
         fast_owen(index.reverse_bits(), scramble_x),
         fast_owen(sobol_dim1(index), scramble_y),
@@ -246,11 +282,14 @@ pub fn sobol_scrambles(seed: u32, dim: u32) -> [u32; 4] {
     pcg4d([seed, dim, SOBOL_SALT, 0])
 }
 
-/// The digit-permutation keys of the pairs (x, y) and (z, w) of pair group `dim`.
+/// The index-permutation keys of the pairs (x, y) and (z, w) of a pair group, from its Owen
+/// seeds ([`sobol_scrambles`]) by another hash (one `pcg4d` a group instead of two).
 #[inline]
-pub fn sobol_keys(seed: u32, dim: u32) -> [u32; 2] {
-    let k = pcg4d([seed, dim, SOBOL_SALT, 1]);
-    [k[0], k[1]]
+pub fn sobol_keys(scrambles: [u32; 4]) -> [u32; 2] {
+    [
+        mix32(scrambles[0] ^ SOBOL_SALT),
+        mix32(scrambles[2] ^ SOBOL_SALT),
+    ]
 }
 
 /// Where a pixel's samples live when the image is too large for the 32-bit index: pixels whose
@@ -275,26 +314,31 @@ pub fn zsobol_tile(seed: u32, pixel: UVec2, log2_spp: u32) -> (u32, UVec2) {
     (tile_seed, UVec2::new(pixel.x & mask, pixel.y & mask))
 }
 
-/// What both pairs of pair group `dim` share: `log2(spp)`, the pixel in its tile and the
-/// tile's Owen seeds ([`sobol_scrambles`]) and digit-permutation keys ([`sobol_keys`]).
+/// What both pairs of pair group `dim` share: `log2(spp)`, the Morton index of the pixel
+/// in its tile ([`zsobol_morton_index`] of sample 0), the tile's Owen seeds
+/// ([`sobol_scrambles`]) and index-permutation keys ([`sobol_keys`]), and which permutation
+/// ([`zsobol_pair_bits`]).
 #[derive(Clone, Copy, Debug)]
 pub struct ZSobolSetup {
     pub log2_spp: u32,
-    pub pixel: UVec2,
+    pub morton: u32,
     pub scrambles: [u32; 4],
     pub keys: [u32; 2],
+    pub shuffled: bool,
 }
 
 /// [`ZSobolSetup`] for (seed, pixel, spp, dim), tiles included ([`zsobol_tile`]).
 #[inline]
-pub fn zsobol_setup(seed: u32, pixel: UVec2, spp: u32, dim: u32) -> ZSobolSetup {
+pub fn zsobol_setup(seed: u32, pixel: UVec2, spp: u32, dim: u32, shuffled: bool) -> ZSobolSetup {
     let log2_spp = sobol_log2_spp(spp);
     let (seed, pixel) = zsobol_tile(seed, pixel, log2_spp);
+    let scrambles = sobol_scrambles(seed, dim);
     ZSobolSetup {
         log2_spp,
-        pixel,
-        scrambles: sobol_scrambles(seed, dim),
-        keys: sobol_keys(seed, dim),
+        morton: zsobol_morton_index(pixel, 0, log2_spp),
+        scrambles,
+        keys: sobol_keys(scrambles),
+        shuffled,
     }
 }
 
@@ -302,7 +346,14 @@ pub fn zsobol_setup(seed: u32, pixel: UVec2, spp: u32, dim: u32) -> ZSobolSetup 
 #[inline]
 pub fn zsobol_pair(z: &ZSobolSetup, sample: u32, which: usize) -> glam::Vec2 {
     let (sx, sy) = (z.scrambles[2 * which], z.scrambles[2 * which + 1]);
-    let a = zsobol_pair_bits(z.pixel, sample, z.log2_spp, z.keys[which], sx, sy);
+    let a = zsobol_pair_bits(
+        z.morton | zsobol_sample_bits(sample, z.log2_spp),
+        z.log2_spp,
+        z.keys[which],
+        sx,
+        sy,
+        z.shuffled,
+    );
     let f = |x: u32| rand_f32(x).min(SOBOL_ONE_MINUS_EPSILON);
     glam::Vec2::new(f(a[0]), f(a[1]))
 }
@@ -312,18 +363,51 @@ pub fn zsobol_pair(z: &ZSobolSetup, sample: u32, which: usize) -> glam::Vec2 {
 /// at this spp are split into tiles ([`zsobol_tile`]).
 #[inline]
 pub fn sobol4(seed: u32, pixel: UVec2, sample: u32, spp: u32, dim: u32) -> Vec4 {
-    debug_assert!(sample < spp.max(1), "sample {sample} of {spp}");
-    let z = zsobol_setup(seed, pixel, spp, dim);
-    let (a, b) = (zsobol_pair(&z, sample, 0), zsobol_pair(&z, sample, 1));
-    Vec4::new(a.x, a.y, b.x, b.y)
+    sobol4_of(false, seed, pixel, sample, spp, dim)
 }
 
 /// The first pair of [`sobol4`] alone, `(x, y)`, at half its cost: for the dimensions that
 /// use two numbers or fewer (the camera's jitter, the roulette decision).
 #[inline]
 pub fn sobol2(seed: u32, pixel: UVec2, sample: u32, spp: u32, dim: u32) -> glam::Vec2 {
+    sobol2_of(false, seed, pixel, sample, spp, dim)
+}
+
+/// [`sobol4`] with Burley's shuffle ([`shuffled_sample_index`]) in place of ZSobol's digit
+/// permutations: the same kind of net in every pixel, for a fraction of the arithmetic
+/// (`Sampler::Sobol`).
+#[inline]
+pub fn shuffled_sobol4(seed: u32, pixel: UVec2, sample: u32, spp: u32, dim: u32) -> Vec4 {
+    sobol4_of(true, seed, pixel, sample, spp, dim)
+}
+
+/// The first pair of [`shuffled_sobol4`] alone.
+#[inline]
+pub fn shuffled_sobol2(seed: u32, pixel: UVec2, sample: u32, spp: u32, dim: u32) -> glam::Vec2 {
+    sobol2_of(true, seed, pixel, sample, spp, dim)
+}
+
+/// [`shuffled_sobol4`] when `shuffled`, else [`sobol4`].
+#[inline]
+pub fn sobol4_of(shuffled: bool, seed: u32, pixel: UVec2, sample: u32, spp: u32, dim: u32) -> Vec4 {
     debug_assert!(sample < spp.max(1), "sample {sample} of {spp}");
-    zsobol_pair(&zsobol_setup(seed, pixel, spp, dim), sample, 0)
+    let z = zsobol_setup(seed, pixel, spp, dim, shuffled);
+    let (a, b) = (zsobol_pair(&z, sample, 0), zsobol_pair(&z, sample, 1));
+    Vec4::new(a.x, a.y, b.x, b.y)
+}
+
+/// [`shuffled_sobol2`] when `shuffled`, else [`sobol2`].
+#[inline]
+pub fn sobol2_of(
+    shuffled: bool,
+    seed: u32,
+    pixel: UVec2,
+    sample: u32,
+    spp: u32,
+    dim: u32,
+) -> glam::Vec2 {
+    debug_assert!(sample < spp.max(1), "sample {sample} of {spp}");
+    zsobol_pair(&zsobol_setup(seed, pixel, spp, dim, shuffled), sample, 0)
 }
 
 /// The WGSL source of the functions above (it uses `pcg4d` and `rand_f32` from `rng.wgsl`).
@@ -416,18 +500,31 @@ mod tests {
         assert_eq!(sobol_log2_spp(u32::MAX), 32);
     }
 
+    /// Both index permutations under one name: ZSobol's digits, or Burley's shuffle.
+    fn permuted_index(shuffled: bool, m: u32, log2_spp: u32, key: u32) -> u32 {
+        if shuffled {
+            shuffled_sample_index(m, key)
+        } else {
+            zsobol_sample_index(m, log2_spp, key)
+        }
+    }
+
     #[test]
     fn sample_index_is_a_bijection_keeping_pixel_blocks() {
         // Every pixel's 2^k samples map to one aligned block of 2^k indices, and distinct
-        // pixels to distinct blocks (odd and even k).
-        for log2_spp in [0, 1, 2, 3, 4, 5] {
+        // pixels to distinct blocks (odd and even k), under both permutations.
+        for (shuffled, log2_spp) in [false, true]
+            .into_iter()
+            .flat_map(|s| [0, 1, 2, 3, 4, 5].map(|k| (s, k)))
+        {
             let mut blocks = std::collections::HashSet::new();
             for y in 0..16 {
                 for x in 0..16 {
                     let px = UVec2::new(x, y);
                     let idx: Vec<u32> = (0..1 << log2_spp)
                         .map(|s| {
-                            zsobol_sample_index(
+                            permuted_index(
+                                shuffled,
                                 zsobol_morton_index(px, s, log2_spp),
                                 log2_spp,
                                 0xdead_beef,
@@ -448,6 +545,39 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn shuffle_keeps_every_aligned_block_and_depends_on_the_key() {
+        // Burley's shuffle is nested: for every j, the 2^j indices sharing their bits above
+        // j land on 2^j indices sharing theirs (any power-of-2 prefix of a pixel's samples is
+        // an aligned block, so a net). Each bit is flipped by a hash of the bits above it, so
+        // bit 31 by the key alone.
+        for key in [0u32, 1, 0xdead_beef, 0x8000_0000] {
+            for j in [1u32, 3, 8, 12] {
+                for base in [0u32, 0x1234_5000, 0xffff_f000, 0x0abc_d000] {
+                    let base = base & !((1u32 << j) - 1);
+                    let mut low: Vec<u32> = (0..1u32 << j)
+                        .map(|i| {
+                            let out = shuffled_sample_index(base | i, key);
+                            assert_eq!(
+                                out >> j,
+                                shuffled_sample_index(base, key) >> j,
+                                "key {key:#x}, j {j}"
+                            );
+                            out & ((1 << j) - 1)
+                        })
+                        .collect();
+                    low.sort();
+                    assert_eq!(low, (0..1u32 << j).collect::<Vec<_>>());
+                }
+            }
+        }
+        // Different keys order a pixel's 256 samples differently (padding): of the 256
+        // positions, two keys agree on few (independent orders: 1 expected).
+        let order = |key| (0..256u32).map(move |i| shuffled_sample_index(0x4500 | i, key));
+        let same = order(7).zip(order(8)).filter(|(a, b)| a == b).count();
+        assert!(same < 32, "{same} of 256 positions agree across keys");
     }
 
     /// For each elementary interval shape (2^a x 2^b cells, a + b = k), true when `pts`
@@ -484,13 +614,20 @@ mod tests {
                 (UVec2::new(1000, 77), 0xffff_ffff, 6),
                 (UVec2::new(17, 4000), 12345, 15),
             ] {
-                let s: Vec<Vec4> = (0..spp).map(|i| sobol4(seed, px, i, spp, dim)).collect();
-                for (name, pts) in [
-                    ("xy", s.iter().map(|v| [v.x, v.y]).collect::<Vec<_>>()),
-                    ("zw", s.iter().map(|v| [v.z, v.w]).collect::<Vec<_>>()),
-                ] {
-                    if let Err(e) = is_02_net(&pts, k) {
-                        panic!("{spp} spp, pixel {px}, seed {seed}, dim {dim}, {name}: {e}");
+                for shuffled in [false, true] {
+                    let s: Vec<Vec4> = (0..spp)
+                        .map(|i| sobol4_of(shuffled, seed, px, i, spp, dim))
+                        .collect();
+                    for (name, pts) in [
+                        ("xy", s.iter().map(|v| [v.x, v.y]).collect::<Vec<_>>()),
+                        ("zw", s.iter().map(|v| [v.z, v.w]).collect::<Vec<_>>()),
+                    ] {
+                        if let Err(e) = is_02_net(&pts, k) {
+                            panic!(
+                                "{spp} spp, pixel {px}, seed {seed}, dim {dim}, {name}, \
+                             shuffled {shuffled}: {e}"
+                            );
+                        }
                     }
                 }
             }
@@ -540,12 +677,20 @@ mod tests {
         // spp 50 (block of 64, even log2): the first 4 and 16 samples are nets; spp 100
         // (block of 128, odd log2: the lowest digit is one bit): the first 2, 8 and 32.
         for (spp, prefixes) in [(50u32, &[4usize, 16][..]), (100, &[2, 8, 32][..])] {
-            for px in [UVec2::new(0, 0), UVec2::new(9, 2)] {
-                let s: Vec<Vec4> = (0..spp).map(|i| sobol4(3, px, i, spp, 2)).collect();
+            for (px, shuffled) in [
+                (UVec2::new(0, 0), false),
+                (UVec2::new(9, 2), false),
+                (UVec2::new(0, 0), true),
+                (UVec2::new(9, 2), true),
+            ] {
+                let s: Vec<Vec4> = (0..spp)
+                    .map(|i| sobol4_of(shuffled, 3, px, i, spp, 2))
+                    .collect();
                 for &n in prefixes {
                     let pts: Vec<[f32; 2]> = s[..n].iter().map(|v| [v.x, v.y]).collect();
-                    is_02_net(&pts, n.trailing_zeros())
-                        .unwrap_or_else(|e| panic!("spp {spp}, prefix {n}: {e}"));
+                    is_02_net(&pts, n.trailing_zeros()).unwrap_or_else(|e| {
+                        panic!("spp {spp}, prefix {n}, shuffled {shuffled}: {e}")
+                    });
                 }
             }
         }
@@ -558,6 +703,15 @@ mod tests {
             let (sample, dim) = (i % spp, i % 37);
             let four = sobol4(i, px, sample, spp, dim);
             assert_eq!(sobol2(i, px, sample, spp, dim), four.truncate().truncate());
+            let four = shuffled_sobol4(i, px, sample, spp, dim);
+            assert_eq!(
+                shuffled_sobol2(i, px, sample, spp, dim),
+                four.truncate().truncate()
+            );
+            // The two permutations draw different points.
+            if spp >= 64 && i % 97 == 0 {
+                assert_ne!(four, sobol4(i, px, sample, spp, dim), "key {i}");
+            }
         }
     }
 
@@ -567,8 +721,10 @@ mod tests {
         assert!(rand_f32(u32::MAX).min(SOBOL_ONE_MINUS_EPSILON) < 1.0);
         for px in 0..64 {
             for i in 0..16 {
-                let v = sobol4(px * 31, UVec2::new(px, 63 - px), i, 16, px % 16);
-                assert!(v.cmplt(Vec4::ONE).all() && v.cmpge(Vec4::ZERO).all(), "{v}");
+                for shuffled in [false, true] {
+                    let v = sobol4_of(shuffled, px * 31, UVec2::new(px, 63 - px), i, 16, px % 16);
+                    assert!(v.cmplt(Vec4::ONE).all() && v.cmpge(Vec4::ZERO).all(), "{v}");
+                }
             }
         }
     }
@@ -587,6 +743,15 @@ mod tests {
 
     #[test]
     fn dimensions_are_uniform_and_pairs_uncorrelated_across_pixels() {
+        uniform_and_uncorrelated(false);
+    }
+
+    #[test]
+    fn shuffled_dimensions_are_uniform_and_pairs_uncorrelated_across_pixels() {
+        uniform_and_uncorrelated(true);
+    }
+
+    fn uniform_and_uncorrelated(shuffled: bool) {
         // One sample of 16 per pixel over a 128x128 tile: each of the 8 coordinates (dim 0
         // and 1, x y z w) in 64 bins has chi-square with 63 degrees of freedom: mean 63,
         // sd 11.2; 130 is > 6 sd (measured: all below 90). Correlation between coordinates of
@@ -598,7 +763,7 @@ mod tests {
             for x in 0..128 {
                 let sample = (x * 7 + y * 3) % spp;
                 for dim in 0..2 {
-                    let v = sobol4(99, UVec2::new(x, y), sample, spp, dim);
+                    let v = sobol4_of(shuffled, 99, UVec2::new(x, y), sample, spp, dim);
                     for c in 0..4 {
                         cols[(4 * dim + c) as usize].push(v[c as usize]);
                     }
@@ -658,6 +823,18 @@ mod tests {
 
     #[test]
     fn converges_faster_than_independent_random_numbers() {
+        converges_faster(false);
+    }
+
+    #[test]
+    fn shuffled_converges_faster_than_independent_random_numbers() {
+        // Measured (2026-12-02): the same errors as ZSobol's to 4 digits. Over a whole 64x64
+        // tile both permutations hand out the same blocks of Sobol' indices, to other pixels
+        // and in other orders: the pixels' means are the same numbers, shuffled.
+        converges_faster(true);
+    }
+
+    fn converges_faster(shuffled: bool) {
         // 4096 pixels (a 64x64 tile), both pairs of dim 0, seed 5. Measured (2026-12-01):
         //   spp 16: rand4 5.30e-2, sobol4 (x, y) 3.80e-3, (z, w) 5.04e-3  (14x, 11x better)
         //   spp 64: rand4 2.70e-2, sobol4 (x, y) 6.93e-4, (z, w) 4.31e-4  (39x, 63x better)
@@ -674,11 +851,11 @@ mod tests {
                 [r.x, r.y]
             });
             let xy = rms_error(pixels, spp, |p, s| {
-                let r = sobol4(5, px(p), s, spp, 0);
+                let r = sobol4_of(shuffled, 5, px(p), s, spp, 0);
                 [r.x, r.y]
             });
             let zw = rms_error(pixels, spp, |p, s| {
-                let r = sobol4(5, px(p), s, spp, 0);
+                let r = sobol4_of(shuffled, 5, px(p), s, spp, 0);
                 [r.z, r.w]
             });
             report += &format!("spp {spp}: rand4 {random:.3e}, sobol xy {xy:.3e}, zw {zw:.3e}\n");

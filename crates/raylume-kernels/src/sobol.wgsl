@@ -37,9 +37,13 @@ fn sobol_log2_spp(spp: u32) -> u32 {
 
 fn zsobol_morton_index(pixel: vec2<u32>, sample: u32, log2_spp: u32) -> u32 {
     let morton = encode_morton2(pixel.x, pixel.y);
+    let low = zsobol_sample_bits(sample, log2_spp);
     // Shifts by 32 are masked in WGSL: select the cases explicitly.
-    let low = select(sample & (0xffffffffu >> (32u - log2_spp)), 0u, log2_spp == 0u);
     return select((morton << log2_spp) | low, low, log2_spp >= 32u);
+}
+
+fn zsobol_sample_bits(sample: u32, log2_spp: u32) -> u32 {
+    return select(sample & (0xffffffffu >> (32u - log2_spp)), 0u, log2_spp == 0u);
 }
 
 fn zsobol_permute_digit(p: u32, d: u32) -> u32 {
@@ -86,8 +90,18 @@ fn fast_owen(v_in: u32, seed: u32) -> u32 {
     return reverseBits(v);
 }
 
-fn zsobol_pair_bits(pixel: vec2<u32>, sample: u32, log2_spp: u32, key: u32, scramble_x: u32, scramble_y: u32) -> vec2<u32> {
-    let index = zsobol_sample_index(zsobol_morton_index(pixel, sample, log2_spp), log2_spp, key);
+// sobol.rs `shuffled_sample_index`: Burley's shuffle.
+fn shuffled_sample_index(m: u32, key: u32) -> u32 {
+    return fast_owen(m, key);
+}
+
+fn zsobol_pair_bits(m: u32, log2_spp: u32, key: u32, scramble_x: u32, scramble_y: u32, shuffled: u32) -> vec2<u32> {
+    var index: u32;
+    if (shuffled != 0u) {
+        index = shuffled_sample_index(m, key);
+    } else {
+        index = zsobol_sample_index(m, log2_spp, key);
+    }
     return vec2<u32>(fast_owen(reverseBits(index), scramble_x), fast_owen(sobol_dim1(index), scramble_y));
 }
 
@@ -96,8 +110,8 @@ fn sobol_scrambles(seed: u32, dim: u32) -> vec4<u32> {
     return pcg4d(vec4<u32>(seed, dim, SOBOL_SALT, 0u));
 }
 
-fn sobol_keys(seed: u32, dim: u32) -> vec2<u32> {
-    return pcg4d(vec4<u32>(seed, dim, SOBOL_SALT, 1u)).xy;
+fn sobol_keys(scrambles: vec4<u32>) -> vec2<u32> {
+    return vec2<u32>(mix32(scrambles.x ^ SOBOL_SALT), mix32(scrambles.z ^ SOBOL_SALT));
 }
 
 // sobol.rs `zsobol_tile`: (seed, pixel) of the pixel's tile when the image is too large for
@@ -124,15 +138,18 @@ fn zsobol_tile(seed: u32, pixel: vec2<u32>, log2_spp: u32) -> ZSobolTile {
 // sobol.rs `ZSobolSetup` / `zsobol_setup`: what both pairs of a pair group share.
 struct ZSobolSetup {
     log2_spp: u32,
-    pixel: vec2<u32>,
+    morton: u32,
     scrambles: vec4<u32>,
     keys: vec2<u32>,
+    // sobol.rs `shuffled` (a bool there): 1 for Burley's shuffle, 0 for ZSobol's digits.
+    shuffled: u32,
 }
 
-fn zsobol_setup(seed: u32, pixel: vec2<u32>, spp: u32, dim: u32) -> ZSobolSetup {
+fn zsobol_setup(seed: u32, pixel: vec2<u32>, spp: u32, dim: u32, shuffled: u32) -> ZSobolSetup {
     let log2_spp = sobol_log2_spp(spp);
     let tile = zsobol_tile(seed, pixel, log2_spp);
-    return ZSobolSetup(log2_spp, tile.pixel, sobol_scrambles(tile.seed, dim), sobol_keys(tile.seed, dim));
+    let scrambles = sobol_scrambles(tile.seed, dim);
+    return ZSobolSetup(log2_spp, zsobol_morton_index(tile.pixel, 0u, log2_spp), scrambles, sobol_keys(scrambles), shuffled);
 }
 
 // sobol.rs `zsobol_pair`: pair `which` (0 or 1) as floats in [0, 1).
@@ -145,16 +162,33 @@ fn zsobol_pair(z: ZSobolSetup, sample: u32, which: u32) -> vec2<f32> {
         sy = z.scrambles.w;
         key = z.keys.y;
     }
-    let a = zsobol_pair_bits(z.pixel, sample, z.log2_spp, key, sx, sy);
+    let a = zsobol_pair_bits(z.morton | zsobol_sample_bits(sample, z.log2_spp), z.log2_spp, key, sx, sy, z.shuffled);
     return vec2<f32>(min(rand_f32(a.x), SOBOL_ONE_MINUS_EPSILON), min(rand_f32(a.y), SOBOL_ONE_MINUS_EPSILON));
 }
 
-fn sobol4(seed: u32, pixel: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec4<f32> {
-    let z = zsobol_setup(seed, pixel, spp, dim);
+// sobol.rs `sobol4_of` / `sobol2_of` (shuffled: 0 or 1) and the four names over them.
+fn sobol4_of(shuffled: u32, seed: u32, pixel: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec4<f32> {
+    let z = zsobol_setup(seed, pixel, spp, dim, shuffled);
     return vec4<f32>(zsobol_pair(z, sample, 0u), zsobol_pair(z, sample, 1u));
+}
+
+fn sobol2_of(shuffled: u32, seed: u32, pixel: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec2<f32> {
+    return zsobol_pair(zsobol_setup(seed, pixel, spp, dim, shuffled), sample, 0u);
+}
+
+fn sobol4(seed: u32, pixel: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec4<f32> {
+    return sobol4_of(0u, seed, pixel, sample, spp, dim);
 }
 
 // sobol.rs `sobol2`: the first pair of sobol4 alone.
 fn sobol2(seed: u32, pixel: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec2<f32> {
-    return zsobol_pair(zsobol_setup(seed, pixel, spp, dim), sample, 0u);
+    return sobol2_of(0u, seed, pixel, sample, spp, dim);
+}
+
+fn shuffled_sobol4(seed: u32, pixel: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec4<f32> {
+    return sobol4_of(1u, seed, pixel, sample, spp, dim);
+}
+
+fn shuffled_sobol2(seed: u32, pixel: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec2<f32> {
+    return sobol2_of(1u, seed, pixel, sample, spp, dim);
 }

@@ -245,8 +245,8 @@ fn cornell_box_with_next_event_estimation_matches_cpu() {
     }
 }
 
-/// The library's defaults (next-event estimation toward triangles and spheres, Russian
-/// roulette, the ZSobol sampler) draw the same numbers and the same shadow rays on both
+/// Next-event estimation toward triangles and spheres, Russian roulette and the ZSobol
+/// sampler (the library's defaults but for the sampler) draw the same numbers and the same shadow rays on both
 /// backends, in both schedules: the spheres scene has a sphere lamp and a constant sky, the
 /// materials scene a triangle lamp and every microfacet material, the environment-lit scene a
 /// sky map sampled by its luminance.
@@ -267,8 +267,9 @@ fn zsobol_with_nee_and_roulette_matches_cpu() {
 }
 
 /// The persistent schedule (path regeneration, here with 2,048 threads taking the 4,096
-/// samples) traces the same paths as the CPU: the library's defaults on the materials scene
-/// and the spheres (a sphere lamp and a sky), over both layouts.
+/// samples) traces the same paths as the CPU: the library's defaults (its sampler the
+/// shuffled Sobol') on the materials scene and the spheres (a sphere lamp and a sky), over
+/// both layouts.
 #[test]
 fn persistent_schedule_matches_cpu() {
     for layout in [BvhLayout::Binary, BvhLayout::Wide] {
@@ -278,7 +279,7 @@ fn persistent_schedule_matches_cpu() {
                 &scene,
                 [32, 32, 4, bounces],
                 Schedule::Persistent,
-                (Estimator::Nee, Some(2), Sampler::ZSobol),
+                (Estimator::Nee, Some(2), Sampler::Sobol),
                 layout,
             );
         }
@@ -300,7 +301,7 @@ fn wide_bvh_matches_cpu() {
     for schedule in Schedule::ALL {
         for (name, scene, bounces) in &scenes {
             for (estimator, roulette, sampler) in [
-                (Estimator::Nee, Some(2), Sampler::ZSobol),
+                (Estimator::Nee, Some(2), Sampler::Sobol),
                 (Estimator::Plain, None, Sampler::Independent),
             ] {
                 eprintln!("wide_bvh_matches_cpu: {name}, {schedule:?}, {estimator:?}");
@@ -368,7 +369,7 @@ fn guided_environment_matches_cpu() {
                 &scene,
                 [32, 32, 4, bounces],
                 schedule,
-                (Estimator::Nee, Some(2), Sampler::ZSobol),
+                (Estimator::Nee, Some(2), Sampler::Sobol),
                 BvhLayout::Wide,
                 true,
             );

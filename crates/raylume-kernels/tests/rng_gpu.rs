@@ -1,11 +1,11 @@
 //! The WGSL random numbers equal the Rust mirror's bit for bit: pcg4d's four words and the
 //! four floats of `rand4`, for 100 000 keys (consecutive pixels and samples, as the tracer
-//! uses them, and random keys with every bit pattern); and ZSobol's `sobol4` and `sobol2`, large images
-//! split into tiles included.
+//! uses them, and random keys with every bit pattern); and ZSobol's `sobol4` and `sobol2` and
+//! their shuffled variants (`Sampler::Sobol`), large images split into tiles included.
 
 use raylume_gpu::wgpu;
 use raylume_kernels::rng::{RNG_WGSL, pcg4d, rand4, rng_key};
-use raylume_kernels::sobol::{SOBOL_WGSL, sobol2, sobol4};
+use raylume_kernels::sobol::{SOBOL_WGSL, shuffled_sobol2, shuffled_sobol4, sobol2, sobol4};
 
 const KERNEL: &str = r#"
 @group(0) @binding(0) var<storage, read> keys: array<u32>;
@@ -149,12 +149,21 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let k = SOBOL_KEY_WORDS * i;
     let f = sobol4(keys[k], vec2<u32>(keys[k + 1u], keys[k + 2u]), keys[k + 3u], keys[k + 4u], keys[k + 5u]);
     let g = sobol2(keys[k], vec2<u32>(keys[k + 1u], keys[k + 2u]), keys[k + 3u], keys[k + 4u], keys[k + 5u]);
-    out[6u * i] = bitcast<u32>(f.x);
-    out[6u * i + 1u] = bitcast<u32>(f.y);
-    out[6u * i + 2u] = bitcast<u32>(f.z);
-    out[6u * i + 3u] = bitcast<u32>(f.w);
-    out[6u * i + 4u] = bitcast<u32>(g.x);
-    out[6u * i + 5u] = bitcast<u32>(g.y);
+    let fs = shuffled_sobol4(keys[k], vec2<u32>(keys[k + 1u], keys[k + 2u]), keys[k + 3u], keys[k + 4u], keys[k + 5u]);
+    let gs = shuffled_sobol2(keys[k], vec2<u32>(keys[k + 1u], keys[k + 2u]), keys[k + 3u], keys[k + 4u], keys[k + 5u]);
+    let o = 12u * i;
+    out[o] = bitcast<u32>(f.x);
+    out[o + 1u] = bitcast<u32>(f.y);
+    out[o + 2u] = bitcast<u32>(f.z);
+    out[o + 3u] = bitcast<u32>(f.w);
+    out[o + 4u] = bitcast<u32>(g.x);
+    out[o + 5u] = bitcast<u32>(g.y);
+    out[o + 6u] = bitcast<u32>(fs.x);
+    out[o + 7u] = bitcast<u32>(fs.y);
+    out[o + 8u] = bitcast<u32>(fs.z);
+    out[o + 9u] = bitcast<u32>(fs.w);
+    out[o + 10u] = bitcast<u32>(gs.x);
+    out[o + 11u] = bitcast<u32>(gs.y);
 }
 "#;
 
@@ -203,16 +212,26 @@ fn wgsl_sobol_equals_rust_bit_for_bit() {
     }
     let flat: Vec<u32> = keys.iter().flatten().copied().collect();
     let wgsl = format!("{RNG_WGSL}\n{SOBOL_WGSL}\n{SOBOL_KERNEL}");
-    let out = run(ctx, &wgsl, &flat, keys.len() * 6);
+    let out = run(ctx, &wgsl, &flat, keys.len() * 12);
     for (i, k) in keys.iter().enumerate() {
         let [seed, px, py, sample, spp, dim] = *k;
-        let f = sobol4(seed, glam::UVec2::new(px, py), sample, spp, dim)
+        let px = glam::UVec2::new(px, py);
+        let o = 12 * i;
+        let f = sobol4(seed, px, sample, spp, dim)
             .to_array()
             .map(f32::to_bits);
-        assert_eq!(&out[6 * i..6 * i + 4], &f, "sobol4 of key {k:?}");
-        let g = sobol2(seed, glam::UVec2::new(px, py), sample, spp, dim)
+        assert_eq!(&out[o..o + 4], &f, "sobol4 of key {k:?}");
+        let g = sobol2(seed, px, sample, spp, dim)
             .to_array()
             .map(f32::to_bits);
-        assert_eq!(&out[6 * i + 4..6 * i + 6], &g, "sobol2 of key {k:?}");
+        assert_eq!(&out[o + 4..o + 6], &g, "sobol2 of key {k:?}");
+        let f = shuffled_sobol4(seed, px, sample, spp, dim)
+            .to_array()
+            .map(f32::to_bits);
+        assert_eq!(&out[o + 6..o + 10], &f, "shuffled_sobol4 of key {k:?}");
+        let g = shuffled_sobol2(seed, px, sample, spp, dim)
+            .to_array()
+            .map(f32::to_bits);
+        assert_eq!(&out[o + 10..o + 12], &g, "shuffled_sobol2 of key {k:?}");
     }
 }

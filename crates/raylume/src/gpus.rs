@@ -132,6 +132,7 @@ impl Tracer {
                     BvhCacheEntry {
                         key,
                         bvh: bvh.clone(),
+                        prepared: Default::default(),
                     },
                 );
                 self.bvh_cache.truncate(2);
@@ -151,6 +152,7 @@ impl Tracer {
                     BvhCacheEntry {
                         key,
                         bvh: bvh.clone(),
+                        prepared: Default::default(),
                     },
                 );
                 w.bvh_cache.truncate(2);

@@ -72,6 +72,7 @@ mod error;
 mod gpus;
 mod output;
 mod parts;
+mod prepared;
 mod stats;
 mod target;
 mod tracer;

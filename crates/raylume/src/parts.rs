@@ -87,7 +87,7 @@ pub struct PartHeader {
     pub seed: u32,
     /// `nee` or `plain`.
     pub estimator: String,
-    /// `zsobol` or `independent`.
+    /// `sobol`, `zsobol` or `independent`.
     pub sampler: String,
     /// The segment Russian roulette starts at, if it is on.
     pub russian_roulette: Option<u32>,

@@ -98,7 +98,8 @@ pub struct RenderStats {
     pub schedule: String,
     /// `plain` (the paper's estimator) or `nee` (next-event estimation with MIS).
     pub estimator: String,
-    /// `independent` (the paper's `pcg4d` numbers) or `zsobol` (scrambled Sobol' points).
+    /// `independent` (the paper's `pcg4d` numbers), `sobol` or `zsobol` (scrambled Sobol'
+    /// points; `Sampler`).
     pub sampler: String,
     /// The segment from which Russian roulette may end a path; `None` (JSON `null`): off.
     pub russian_roulette: Option<u32>,
@@ -128,6 +129,11 @@ pub struct RenderStats {
     /// True when the BVH came from the tracer's cache (the same geometry as the last render:
     /// `seconds.bvh` is then the time to recognise it).
     pub bvh_cached: bool,
+    /// True when the scene's preparation for tracing (materials, textures, lights, coat
+    /// tables, the environment guide) and, on the GPU, its upload came from the tracer's last
+    /// render of the same scene over the same BVH (`seconds.upload` is then the time to
+    /// recognise it and bind it).
+    pub scene_cached: bool,
     /// The BVH preset the tree was built with (`"fastest"`, `"fast"` or `"quality"`:
     /// `Tracer::bvh_quality`;
     /// for a cached tree, the preset it was built with).

@@ -11,7 +11,7 @@
 //! `ref` is replaced by `m`. At least 2 rounds are needed; with one there is no estimate.
 //! The image estimated is the traced radiance, before post effects (bloom).
 //!
-//! The rounds are independent with the independent sampler. With ZSobol they are not: the
+//! The rounds are independent with the independent sampler. With the Sobol' samplers they are not: the
 //! points of all rounds together are stratified better than independent rounds would be, so
 //! the true error is lower than the estimate (the furnace scene of `tests/target_error.rs` at
 //! 64x64, 16 rounds, measured once: 1.04x lower with rounds of 16 spp, 1.4x with rounds of

@@ -11,12 +11,14 @@ use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, GpuError};
 use raylume_kernels::batches::{RoundHook, RoundSums};
 use raylume_kernels::{
-    BatchPlan, CpuTracer, Estimator, GpuTracer, GpuWorkspace, Reorder, ReorderMode, Sampler,
-    Schedule, Specialisation, TraceSettings, TraceStats, gpu::TracerPipelines,
+    BatchPlan, CpuTracer, Estimator, GpuScene, GpuTracer, GpuWorkspace, Reorder, ReorderMode,
+    Sampler, Schedule, Specialisation, TraceSettings, TraceStats, gpu::TracerPipelines,
+    scene_data::SceneData,
 };
 use raylume_scene::Scene;
 
 use crate::auto::{AutoDecision, AutoPolicy, AutoState, fingerprint};
+use crate::prepared::{Prepared, SceneKey};
 use crate::target::TargetRun;
 use crate::{DepthSeconds, Error, ImageFormat, Part, PartHeader, RenderStats, SampleRange};
 
@@ -211,9 +213,11 @@ pub struct Tracer {
     /// scene; each reflecting hit also casts a shadow ray), or the paper's plain one
     /// ([`Estimator::Plain`]). The same on both backends.
     pub estimator: Estimator,
-    /// Where the paths' random numbers come from: [`Sampler::ZSobol`] (the default, pbrt-v4's:
-    /// Owen-scrambled Sobol' points, less error per sample on smooth integrands) or
-    /// [`Sampler::Independent`] (the paper's independent `pcg4d` numbers).
+    /// Where the paths' random numbers come from: [`Sampler::Sobol`] (the default:
+    /// Owen-scrambled Sobol' points, each pixel's a net, less error per sample on smooth
+    /// integrands), [`Sampler::ZSobol`] (pbrt-v4's default: the same nets, blue noise across
+    /// pixels, more arithmetic per number) or [`Sampler::Independent`] (the paper's
+    /// independent `pcg4d` numbers).
     pub sampler: Sampler,
     /// The segment from which Russian roulette may end a path (`Some(5)`, the default, as
     /// Mitsuba 3's `path`; `None`: off, every path runs to `max_bounces` or until it escapes).
@@ -237,10 +241,10 @@ pub struct Tracer {
     /// batches' means divided by their number; it needs at least 2 batches, so a cap of one
     /// batch renders it and reports no estimate. The render stops at the first batch whose
     /// estimate is below the target, and its image is then exactly that of a render of the
-    /// samples traced (with [`Sampler::ZSobol`], whose points are laid out for the cap: the
+    /// samples traced (with the Sobol' samplers, whose points are laid out for the cap: the
     /// first samples of the capped render). The estimate is of the traced radiance, before
     /// bloom. The estimate treats the batches as independent, which they are with
-    /// [`Sampler::Independent`]; with [`Sampler::ZSobol`] the batches' points are stratified
+    /// [`Sampler::Independent`]; with the Sobol' samplers the batches' points are stratified
     /// together, so the whole render is better than independent batches would be and the
     /// estimate overstates its error (the furnace scene of `tests/target_error.rs` at 64x64,
     /// 16 batches: 1.04x with batches of 16 spp, 1.4x with batches of 4, measured once): the
@@ -318,10 +322,12 @@ const BVH_CACHE_ENTRIES: usize = 2;
 /// the specialised pipeline, or two layouts, compiles each once.
 const PIPELINE_CACHE_ENTRIES: usize = 4;
 
-/// A built BVH and the exact geometry it was built from.
+/// A built BVH and the exact geometry it was built from, and the scene last prepared for
+/// tracing over it ([`crate::prepared`]).
 pub(crate) struct BvhCacheEntry {
     pub(crate) key: GeometryKey,
     pub(crate) bvh: GpuBvh,
+    pub(crate) prepared: Prepared,
 }
 
 /// What a BVH depends on: every triangle vertex and sphere, bit for bit (a 64-bit hash plus
@@ -407,7 +413,7 @@ impl Tracer {
     pub const DEFAULT_RUSSIAN_ROULETTE: u32 = 5;
 
     /// A tracer with the defaults a user expects of a path tracer: next-event estimation with
-    /// MIS ([`Estimator::Nee`]), the ZSobol sampler ([`Sampler::ZSobol`]) and Russian
+    /// MIS ([`Estimator::Nee`]), scrambled Sobol' points ([`Sampler::Sobol`]) and Russian
     /// roulette from segment 5; batches of 20 samples per pixel, no ray reordering, the
     /// megakernel. For the paper's estimator set [`Tracer::paper_estimator`] (plain,
     /// independent numbers, no roulette), as the Table-1 `bench` does.
@@ -421,7 +427,7 @@ impl Tracer {
             reorder_key_bits: raylume_sort::RAY_KEY_BITS,
             schedule: Schedule::default(),
             estimator: Estimator::Nee,
-            sampler: Sampler::ZSobol,
+            sampler: Sampler::Sobol,
             russian_roulette: Some(Self::DEFAULT_RUSSIAN_ROULETTE),
             environment_guide: true,
             target_error: None,
@@ -493,6 +499,9 @@ impl Tracer {
     /// Drops the GPU context and everything made on it: a lost device stays lost, so the
     /// next render starts over on a new one.
     fn forget_device(&mut self) {
+        for entry in &mut self.bvh_cache {
+            entry.prepared.gpu = None;
+        }
         self.gpu = None;
         self.gpu_bloom = None;
         self.gpu_workspace = None;
@@ -864,6 +873,7 @@ impl Tracer {
             .find(|p| (p.features(), p.bvh_layout(), p.specialisation()) == pipeline_key)
             .cloned();
         let gpu = self.gpu.as_ref().filter(|_| use_gpu);
+        let mut prepared = Prepared::default();
         let (bvh, pipelines) = std::thread::scope(|threads| {
             let compiling = match (gpu, &reuse) {
                 (Some(ctx), None) => Some(threads.spawn(move || {
@@ -875,7 +885,10 @@ impl Tracer {
                 _ => None,
             };
             let bvh = match cached {
-                Some(c) => Ok(c.bvh),
+                Some(c) => {
+                    prepared = c.prepared;
+                    Ok(c.bvh)
+                }
                 None => GpuBvh::from_scene_with_layout(scene, quality, self.bvh_layout),
             };
             stats.seconds.bvh = t.elapsed().as_secs_f64();
@@ -940,6 +953,7 @@ impl Tracer {
             self.trace_gpu(
                 scene,
                 &bvh,
+                &mut prepared,
                 pipelines.expect("made with the GPU backend"),
                 &settings,
                 auto_key,
@@ -952,6 +966,7 @@ impl Tracer {
             self.trace_cpu(
                 scene,
                 &bvh,
+                &mut prepared,
                 &settings,
                 bloom,
                 target.as_mut(),
@@ -960,7 +975,8 @@ impl Tracer {
             )
         };
         self.progress = progress;
-        self.bvh_cache.insert(0, BvhCacheEntry { key, bvh });
+        self.bvh_cache
+            .insert(0, BvhCacheEntry { key, bvh, prepared });
         self.bvh_cache.truncate(BVH_CACHE_ENTRIES);
         if result.as_ref().is_err_and(Error::is_device_lost) {
             self.forget_device();
@@ -1011,6 +1027,7 @@ impl Tracer {
         &mut self,
         scene: &Scene,
         bvh: &GpuBvh,
+        prepared: &mut Prepared,
         pipelines: Arc<TracerPipelines>,
         settings: &TraceSettings,
         auto_key: Option<u64>,
@@ -1022,8 +1039,26 @@ impl Tracer {
         let ctx = self.gpu.as_ref().expect("the backend choice created it");
         stats.adapter = ctx.describe();
         let t = Instant::now();
-        let mut tracer =
-            GpuTracer::with_options(ctx, scene, bvh, pipelines, &self.scene_options())?;
+        let options = self.scene_options();
+        prepared.keep_only(SceneKey::of(scene, options));
+        let uploaded = match (&prepared.gpu, &prepared.cpu) {
+            (Some(g), _) => {
+                stats.scene_cached = true;
+                g.clone()
+            }
+            // The CPU's preparation of the same scene (an earlier CPU render), uploaded.
+            (None, Some(data)) => Arc::new(GpuScene::upload_data(
+                ctx,
+                raylume_scene::Features::from_bits(
+                    scene.features().bits() & !(raylume_scene::Feature::Bloom as u32),
+                ),
+                bvh,
+                SceneData::clone(data),
+            )?),
+            (None, None) => Arc::new(GpuScene::upload(ctx, scene, bvh, &options)?),
+        };
+        prepared.gpu = Some(uploaded.clone());
+        let mut tracer = GpuTracer::with_scene(ctx, uploaded, pipelines)?;
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
         tracer.set_environment_guide(self.environment_guide);
@@ -1119,13 +1154,26 @@ impl Tracer {
         &self,
         scene: &Scene,
         bvh: &GpuBvh,
+        prepared: &mut Prepared,
         settings: &TraceSettings,
         bloom: Option<raylume_post::BloomParams>,
         target: Option<&mut TargetRun>,
         stats: &mut RenderStats,
         report: &mut dyn FnMut(u32, u32),
     ) -> Result<Vec<[f32; 3]>, Error> {
-        let mut tracer = CpuTracer::with_options(scene, bvh, &self.scene_options())?;
+        let t = Instant::now();
+        let options = self.scene_options();
+        prepared.keep_only(SceneKey::of(scene, options));
+        let data = match &prepared.cpu {
+            Some(d) => {
+                stats.scene_cached = true;
+                d.clone()
+            }
+            None => Arc::new(SceneData::with_options(scene, bvh, &options)?),
+        };
+        prepared.cpu = Some(data.clone());
+        let mut tracer = CpuTracer::with_data(bvh, SceneData::clone(&data))?;
+        stats.seconds.upload = t.elapsed().as_secs_f64();
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
         tracer.set_environment_guide(self.environment_guide);

@@ -352,11 +352,11 @@ fn estimator_flags_and_target_error_reach_the_stats_and_the_summary() {
         "--stats",
         stats.to_str().unwrap(),
     ];
-    // The defaults: NEE, ZSobol, roulette from segment 5, no target.
+    // The defaults: NEE, the shuffled Sobol' sampler, roulette from segment 5, no target.
     let o = run(&[&base[..], &["--spp", "2"]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("estimator nee, sampler zsobol, roulette from 5"),
+        stderr(&o).contains("estimator nee, sampler sobol, roulette from 5"),
         "{}",
         stderr(&o)
     );
@@ -365,7 +365,7 @@ fn estimator_flags_and_target_error_reach_the_stats_and_the_summary() {
         (&v["estimator"], &v["sampler"], &v["russian_roulette"]),
         (
             &serde_json::json!("nee"),
-            &serde_json::json!("zsobol"),
+            &serde_json::json!("sobol"),
             &serde_json::json!(5)
         )
     );
@@ -472,7 +472,7 @@ fn settings_line_comes_before_any_progress_and_names_the_backend() {
         "bounces 2",
         "batch 2 spp",
         "estimator nee",
-        "sampler zsobol",
+        "sampler sobol",
         "roulette from segment 5",
         "reorder off",
         "lights 2 emissive triangles, 0 emissive spheres, no environment (picked by power)",

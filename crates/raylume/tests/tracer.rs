@@ -339,3 +339,94 @@ fn bvh_preset_follows_the_work() {
     assert_eq!(again.stats.bvh_preset, "quality", "the cached, better tree");
     assert_eq!(again.pixels, built.pixels);
 }
+
+/// What a render prepares for tracing (materials, textures, lights, coat tables, the
+/// environment guide) and uploads is reused by the next render of the same scene over the
+/// same tree, whatever its spp, seed or size, and prepared afresh as soon as anything it
+/// reads changes: every such change gives the image a fresh tracer renders (a stale
+/// preparation would not), on both backends.
+#[test]
+fn prepared_scene_is_reused_only_for_the_same_scene() {
+    let mut backends = vec![Backend::Cpu];
+    if raylume_gpu::testing::context_or_skip("prepared_scene_is_reused_only_for_the_same_scene")
+        .is_some()
+    {
+        backends.push(Backend::Gpu);
+    }
+    for backend in backends {
+        let tracer = || {
+            let mut t = Tracer::new(backend);
+            t.bvh_quality = Some(raylume::BvhQuality::Quality);
+            t
+        };
+        let mut t = tracer();
+        let mut scene = cornell(10, 8, 2);
+        // A texture on the first material, so that texels are among the inputs.
+        scene.textures.push(raylume::scene::Texture {
+            name: "checker".into(),
+            width: 2,
+            height: 1,
+            texels: vec![[0.9, 0.2, 0.2], [0.2, 0.9, 0.2]],
+        });
+        let textured = scene.triangles[0].material as usize;
+        scene.materials[textured].albedo_texture = Some(0);
+        let first = t.render(&scene).unwrap();
+        assert!(
+            !first.stats.scene_cached,
+            "{backend:?}: nothing prepared yet"
+        );
+        scene.render.spp = 3;
+        scene.render.seed += 1;
+        scene.render.width = 12;
+        let again = t.render(&scene).unwrap();
+        assert!(
+            again.stats.scene_cached,
+            "{backend:?}: only the render settings changed"
+        );
+        assert_eq!(again.pixels, tracer().render(&scene).unwrap().pixels);
+
+        type Change = fn(&mut Scene);
+        let changes: [(&str, Change); 7] = [
+            ("a material's albedo", |s| s.materials[1].albedo *= 0.5),
+            ("the camera", |s| {
+                s.camera.position += raylume::glam::Vec3::new(0.01, 0.0, 0.0);
+            }),
+            ("a texel", |s| s.textures[0].texels[0] = [0.1, 0.1, 0.9]),
+            ("the environment", |s| {
+                s.environment =
+                    raylume::scene::Environment::Constant(raylume::glam::Vec3::splat(0.3));
+            }),
+            ("a triangle's material", |s| {
+                let m = s.triangles[2].material;
+                s.triangles[2].material = (m + 1) % s.materials.len() as u32;
+            }),
+            ("a triangle's shading normals", |s| {
+                let n = raylume::glam::Vec3::new(0.0, 1.0, 0.2).normalize();
+                s.triangles[0].normals = Some([n; 3]);
+            }),
+            ("a triangle's uvs", |s| {
+                s.triangles[0].uvs = Some([raylume::glam::Vec2::new(0.75, 0.5); 3]);
+            }),
+        ];
+        for (what, change) in changes {
+            change(&mut scene);
+            let changed = t.render(&scene).unwrap();
+            assert!(
+                !changed.stats.scene_cached,
+                "{backend:?}: {what} changed, prepared again"
+            );
+            assert_eq!(
+                changed.pixels,
+                tracer().render(&scene).unwrap().pixels,
+                "{backend:?}: {what} changed: the image of a fresh tracer"
+            );
+        }
+        // The guide is an option of the preparation: turning it off prepares again.
+        t.environment_guide = false;
+        let unguided = t.render(&scene).unwrap();
+        assert!(!unguided.stats.scene_cached, "{backend:?}: guide off");
+        let mut fresh = tracer();
+        fresh.environment_guide = false;
+        assert_eq!(unguided.pixels, fresh.render(&scene).unwrap().pixels);
+    }
+}

@@ -94,12 +94,167 @@ impl std::fmt::Debug for GpuWorkspace {
     }
 }
 
+/// A scene uploaded to one [`GpuContext`]: its BVH, primitives, materials, shading data,
+/// textures (and environment map and guide), lights and coat tables in storage buffers, and
+/// what the uniforms need of it on the CPU ([`SceneData`] without the texels and shading
+/// data). Preparing it (the coat tables, the environment guide's walks) and uploading it is
+/// most of a render's fixed cost on a large scene; [`GpuTracer::with_scene`] renders it
+/// again with any pipelines of its features and layout, any settings.
+pub struct GpuScene {
+    data: SceneData,
+    /// The scene's tracer features (bloom is not one).
+    features: Features,
+    layout: BvhLayout,
+    /// Leaf primitives (the length a pipeline reading shading data needs).
+    primitives: u32,
+    /// Whether `buffers.shading` holds a record per primitive (else one placeholder).
+    full_shading: bool,
+    buffers: GpuSceneBuffers,
+    upload_seconds: f64,
+}
+
+/// [`GpuScene`]'s storage buffers, in binding order after the uniforms (bindings 1 to 9).
+struct GpuSceneBuffers {
+    nodes: wgpu::Buffer,
+    primitives: wgpu::Buffer,
+    materials: wgpu::Buffer,
+    prim_materials: wgpu::Buffer,
+    shading: wgpu::Buffer,
+    headers: wgpu::Buffer,
+    texels: wgpu::Buffer,
+    lights: wgpu::Buffer,
+    plastic_tables: wgpu::Buffer,
+}
+
+impl std::fmt::Debug for GpuScene {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuScene")
+            .field("features", &self.features)
+            .field("layout", &self.layout)
+            .field("primitives", &self.primitives)
+            .field("upload_seconds", &self.upload_seconds)
+            .finish()
+    }
+}
+
+/// A scene's features the tracer's pipelines must have (all but the post pass, bloom).
+fn scene_features(scene: &Scene) -> Features {
+    Features::from_bits(scene.features().bits() & !(Feature::Bloom as u32))
+}
+
+/// `pipelines` can render a scene of `features` over a tree of `layout`.
+fn check_pipelines(
+    features: Features,
+    layout: BvhLayout,
+    pipelines: &TracerPipelines,
+) -> Result<(), KernelError> {
+    let missing = Features::from_bits(features.bits() & !pipelines.features().bits());
+    if missing != Features::NONE {
+        return Err(KernelError::InvalidScene(format!(
+            "pipelines specialised without features the scene uses: {missing}"
+        )));
+    }
+    if pipelines.bvh_layout() != layout {
+        return Err(KernelError::InvalidSettings(format!(
+            "pipelines for the {} BVH layout given a {} tree",
+            pipelines.bvh_layout().name(),
+            layout.name()
+        )));
+    }
+    Ok(())
+}
+
+impl GpuScene {
+    /// Prepares `scene` with its BVH `bvh` ([`SceneData::with_options`]) and uploads it.
+    pub fn upload(
+        ctx: &GpuContext,
+        scene: &Scene,
+        bvh: &GpuBvh,
+        options: &SceneOptions,
+    ) -> Result<Self, KernelError> {
+        let start = Instant::now();
+        let data = SceneData::with_options(scene, bvh, options)?;
+        let mut uploaded = Self::upload_data(ctx, scene_features(scene), bvh, data)?;
+        uploaded.upload_seconds = start.elapsed().as_secs_f64();
+        Ok(uploaded)
+    }
+
+    /// Uploads `data`, prepared from a scene of tracer features `features` and its BVH
+    /// `bvh` (the CPU's [`SceneData`] of the same scene, e.g. one kept from an earlier render).
+    pub fn upload_data(
+        ctx: &GpuContext,
+        features: Features,
+        bvh: &GpuBvh,
+        mut data: SceneData,
+    ) -> Result<Self, KernelError> {
+        let start = Instant::now();
+        if data.prim_materials.len() != bvh.primitives.len() {
+            return Err(KernelError::InvalidScene(format!(
+                "scene data for {} primitives given a BVH of {}",
+                data.prim_materials.len(),
+                bvh.primitives.len()
+            )));
+        }
+        let nodes = match bvh.layout {
+            BvhLayout::Binary => upload::<BvhNode>(ctx, "BVH nodes", &bvh.nodes)?,
+            BvhLayout::Wide => upload::<WideNode>(ctx, "BVH nodes", &bvh.wide_nodes)?,
+        };
+        let full_shading = !data.triangle_shading.is_empty();
+        let buffers = GpuSceneBuffers {
+            nodes,
+            primitives: upload::<Primitive>(ctx, "BVH primitives", &bvh.primitives)?,
+            materials: upload::<GpuMaterial>(ctx, "materials", &data.materials)?,
+            prim_materials: upload::<u32>(ctx, "primitive material indices", &data.prim_materials)?,
+            shading: upload::<TriangleShading>(
+                ctx,
+                "triangle shading data",
+                &data.triangle_shading,
+            )?,
+            headers: upload::<TextureHeader>(ctx, "texture headers", &data.texture_headers)?,
+            texels: upload::<f32>(ctx, "texture and environment-map data", &data.texels)?,
+            lights: upload::<GpuLight>(ctx, "light list", &data.lights)?,
+            plastic_tables: upload::<RoughPlasticTable>(
+                ctx,
+                "rough plastic tables",
+                &data.plastic_tables,
+            )?,
+        };
+        ctx.wait("uploading the scene")?;
+        // Only what the uniforms need stays on the CPU.
+        data.texels = Vec::new();
+        data.triangle_shading = Vec::new();
+        Ok(Self {
+            data,
+            features,
+            layout: bvh.layout,
+            primitives: bvh.primitives.len() as u32,
+            full_shading,
+            buffers,
+            upload_seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// Seconds [`GpuScene::upload`] took (preparing and uploading).
+    pub fn upload_seconds(&self) -> f64 {
+        self.upload_seconds
+    }
+
+    /// What was prepared (its texels and shading data emptied: they live on the GPU).
+    pub fn data(&self) -> &SceneData {
+        &self.data
+    }
+}
+
 /// Renders a scene on the GPU. Holds the uploaded scene, the compiled pipelines and the
 /// work buffers of the last render size; `render` may be called many times.
 pub struct GpuTracer<'a> {
     ctx: &'a GpuContext,
+    /// The uploaded scene's CPU-side data (what the uniforms need), with this tracer's
+    /// estimator, sampler, roulette, guide and sample range.
     data: SceneData,
     scene: SceneBuffers,
+    /// The scene's storage buffers (the bind group holds them too).
+    uploaded: Arc<GpuScene>,
     /// The module, layouts and pipelines (shared with other tracers of the same features and
     /// BVH layout).
     pipelines: Arc<TracerPipelines>,
@@ -161,26 +316,26 @@ impl<'a> GpuTracer<'a> {
         pipelines: Arc<TracerPipelines>,
         options: &SceneOptions,
     ) -> Result<Self, KernelError> {
-        let features = pipelines.features();
-        // Bloom is a post pass, not tracer code.
-        let needed = scene.features().bits() & !(Feature::Bloom as u32);
-        let missing = Features::from_bits(needed & !features.bits());
-        if missing != Features::NONE {
-            return Err(KernelError::InvalidScene(format!(
-                "pipelines specialised without features the scene uses: {missing}"
-            )));
-        }
-        if pipelines.bvh_layout() != bvh.layout {
-            return Err(KernelError::InvalidSettings(format!(
-                "pipelines for the {} BVH layout given a {} tree",
-                pipelines.bvh_layout().name(),
-                bvh.layout.name()
-            )));
-        }
         let start = Instant::now();
-        let mut data = SceneData::with_options(scene, bvh, options)?;
-        let device = &ctx.device;
+        check_pipelines(scene_features(scene), bvh.layout, &pipelines)?;
+        let uploaded = Arc::new(GpuScene::upload(ctx, scene, bvh, options)?);
+        let mut tracer = Self::with_scene(ctx, uploaded, pipelines)?;
+        tracer.upload_seconds = start.elapsed().as_secs_f64();
+        Ok(tracer)
+    }
 
+    /// A tracer of a scene uploaded beforehand ([`GpuScene::upload`], on this context), e.g.
+    /// by an earlier tracer: nothing is prepared or uploaded again but the uniforms and the
+    /// bind group (so rendering one scene many times, at other spp, sizes or seeds, pays for
+    /// its upload once). `pipelines` must have the scene's features and its BVH's layout.
+    pub fn with_scene(
+        ctx: &'a GpuContext,
+        uploaded: Arc<GpuScene>,
+        pipelines: Arc<TracerPipelines>,
+    ) -> Result<Self, KernelError> {
+        let start = Instant::now();
+        check_pipelines(uploaded.features, uploaded.layout, &pipelines)?;
+        let device = &ctx.device;
         let uniforms = ctx.scoped("creating the scene uniform buffer", || {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some("raylume scene uniforms"),
@@ -189,91 +344,62 @@ impl<'a> GpuTracer<'a> {
                 mapped_at_creation: false,
             })
         })?;
-        let nodes = match bvh.layout {
-            BvhLayout::Binary => upload::<BvhNode>(ctx, "BVH nodes", &bvh.nodes)?,
-            BvhLayout::Wide => upload::<WideNode>(ctx, "BVH nodes", &bvh.wide_nodes)?,
-        };
-        let primitives = upload::<Primitive>(ctx, "BVH primitives", &bvh.primitives)?;
-        let materials = upload::<GpuMaterial>(ctx, "materials", &data.materials)?;
-        let prim_materials =
-            upload::<u32>(ctx, "primitive material indices", &data.prim_materials)?;
         // A pipeline that may read shading data gets a full-length array even when no triangle
-        // has any, so that its reads stay in bounds.
+        // has any, so that its reads stay in bounds (pipelines with features the scene lacks:
+        // the generic ones, or a bench's extra features).
+        let features = pipelines.features();
         let needs_shading =
             features.contains(Feature::ShadingNormals) || features.contains(Feature::Textures);
-        let zero_shading;
-        let shading: &[TriangleShading] = if data.triangle_shading.is_empty() && needs_shading {
-            zero_shading = vec![TriangleShading::default(); data.prim_materials.len()];
-            &zero_shading
+        let zero_shading = if needs_shading && !uploaded.full_shading {
+            let zeros = vec![TriangleShading::default(); uploaded.primitives as usize];
+            Some(upload::<TriangleShading>(
+                ctx,
+                "triangle shading data",
+                &zeros,
+            )?)
         } else {
-            &data.triangle_shading
+            None
         };
-        let shading = upload::<TriangleShading>(ctx, "triangle shading data", shading)?;
-        let headers = upload::<TextureHeader>(ctx, "texture headers", &data.texture_headers)?;
-        let texels = upload::<f32>(ctx, "texture and environment-map data", &data.texels)?;
-        let lights = upload::<GpuLight>(ctx, "light list", &data.lights)?;
-        let plastic_tables =
-            upload::<RoughPlasticTable>(ctx, "rough plastic tables", &data.plastic_tables)?;
-
+        let b = &uploaded.buffers;
+        let shading = zero_shading.as_ref().unwrap_or(&b.shading);
+        let resources = [
+            &uniforms,
+            &b.nodes,
+            &b.primitives,
+            &b.materials,
+            &b.prim_materials,
+            shading,
+            &b.headers,
+            &b.texels,
+            &b.lights,
+            &b.plastic_tables,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry<'_>> = resources
+            .iter()
+            .enumerate()
+            .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                binding: binding as u32,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
         let bind_group = ctx.scoped("binding the scene's buffers", || {
             device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("raylume scene"),
                 layout: &pipelines.scene_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: uniforms.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: nodes.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: primitives.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: materials.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 4,
-                        resource: prim_materials.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 5,
-                        resource: shading.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 6,
-                        resource: headers.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 7,
-                        resource: texels.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 8,
-                        resource: lights.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 9,
-                        resource: plastic_tables.as_entire_binding(),
-                    },
-                ],
+                entries: &entries,
             })
         })?;
-        ctx.wait("uploading the scene")?;
-        // Only what the uniforms need stays on the CPU.
-        data.texels = Vec::new();
-        data.triangle_shading = Vec::new();
+        if zero_shading.is_some() {
+            ctx.wait("uploading the scene")?;
+        }
         Ok(Self {
             ctx,
-            data,
+            data: uploaded.data.clone(),
             scene: SceneBuffers {
                 uniforms,
                 bind_group,
             },
+            uploaded,
             pipelines,
             work: None,
             sorters: Vec::new(),
@@ -283,6 +409,12 @@ impl<'a> GpuTracer<'a> {
             persistent_threads: None,
             upload_seconds: start.elapsed().as_secs_f64(),
         })
+    }
+
+    /// The uploaded scene this tracer renders, to hand to the next tracer of the same context
+    /// and scene ([`GpuTracer::with_scene`]).
+    pub fn uploaded_scene(&self) -> &Arc<GpuScene> {
+        &self.uploaded
     }
 
     /// Caps the rays (pixel samples) of one batch below what the adapter's binding size
