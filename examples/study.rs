@@ -828,7 +828,7 @@ fn run(args: &RunArgs) -> Result<(), String> {
             "rel_mse": p.rel_mse, "mean_ratio": p.mean_ratio, "reference": "own",
             "width": w, "height": h, "backend": st.backend, "adapter": st.adapter,
             "trace_s": st.seconds.trace, "upload_s": st.seconds.upload, "bvh_s": st.seconds.bvh,
-            "bvh_cached": st.bvh_cached, "scene_cached": st.scene_cached, "schedule": st.schedule, "reorder_run": st.reorder,
+            "stages": st.seconds, "bvh_cached": st.bvh_cached, "scene_cached": st.scene_cached, "schedule": st.schedule, "reorder_run": st.reorder,
             "batch_run": st.batch_spp, "rays": st.rays_traced, "commit": commit, "date": date,
         });
         append(&args.out, args.csv.as_deref(), &rec)?;

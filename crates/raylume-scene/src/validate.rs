@@ -199,9 +199,19 @@ fn texture(file: &str, at: &Location, t: &Texture) -> Result<(), SceneError> {
             ),
         });
     }
-    for (i, c) in t.texels.iter().enumerate() {
-        let c = Vec3::from_array(*c);
-        if !c.is_finite() || c.min_element() < 0.0 {
+    // The first bad texel (finite and not negative: `0 <= x < inf`, false for NaN), found on
+    // every core in runs of 64k texels: a render validates its scene each time, and the
+    // living room's textures are 4.9 M texels (12 ms on one core).
+    const RUN: usize = 1 << 16;
+    let ok = |c: &[f32; 3]| c.iter().all(|&x| (0.0..f32::INFINITY).contains(&x));
+    let bad = t
+        .texels
+        .par_chunks(RUN)
+        .enumerate()
+        .find_map_first(|(r, run)| run.iter().position(|c| !ok(c)).map(|i| r * RUN + i));
+    if let Some(i) = bad {
+        let c = Vec3::from_array(t.texels[i]);
+        {
             let at = Location::path(format!(
                 "{} texel ({}, {})",
                 match at {

@@ -8,8 +8,8 @@
 //! rendering one scene many times (other spp, sizes, seeds; a benchmark's repeats; a study's
 //! error-versus-time curve) should pay it once, as Mitsuba 3 does when its scene is loaded.
 //!
-//! What was prepared is kept with the BVH it was prepared for (`BvhCacheEntry`), under a
-//! [`SceneKey`]: a hash of everything the preparation reads of the scene besides the
+//! What was prepared is kept with the BVH it was prepared for (`BvhCacheEntry`; the last
+//! two scenes per tree), each under a [`SceneKey`]: a hash of everything the preparation reads of the scene besides the
 //! geometry the BVH's key already covers, and the options. A render whose key differs
 //! prepares again; the test `tests/tracer.rs::prepared_scene_is_reused_only_for_the_same_scene`
 //! changes each of those inputs in turn.
@@ -23,10 +23,19 @@ use raylume_kernels::scene_data::SceneData;
 use raylume_kernels::{GpuScene, SceneOptions};
 use raylume_scene::{Environment, Scene};
 
-/// What a render prepared for its scene and BVH, per backend.
+/// The last scenes prepared over one BVH (at most [`PREPARED_ENTRIES`], the latest first).
 #[derive(Default)]
 pub(crate) struct Prepared {
-    pub(crate) key: Option<SceneKey>,
+    scenes: Vec<PreparedScene>,
+}
+
+/// Scenes kept per BVH: two, so that a study or benchmark alternating a preparation option
+/// (the environment guide on and off) or two materials prepares each once.
+const PREPARED_ENTRIES: usize = 2;
+
+/// What a render prepared for one scene, per backend.
+pub(crate) struct PreparedScene {
+    pub(crate) key: SceneKey,
     /// The CPU backend's data (texels included).
     pub(crate) cpu: Option<Arc<SceneData>>,
     /// The GPU backend's upload (to the tracer's one context; dropped with it).
@@ -34,13 +43,26 @@ pub(crate) struct Prepared {
 }
 
 impl Prepared {
-    /// Forgets what was prepared for another scene than `key`'s.
-    pub(crate) fn keep_only(&mut self, key: SceneKey) {
-        if self.key != Some(key) {
-            *self = Prepared {
-                key: Some(key),
-                ..Prepared::default()
-            };
+    /// The preparation of `key`'s scene, moved to the front; a new, empty one (the oldest
+    /// dropped) when there is none.
+    pub(crate) fn of(&mut self, key: SceneKey) -> &mut PreparedScene {
+        let entry = match self.scenes.iter().position(|s| s.key == key) {
+            Some(i) => self.scenes.remove(i),
+            None => PreparedScene {
+                key,
+                cpu: None,
+                gpu: None,
+            },
+        };
+        self.scenes.insert(0, entry);
+        self.scenes.truncate(PREPARED_ENTRIES);
+        &mut self.scenes[0]
+    }
+
+    /// Forgets the GPU uploads (their device is gone).
+    pub(crate) fn forget_gpu(&mut self) {
+        for s in &mut self.scenes {
+            s.gpu = None;
         }
     }
 }

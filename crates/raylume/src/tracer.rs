@@ -500,7 +500,7 @@ impl Tracer {
     /// next render starts over on a new one.
     fn forget_device(&mut self) {
         for entry in &mut self.bvh_cache {
-            entry.prepared.gpu = None;
+            entry.prepared.forget_gpu();
         }
         self.gpu = None;
         self.gpu_bloom = None;
@@ -1040,7 +1040,7 @@ impl Tracer {
         stats.adapter = ctx.describe();
         let t = Instant::now();
         let options = self.scene_options();
-        prepared.keep_only(SceneKey::of(scene, options));
+        let prepared = prepared.of(SceneKey::of(scene, options));
         let uploaded = match (&prepared.gpu, &prepared.cpu) {
             (Some(g), _) => {
                 stats.scene_cached = true;
@@ -1163,7 +1163,7 @@ impl Tracer {
     ) -> Result<Vec<[f32; 3]>, Error> {
         let t = Instant::now();
         let options = self.scene_options();
-        prepared.keep_only(SceneKey::of(scene, options));
+        let prepared = prepared.of(SceneKey::of(scene, options));
         let data = match &prepared.cpu {
             Some(d) => {
                 stats.scene_cached = true;

@@ -428,5 +428,10 @@ fn prepared_scene_is_reused_only_for_the_same_scene() {
         let mut fresh = tracer();
         fresh.environment_guide = false;
         assert_eq!(unguided.pixels, fresh.render(&scene).unwrap().pixels);
+        // Two preparations are kept per tree: back to the guide, the first is still there.
+        t.environment_guide = true;
+        let guided = t.render(&scene).unwrap();
+        assert!(guided.stats.scene_cached, "{backend:?}: guide on again");
+        assert_eq!(guided.pixels, tracer().render(&scene).unwrap().pixels);
     }
 }
