@@ -44,7 +44,7 @@ use crate::gpu_types::{
 use crate::math::{INV_PI, PI};
 use crate::rng::rand4;
 use crate::sampling::{sample_diffuse, sample_sphere_cap, sphere_cap_pdf};
-use crate::sobol::{sobol2_of, sobol4_of};
+use crate::sobol::{SobolPixel, sobol_pixel, sobol2_at, sobol4_at};
 use crate::surface::{
     Globals, SurfaceHit, environment_cell, environment_pdf, environment_radiance, material_at,
     offset_ray_origin, sample_environment, surface_at,
@@ -199,22 +199,53 @@ pub fn shade_hit(
 
 /// The four random numbers of dimension `dim` (a `DIM_*` constant) at segment `bounce` of
 /// sample `sample` of pixel `pixel` (row-major), from the sampler the uniforms name:
-/// [`rand4`] (independent), or [`sobol4_of`] (ZSobol, shuffled for `SAMPLER_SOBOL`) with pair group
+/// [`rand4`] (independent), or [`sobol4_at`] (ZSobol, shuffled for `SAMPLER_SOBOL`) with pair group
 /// `bounce * DIMS_PER_BOUNCE + dim`, the pixel's (x, y) and the render's spp. Every random
 /// number of a path comes from here, so both samplers serve every estimator.
 #[inline]
 pub fn path_rand4(scene: &SceneUniforms, pixel: u32, sample: u32, bounce: u32, dim: u32) -> Vec4 {
+    path_rand4_at(
+        scene,
+        sampler_pixel(scene, pixel),
+        pixel,
+        sample,
+        bounce,
+        dim,
+    )
+}
+
+/// What the Sobol' samplers share between the random numbers of one pixel sample
+/// ([`SobolPixel`]; all zero for the independent one, which needs none of it): a segment
+/// computes it once for its light, scattering and roulette numbers.
+#[inline]
+pub fn sampler_pixel(scene: &SceneUniforms, pixel: u32) -> SobolPixel {
+    if scene.sampler == SAMPLER_INDEPENDENT {
+        return SobolPixel::default();
+    }
+    let xy = glam::UVec2::new(pixel % scene.width, pixel / scene.width);
+    sobol_pixel(scene.seed, xy, scene.spp)
+}
+
+/// [`path_rand4`] with the pixel's [`sampler_pixel`] given.
+#[inline]
+pub fn path_rand4_at(
+    scene: &SceneUniforms,
+    sp: SobolPixel,
+    pixel: u32,
+    sample: u32,
+    bounce: u32,
+    dim: u32,
+) -> Vec4 {
     if scene.sampler != SAMPLER_INDEPENDENT {
         let shuffled = scene.sampler == SAMPLER_SOBOL;
-        let xy = glam::UVec2::new(pixel % scene.width, pixel / scene.width);
         let group = bounce * DIMS_PER_BOUNCE + dim;
         if dim == DIM_CAMERA || dim == DIM_ROULETTE {
             // These use x and y only (`DIM_CAMERA`, `DIM_ROULETTE`): their second pair is not
             // computed, and z, w are 0.
-            let v = sobol2_of(shuffled, scene.seed, xy, sample, scene.spp, group);
+            let v = sobol2_at(shuffled, sp, sample, group);
             return Vec4::new(v.x, v.y, 0.0, 0.0);
         }
-        return sobol4_of(shuffled, scene.seed, xy, sample, scene.spp, group);
+        return sobol4_at(shuffled, sp, sample, group);
     }
     rand4(scene.seed, pixel, sample, bounce, dim)
 }
@@ -275,17 +306,18 @@ pub fn trace_ray(
         1.0
     };
     let sample_here = g.scene.light_count > 0 && samples_lights(&mat) && !last;
+    let sp = sampler_pixel(g.scene, pixel);
     if sample_here {
-        let rnd = path_rand4(g.scene, pixel, sample, depth, DIM_LIGHT);
+        let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT);
         path.radiance += path.throughput * sample_lights(g, bvh, &surface, &mat, path.dir, rnd);
     }
-    let rnd = path_rand4(g.scene, pixel, sample, depth, DIM_SCATTER);
+    let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_SCATTER);
     let pdf = shade_hit(g, path, &surface, &mat, rnd, last, emission_weight);
     path.mis_pdf = if sample_here { pdf } else { 0.0 };
     if path.alive && depth >= g.scene.rr_depth {
         russian_roulette(
             path,
-            path_rand4(g.scene, pixel, sample, depth, DIM_ROULETTE).x,
+            path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_ROULETTE).x,
         );
     }
 }

@@ -76,15 +76,28 @@ fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, 
 
 // shade.rs `path_rand4`.
 fn path_rand4(pixel: u32, sample: u32, bounce: u32, dim: u32) -> vec4<f32> {
+    return path_rand4_at(sampler_pixel(pixel), pixel, sample, bounce, dim);
+}
+
+// shade.rs `sampler_pixel`.
+fn sampler_pixel(pixel: u32) -> SobolPixel {
+    if (scene.sampler == SAMPLER_INDEPENDENT) {
+        return SobolPixel(0u, 0u, 0u);
+    }
+    let xy = vec2<u32>(pixel % scene.width, pixel / scene.width);
+    return sobol_pixel(scene.seed, xy, scene.spp);
+}
+
+// shade.rs `path_rand4_at`.
+fn path_rand4_at(sp: SobolPixel, pixel: u32, sample: u32, bounce: u32, dim: u32) -> vec4<f32> {
     if (scene.sampler != SAMPLER_INDEPENDENT) {
         let shuffled = select(0u, 1u, scene.sampler == SAMPLER_SOBOL);
-        let xy = vec2<u32>(pixel % scene.width, pixel / scene.width);
         let group = bounce * DIMS_PER_BOUNCE + dim;
         if (dim == DIM_CAMERA || dim == DIM_ROULETTE) {
-            let v = sobol2_of(shuffled, scene.seed, xy, sample, scene.spp, group);
+            let v = sobol2_at(shuffled, sp, sample, group);
             return vec4<f32>(v.x, v.y, 0.0, 0.0);
         }
-        return sobol4_of(shuffled, scene.seed, xy, sample, scene.spp, group);
+        return sobol4_at(shuffled, sp, sample, group);
     }
     return rand4(scene.seed, pixel, sample, bounce, dim);
 }
@@ -104,6 +117,7 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     let surface = surface_at(hit, (*path).origin, (*path).dir);
     let mat = material_at(surface);
     let last = depth >= scene.max_bounces;
+    let sp = sampler_pixel(pixel);
     // An emissive triangle hit by a direction sampled where the lights were sampled too:
     // weigh the scattered ray's estimate against the shadow ray's (shade.rs).
     var emission_weight = 1.0;
@@ -124,16 +138,16 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
 //#endif
         sample_here = scene.light_count > 0u && samples_lights(mat) && !last;
         if (sample_here) {
-            let rnd_light = path_rand4(pixel, sample, depth, DIM_LIGHT);
+            let rnd_light = path_rand4_at(sp, pixel, sample, depth, DIM_LIGHT);
             (*path).radiance += (*path).throughput * sample_lights(surface, mat, (*path).dir, rnd_light);
         }
     }
 //#endif
-    let rnd = path_rand4(pixel, sample, depth, DIM_SCATTER);
+    let rnd = path_rand4_at(sp, pixel, sample, depth, DIM_SCATTER);
     let pdf = shade_hit(path, surface, mat, rnd, last, emission_weight);
     (*path).mis_pdf = select(0.0, pdf, sample_here);
     if ((*path).alive && depth >= scene.rr_depth) {
-        russian_roulette(path, path_rand4(pixel, sample, depth, DIM_ROULETTE).x);
+        russian_roulette(path, path_rand4_at(sp, pixel, sample, depth, DIM_ROULETTE).x);
     }
 }
 

@@ -327,15 +327,42 @@ pub struct ZSobolSetup {
     pub shuffled: bool,
 }
 
+/// What every pair group of a pixel's samples shares: its tile's seed ([`zsobol_tile`]),
+/// its Morton index in the tile ([`zsobol_morton_index`] of sample 0) and `log2(spp)`. The
+/// tracer computes it once per path segment for the segment's three groups (a division by
+/// the image width, the tile and the Morton code are then not repeated).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SobolPixel {
+    pub seed: u32,
+    pub morton: u32,
+    pub log2_spp: u32,
+}
+
+/// [`SobolPixel`] of (seed, pixel, spp).
+#[inline]
+pub fn sobol_pixel(seed: u32, pixel: UVec2, spp: u32) -> SobolPixel {
+    let log2_spp = sobol_log2_spp(spp);
+    let (seed, pixel) = zsobol_tile(seed, pixel, log2_spp);
+    SobolPixel {
+        seed,
+        morton: zsobol_morton_index(pixel, 0, log2_spp),
+        log2_spp,
+    }
+}
+
 /// [`ZSobolSetup`] for (seed, pixel, spp, dim), tiles included ([`zsobol_tile`]).
 #[inline]
 pub fn zsobol_setup(seed: u32, pixel: UVec2, spp: u32, dim: u32, shuffled: bool) -> ZSobolSetup {
-    let log2_spp = sobol_log2_spp(spp);
-    let (seed, pixel) = zsobol_tile(seed, pixel, log2_spp);
-    let scrambles = sobol_scrambles(seed, dim);
+    zsobol_setup_at(sobol_pixel(seed, pixel, spp), dim, shuffled)
+}
+
+/// [`ZSobolSetup`] of pair group `dim` of a pixel.
+#[inline]
+pub fn zsobol_setup_at(p: SobolPixel, dim: u32, shuffled: bool) -> ZSobolSetup {
+    let scrambles = sobol_scrambles(p.seed, dim);
     ZSobolSetup {
-        log2_spp,
-        morton: zsobol_morton_index(pixel, 0, log2_spp),
+        log2_spp: p.log2_spp,
+        morton: p.morton,
         scrambles,
         keys: sobol_keys(scrambles),
         shuffled,
@@ -391,9 +418,21 @@ pub fn shuffled_sobol2(seed: u32, pixel: UVec2, sample: u32, spp: u32, dim: u32)
 #[inline]
 pub fn sobol4_of(shuffled: bool, seed: u32, pixel: UVec2, sample: u32, spp: u32, dim: u32) -> Vec4 {
     debug_assert!(sample < spp.max(1), "sample {sample} of {spp}");
-    let z = zsobol_setup(seed, pixel, spp, dim, shuffled);
+    sobol4_at(shuffled, sobol_pixel(seed, pixel, spp), sample, dim)
+}
+
+/// [`sobol4_of`] of a pixel whose [`SobolPixel`] is known.
+#[inline]
+pub fn sobol4_at(shuffled: bool, p: SobolPixel, sample: u32, dim: u32) -> Vec4 {
+    let z = zsobol_setup_at(p, dim, shuffled);
     let (a, b) = (zsobol_pair(&z, sample, 0), zsobol_pair(&z, sample, 1));
     Vec4::new(a.x, a.y, b.x, b.y)
+}
+
+/// [`sobol2_of`] of a pixel whose [`SobolPixel`] is known.
+#[inline]
+pub fn sobol2_at(shuffled: bool, p: SobolPixel, sample: u32, dim: u32) -> glam::Vec2 {
+    zsobol_pair(&zsobol_setup_at(p, dim, shuffled), sample, 0)
 }
 
 /// [`shuffled_sobol2`] when `shuffled`, else [`sobol2`].
@@ -407,7 +446,7 @@ pub fn sobol2_of(
     dim: u32,
 ) -> glam::Vec2 {
     debug_assert!(sample < spp.max(1), "sample {sample} of {spp}");
-    zsobol_pair(&zsobol_setup(seed, pixel, spp, dim, shuffled), sample, 0)
+    sobol2_at(shuffled, sobol_pixel(seed, pixel, spp), sample, dim)
 }
 
 /// The WGSL source of the functions above (it uses `pcg4d` and `rand_f32` from `rng.wgsl`).

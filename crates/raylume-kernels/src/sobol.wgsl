@@ -145,11 +145,26 @@ struct ZSobolSetup {
     shuffled: u32,
 }
 
-fn zsobol_setup(seed: u32, pixel: vec2<u32>, spp: u32, dim: u32, shuffled: u32) -> ZSobolSetup {
+// sobol.rs `SobolPixel` / `sobol_pixel`: what every pair group of a pixel's samples shares.
+struct SobolPixel {
+    seed: u32,
+    morton: u32,
+    log2_spp: u32,
+}
+
+fn sobol_pixel(seed: u32, pixel: vec2<u32>, spp: u32) -> SobolPixel {
     let log2_spp = sobol_log2_spp(spp);
     let tile = zsobol_tile(seed, pixel, log2_spp);
-    let scrambles = sobol_scrambles(tile.seed, dim);
-    return ZSobolSetup(log2_spp, zsobol_morton_index(tile.pixel, 0u, log2_spp), scrambles, sobol_keys(scrambles), shuffled);
+    return SobolPixel(tile.seed, zsobol_morton_index(tile.pixel, 0u, log2_spp), log2_spp);
+}
+
+fn zsobol_setup(seed: u32, pixel: vec2<u32>, spp: u32, dim: u32, shuffled: u32) -> ZSobolSetup {
+    return zsobol_setup_at(sobol_pixel(seed, pixel, spp), dim, shuffled);
+}
+
+fn zsobol_setup_at(p: SobolPixel, dim: u32, shuffled: u32) -> ZSobolSetup {
+    let scrambles = sobol_scrambles(p.seed, dim);
+    return ZSobolSetup(p.log2_spp, p.morton, scrambles, sobol_keys(scrambles), shuffled);
 }
 
 // sobol.rs `zsobol_pair`: pair `which` (0 or 1) as floats in [0, 1).
@@ -168,12 +183,20 @@ fn zsobol_pair(z: ZSobolSetup, sample: u32, which: u32) -> vec2<f32> {
 
 // sobol.rs `sobol4_of` / `sobol2_of` (shuffled: 0 or 1) and the four names over them.
 fn sobol4_of(shuffled: u32, seed: u32, pixel: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec4<f32> {
-    let z = zsobol_setup(seed, pixel, spp, dim, shuffled);
-    return vec4<f32>(zsobol_pair(z, sample, 0u), zsobol_pair(z, sample, 1u));
+    return sobol4_at(shuffled, sobol_pixel(seed, pixel, spp), sample, dim);
 }
 
 fn sobol2_of(shuffled: u32, seed: u32, pixel: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec2<f32> {
-    return zsobol_pair(zsobol_setup(seed, pixel, spp, dim, shuffled), sample, 0u);
+    return sobol2_at(shuffled, sobol_pixel(seed, pixel, spp), sample, dim);
+}
+
+fn sobol4_at(shuffled: u32, p: SobolPixel, sample: u32, dim: u32) -> vec4<f32> {
+    let z = zsobol_setup_at(p, dim, shuffled);
+    return vec4<f32>(zsobol_pair(z, sample, 0u), zsobol_pair(z, sample, 1u));
+}
+
+fn sobol2_at(shuffled: u32, p: SobolPixel, sample: u32, dim: u32) -> vec2<f32> {
+    return zsobol_pair(zsobol_setup_at(p, dim, shuffled), sample, 0u);
 }
 
 fn sobol4(seed: u32, pixel: vec2<u32>, sample: u32, spp: u32, dim: u32) -> vec4<f32> {
