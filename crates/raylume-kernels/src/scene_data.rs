@@ -303,6 +303,19 @@ fn append_texture(texels: &mut Vec<f32>, t: &Texture, what: &str) -> Result<u32,
 }
 
 impl SceneData {
+    /// Whether this data was prepared over a tree of `bvh`'s primitive count (data kept from
+    /// an earlier render handed to a tracer: `CpuTracer::with_data`, `GpuScene::upload_data`).
+    pub fn check_bvh(&self, bvh: &GpuBvh) -> Result<(), KernelError> {
+        if self.prim_materials.len() != bvh.primitives.len() {
+            return Err(KernelError::InvalidScene(format!(
+                "scene data for {} primitives given a BVH of {}",
+                self.prim_materials.len(),
+                bvh.primitives.len()
+            )));
+        }
+        Ok(())
+    }
+
     /// Flattens `scene` for the primitives of `bvh` (which must have been built from it).
     pub fn new(scene: &Scene, bvh: &GpuBvh) -> Result<Self, KernelError> {
         Self::with_options(scene, bvh, &SceneOptions::default())

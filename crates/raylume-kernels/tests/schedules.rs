@@ -312,3 +312,67 @@ fn bad_input_is_a_typed_error() {
         "{e}"
     );
 }
+
+/// A scene prepared once serves many tracers: on the GPU one upload (`GpuScene`) renders
+/// with the scene's own pipelines and with the unspecialised ones, the same image as a
+/// tracer that uploads it itself; on the CPU one `SceneData` likewise. Data prepared over
+/// another scene's tree is refused, not traced out of bounds.
+#[test]
+fn a_prepared_scene_serves_many_tracers_and_only_its_own_tree() {
+    use raylume_kernels::scene_data::{SceneData, SceneOptions};
+    use raylume_kernels::{GpuScene, gpu::TracerPipelines};
+    use std::sync::Arc;
+    let scene = cornell_box();
+    let tree = bvh(&scene);
+    let s = settings(12, 10, 2, 3, Schedule::Megakernel);
+    let data = SceneData::with_options(&scene, &tree, &SceneOptions::default()).unwrap();
+    let other = spheres();
+    let other_tree = bvh(&other);
+    let refused = CpuTracer::with_data(&other_tree, data.clone()).err();
+    assert!(
+        matches!(refused, Some(KernelError::InvalidScene(_))),
+        "{refused:?}"
+    );
+    let cpu = CpuTracer::with_data(&tree, data.clone())
+        .unwrap()
+        .render(&s, &mut |_, _| {})
+        .unwrap();
+    let fresh = CpuTracer::new(&scene, &tree)
+        .unwrap()
+        .render(&s, &mut |_, _| {})
+        .unwrap();
+    assert_eq!(cpu.radiance, fresh.radiance);
+
+    let Some(ctx) = raylume_gpu::testing::context_or_skip(
+        "a_prepared_scene_serves_many_tracers_and_only_its_own_tree",
+    ) else {
+        return;
+    };
+    let refused = GpuScene::upload_data(ctx, scene.features(), &other_tree, data.clone()).err();
+    assert!(
+        matches!(refused, Some(KernelError::InvalidScene(_))),
+        "{refused:?}"
+    );
+    let uploaded = Arc::new(GpuScene::upload_data(ctx, scene.features(), &tree, data).unwrap());
+    let own = GpuTracer::new(ctx, &scene, &tree)
+        .unwrap()
+        .render(&s, &mut |_, _| {})
+        .unwrap();
+    for features in [scene.features(), Features::all()] {
+        let pipelines = TracerPipelines::new(ctx, features, tree.layout).unwrap();
+        let shared = GpuTracer::with_scene(ctx, uploaded.clone(), pipelines)
+            .unwrap()
+            .render(&s, &mut |_, _| {})
+            .unwrap();
+        let e = relative_rmse(&shared.radiance, &own.radiance);
+        assert!(e < 1e-6, "{features:?}: relative RMSE {e}");
+    }
+    // Pipelines without a feature the uploaded scene uses are refused.
+    let scene = spheres();
+    let tree = bvh(&scene);
+    let uploaded =
+        Arc::new(GpuScene::upload(ctx, &scene, &tree, &SceneOptions::default()).unwrap());
+    let pipelines = TracerPipelines::new(ctx, Features::NONE, tree.layout).unwrap();
+    let err = GpuTracer::with_scene(ctx, uploaded, pipelines).err();
+    assert!(matches!(err, Some(KernelError::InvalidScene(_))), "{err:?}");
+}

@@ -93,13 +93,7 @@ impl CpuTracer {
     /// A tracer of `data`, prepared beforehand for the scene `bvh` was built from
     /// ([`SceneData::with_options`], e.g. by an earlier tracer): nothing is prepared again.
     pub fn with_data(bvh: &GpuBvh, data: SceneData) -> Result<Self, KernelError> {
-        if data.prim_materials.len() != bvh.primitives.len() {
-            return Err(KernelError::InvalidScene(format!(
-                "scene data for {} primitives given a BVH of {}",
-                data.prim_materials.len(),
-                bvh.primitives.len()
-            )));
-        }
+        data.check_bvh(bvh)?;
         Ok(Self {
             bvh: bvh.clone(),
             data,

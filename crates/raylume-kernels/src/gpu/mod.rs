@@ -188,13 +188,7 @@ impl GpuScene {
         mut data: SceneData,
     ) -> Result<Self, KernelError> {
         let start = Instant::now();
-        if data.prim_materials.len() != bvh.primitives.len() {
-            return Err(KernelError::InvalidScene(format!(
-                "scene data for {} primitives given a BVH of {}",
-                data.prim_materials.len(),
-                bvh.primitives.len()
-            )));
-        }
+        data.check_bvh(bvh)?;
         let nodes = match bvh.layout {
             BvhLayout::Binary => upload::<BvhNode>(ctx, "BVH nodes", &bvh.nodes)?,
             BvhLayout::Wide => upload::<WideNode>(ctx, "BVH nodes", &bvh.wide_nodes)?,
