@@ -1,0 +1,319 @@
+//! Rays per second through a scene's BVH alone, on the GPU and on the CPU: what traversal
+//! costs without shading, to set beside the path tracer's segments per second (`bench`).
+//!
+//! ```text
+//! cargo run --release --example trace_rate -- scenes/living-room/scene.json [--size 1000x1000]
+//!     [--bvh wide,binary] [--backend gpu,cpu] [--repeat 5]
+//! ```
+//!
+//! Two sets of rays per scene, one per pixel of a `--size` image: **primary** (through each
+//! pixel's centre from the camera: coherent) and **diffuse** (from each primary hit, leaving
+//! the surface in a cosine-distributed direction about its geometric normal: incoherent, what
+//! the later bounces of a path trace). Each set is traced as closest-hit queries and as
+//! any-hit queries (shadow rays) over the whole set, best of `--repeat` runs; the GPU time is
+//! the wall clock of `--passes` dispatches over the set in one submission and their
+//! completion (one dispatch of a million rays takes well under a millisecond on a large GPU:
+//! the passes keep the submission's fixed cost out of the rate), the CPU's of a `rayon` loop
+//! over every core. Both backends count the rays that hit, and closest-hit and any-hit
+//! queries must agree on that count.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Parser;
+use raylume::Scene;
+use raylume::glam::{Vec2, Vec3};
+use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh, Hit, Primitive, Ray};
+use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, wgpu};
+use rayon::prelude::*;
+
+#[derive(Parser, Debug)]
+#[command(name = "trace_rate", about = "Rays per second through the BVH alone")]
+struct Args {
+    /// Scene files.
+    #[arg(required = true)]
+    scenes: Vec<PathBuf>,
+    /// Rays per set: one per pixel of this image.
+    #[arg(long, default_value = "1000x1000")]
+    size: String,
+    /// Comma-separated BVH layouts (wide, binary).
+    #[arg(long, default_value = "wide,binary", value_delimiter = ',')]
+    bvh: Vec<BvhLayout>,
+    /// Comma-separated backends (gpu, cpu).
+    #[arg(long, default_value = "gpu,cpu", value_delimiter = ',')]
+    backend: Vec<String>,
+    /// Best of this many runs per cell.
+    #[arg(long, default_value_t = 5)]
+    repeat: u32,
+    /// GPU dispatches over the set per timed submission.
+    #[arg(long, default_value_t = 10)]
+    passes: u32,
+}
+
+/// One query as the kernel reads it (32 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Query {
+    origin: [f32; 3],
+    t_min: f32,
+    dir: [f32; 3],
+    t_max: f32,
+}
+
+const KERNEL: &str = r#"
+@group(0) @binding(0) var<storage, read> bvh_nodes: array<TraversalNode>;
+@group(0) @binding(1) var<storage, read> bvh_primitives: array<Primitive>;
+struct Query {
+    origin: vec3<f32>,
+    t_min: f32,
+    dir: vec3<f32>,
+    t_max: f32,
+}
+@group(0) @binding(2) var<storage, read> queries: array<Query>;
+// Per query, 1 when it hit (a plain store: no atomics to contend on).
+@group(0) @binding(3) var<storage, read_write> hit: array<u32>;
+
+@compute @workgroup_size(64)
+fn closest(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&queries) {
+        return;
+    }
+    let q = queries[id.x];
+    let h = trace_closest(Ray(q.origin, q.dir), q.t_min, q.t_max);
+    hit[id.x] = select(0u, 1u, h.prim != INVALID_INDEX);
+}
+
+@compute @workgroup_size(64)
+fn any(@builtin(global_invocation_id) id: vec3<u32>) {
+    if id.x >= arrayLength(&queries) {
+        return;
+    }
+    let q = queries[id.x];
+    hit[id.x] = select(0u, 1u, trace_any(Ray(q.origin, q.dir), q.t_min, q.t_max));
+}
+"#;
+
+fn parse_size(s: &str) -> (u32, u32) {
+    let (w, h) = s.split_once('x').expect("--size WxH");
+    (w.parse().expect("width"), h.parse().expect("height"))
+}
+
+/// The unit geometric normal of leaf primitive `p` at `point`.
+fn normal(p: &Primitive, point: Vec3) -> Vec3 {
+    let v = |a: [f32; 4]| Vec3::new(a[0], a[1], a[2]);
+    if p.kind() == raylume_bvh::PRIM_SPHERE {
+        (point - v(p.a)).normalize()
+    } else {
+        (v(p.b) - v(p.a)).cross(v(p.c) - v(p.a)).normalize()
+    }
+}
+
+/// A cheap hash to [0, 1)² per index.
+fn hash2(i: u32) -> Vec2 {
+    let h = raylume_kernels::rng::pcg4d([i, 0x7261_7465, 17, 3]);
+    Vec2::new(
+        (h[0] >> 8) as f32 / 16_777_216.0,
+        (h[1] >> 8) as f32 / 16_777_216.0,
+    )
+}
+
+/// Primary rays through every pixel centre, and the diffuse rays leaving their hits.
+fn rays(scene: &Scene, bvh: &GpuBvh, w: u32, h: u32) -> (Vec<Query>, Vec<Query>) {
+    let [origin, forward, right, up] = raylume_kernels::camera::camera_basis(&scene.camera, w, h);
+    let primary: Vec<Query> = (0..w * h)
+        .into_par_iter()
+        .map(|p| {
+            let (x, y) = (p % w, p / w);
+            let sx = 2.0 * ((x as f32 + 0.5) / w as f32) - 1.0;
+            let sy = 1.0 - 2.0 * ((y as f32 + 0.5) / h as f32);
+            let dir = (forward + right * sx + up * sy).normalize();
+            Query {
+                origin: origin.into(),
+                t_min: 0.0,
+                dir: dir.into(),
+                t_max: f32::INFINITY,
+            }
+        })
+        .collect();
+    let diffuse: Vec<Query> = primary
+        .par_iter()
+        .enumerate()
+        .filter_map(|(i, q)| {
+            let ray = Ray {
+                origin: Vec3::from(q.origin),
+                dir: Vec3::from(q.dir),
+            };
+            let hit: Hit = bvh.trace_closest(&ray, 0.0, f32::INFINITY)?;
+            let p = ray.origin + ray.dir * hit.t;
+            let mut n = normal(&bvh.primitives[hit.prim as usize], p);
+            if n.dot(ray.dir) > 0.0 {
+                n = -n;
+            }
+            let dir = raylume_kernels::sampling::sample_diffuse(n, hash2(i as u32));
+            Some(Query {
+                origin: (p + n * 1e-4 * (1.0 + p.abs().max_element())).into(),
+                t_min: 0.0,
+                dir: dir.into(),
+                t_max: f32::INFINITY,
+            })
+        })
+        .collect();
+    (primary, diffuse)
+}
+
+/// Best-of-`repeat` seconds and hit count of `entry` over `queries` on the GPU.
+fn gpu_rate(
+    ctx: &GpuContext,
+    bvh: &GpuBvh,
+    queries: &[Query],
+    entry: &str,
+    repeat: u32,
+    passes: u32,
+) -> (f64, u32) {
+    let source = format!("{}\n{KERNEL}", bvh.traverse_wgsl());
+    let module = ctx
+        .device
+        .create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("trace_rate"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+    let pipeline = ctx
+        .device
+        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: None,
+            module: &module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+    let none = wgpu::BufferUsages::empty();
+    let nodes = ctx
+        .storage_buffer("bvh_nodes", bvh.node_bytes(), none)
+        .unwrap();
+    let prims = ctx
+        .storage_buffer("bvh_primitives", &bvh.primitives, none)
+        .unwrap();
+    let qbuf = ctx.storage_buffer("queries", queries, none).unwrap();
+    let n = queries.len();
+    let count = ctx
+        .storage_buffer_zeroed("hit", 4 * n as u64, wgpu::BufferUsages::COPY_SRC)
+        .unwrap();
+    let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("trace_rate"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[(0, &nodes), (1, &prims), (2, &qbuf), (3, &count)].map(|(binding, b)| {
+            wgpu::BindGroupEntry {
+                binding,
+                resource: b.as_entire_binding(),
+            }
+        }),
+    });
+    let mut best = f64::INFINITY;
+    let mut hits = 0;
+    // One untimed run first (pipeline creation, caches).
+    for run in 0..=repeat {
+        let t = Instant::now();
+        let mut enc = ctx.device.create_command_encoder(&Default::default());
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipeline);
+            pass.set_bind_group(0, &bind_group, &[]);
+            // Dispatches of at most 65,535 workgroups (4.2 M rays) each.
+            let groups = (queries.len() as u32).div_ceil(64);
+            assert!(groups <= 65_535, "at most 4.2 M rays a set");
+            for _ in 0..passes {
+                pass.dispatch_workgroups(groups, 1, 1);
+            }
+        }
+        ctx.queue.submit([enc.finish()]);
+        ctx.wait("tracing").unwrap();
+        let secs = t.elapsed().as_secs_f64() / f64::from(passes);
+        if run > 0 {
+            best = best.min(secs);
+        }
+        hits = ctx.read_buffer::<u32>(&count, n).unwrap().iter().sum();
+    }
+    (best, hits)
+}
+
+/// Best-of-`repeat` seconds and hit count of `queries` on the CPU (every core).
+fn cpu_rate(bvh: &GpuBvh, queries: &[Query], any: bool, repeat: u32) -> (f64, u32) {
+    let mut best = f64::INFINITY;
+    let mut hits = 0;
+    for _ in 0..repeat {
+        let t = Instant::now();
+        hits = queries
+            .par_iter()
+            .filter(|q| {
+                let ray = Ray {
+                    origin: Vec3::from(q.origin),
+                    dir: Vec3::from(q.dir),
+                };
+                if any {
+                    bvh.trace_any(&ray, q.t_min, q.t_max)
+                } else {
+                    bvh.trace_closest(&ray, q.t_min, q.t_max).is_some()
+                }
+            })
+            .count() as u32;
+        best = best.min(t.elapsed().as_secs_f64());
+    }
+    (best, hits)
+}
+
+fn main() {
+    let args = Args::parse();
+    let (w, h) = parse_size(&args.size);
+    let ctx = args.backend.iter().any(|b| b == "gpu").then(|| {
+        GpuContext::new(&ContextOptions {
+            choice: AdapterChoice::Any,
+            adapter_name: None,
+        })
+        .expect("a GPU adapter (lavapipe counts)")
+    });
+    if let Some(ctx) = &ctx {
+        println!("GPU: {}", ctx.describe());
+    }
+    println!(
+        "CPU: {} threads; {w}x{h} rays per set, best of {}",
+        rayon::current_num_threads(),
+        args.repeat
+    );
+    println!();
+    println!("| scene | prims | layout | backend | rays | closest Mrays/s | any Mrays/s | hit |");
+    println!("|---|---:|---|---|---|---:|---:|---:|");
+    for path in &args.scenes {
+        let scene = Scene::load(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        for &layout in &args.bvh {
+            let bvh =
+                GpuBvh::from_scene_with_layout(&scene, BvhQuality::Quality, layout).expect("BVH");
+            let (primary, diffuse) = rays(&scene, &bvh, w, h);
+            for (kind, qs) in [("primary", &primary), ("diffuse", &diffuse)] {
+                for backend in &args.backend {
+                    let ((tc, hc), (ta, ha)) = match (backend.as_str(), &ctx) {
+                        ("gpu", Some(ctx)) => (
+                            gpu_rate(ctx, &bvh, qs, "closest", args.repeat, args.passes),
+                            gpu_rate(ctx, &bvh, qs, "any", args.repeat, args.passes),
+                        ),
+                        _ => (
+                            cpu_rate(&bvh, qs, false, args.repeat),
+                            cpu_rate(&bvh, qs, true, args.repeat),
+                        ),
+                    };
+                    assert_eq!(hc, ha, "closest and any-hit disagree on what is hit");
+                    println!(
+                        "| {} | {} | {} | {backend} | {kind} ({}) | {:.0} | {:.0} | {:.1} % |",
+                        path.display(),
+                        bvh.primitives.len(),
+                        layout.name(),
+                        qs.len(),
+                        qs.len() as f64 / tc / 1e6,
+                        qs.len() as f64 / ta / 1e6,
+                        100.0 * hc as f64 / qs.len().max(1) as f64
+                    );
+                }
+            }
+        }
+    }
+}
