@@ -160,7 +160,7 @@ pub fn shade_hit(
         );
     } else if mat.kind == MATERIAL_GLASS {
         let eta = if front { 1.0 / mat.ior } else { mat.ior };
-        s = sample_rough_dielectric(path.dir, ns_facing, mat.alpha, eta, color, rnd.truncate());
+        s = sample_rough_dielectric(path.dir, ns_facing, mat.alpha, eta, color, lobe_first(rnd));
     } else if mat.kind == MATERIAL_PLASTIC {
         s = if mat.alpha > 0.0 {
             let table = &g.plastic_tables[mat.table as usize];
@@ -171,10 +171,10 @@ pub fn shade_hit(
                 mat.ior,
                 color,
                 table,
-                rnd.truncate(),
+                lobe_first(rnd),
             )
         } else {
-            sample_plastic(path.dir, ns_facing, mat.ior, color, rnd.truncate())
+            sample_plastic(path.dir, ns_facing, mat.ior, color, lobe_first(rnd))
         };
     }
     let wi = s.dir;
@@ -195,6 +195,17 @@ pub fn shade_hit(
     );
     path.dir = wi;
     s.pdf
+}
+
+/// The numbers a BSDF sampler takes (`u.x` the lobe, `(u.y, u.z)` the direction: `bsdf`) from
+/// a segment's four: the direction from `(rnd.x, rnd.y)`, the first pair, which the Sobol'
+/// samplers make a (0, 2)-net over a pixel's samples, and the lobe from `rnd.z` (the next
+/// pair's first number). `(rnd.y, rnd.z)` would pair numbers of two nets, stratified each on
+/// its own axis but not together. Light sampling follows the same rule (`sample_lights`:
+/// the light from `rnd.z`, the point or direction from `rnd.xy`).
+#[inline]
+pub fn lobe_first(rnd: Vec4) -> Vec3 {
+    Vec3::new(rnd.z, rnd.x, rnd.y)
 }
 
 /// The four random numbers of dimension `dim` (a `DIM_*` constant) at segment `bounce` of
@@ -431,8 +442,8 @@ pub fn mis_weight(a: f32, b: f32) -> f32 {
 
 /// Next-event estimation at a hit reached along `dir_in` on a material that
 /// [`samples_lights`]: the light of the list
-/// chosen by `rnd.x` (with probability `cdf - previous cdf`), a uniform point on it from
-/// `rnd.y, rnd.z`, and a shadow ray to it; returns the reflected radiance it carries
+/// chosen by `rnd.z` (with probability `cdf - previous cdf`), a uniform point on it from
+/// `rnd.x, rnd.y` (see [`lobe_first`]), and a shadow ray to it; returns the reflected radiance it carries
 /// (`f cos θ_surface · L_e · cos θ_light · area / (distance² · p_select)`, [`eval_material`]), zero
 /// when the point is behind the surface (geometric or shading normal), the surface is behind a
 /// one-sided light, or the shadow ray is occluded; times
@@ -446,12 +457,13 @@ pub fn sample_lights(
     dir_in: Vec3,
     rnd: Vec4,
 ) -> Vec3 {
-    // The first light whose running probability exceeds rnd.x.
+    // The first light whose running probability exceeds rnd.z (rnd.xy, the segment's 2D net
+    // under the Sobol' samplers, places the point: `lobe_first`).
     let mut lo = 0u32;
     let mut hi = g.scene.light_count - 1;
     while lo < hi {
         let mid = (lo + hi) / 2;
-        if g.lights[mid as usize].cdf > rnd.x {
+        if g.lights[mid as usize].cdf > rnd.z {
             hi = mid;
         } else {
             lo = mid + 1;
@@ -485,7 +497,7 @@ pub fn sample_lights(
     let (wi, t_max, side, env_pdf, dist2, cos_l);
     if is_env {
         // A direction toward the sky; the shadow ray must escape the scene.
-        let (dir, pdf) = sample_environment(g, Vec2::new(rnd.y, rnd.z), cell);
+        let (dir, pdf) = sample_environment(g, Vec2::new(rnd.x, rnd.y), cell);
         wi = dir;
         env_pdf = pdf;
         side = light_side(mat, ns_facing, ng_facing, wi);
@@ -499,16 +511,16 @@ pub fn sample_lights(
             // A point of the cap seen from the origin: it faces the origin (cos_l = 1).
             let center = Vec3::from(light.p0);
             let Some(point) =
-                sample_sphere_cap(center, light.e1[0], origin, Vec2::new(rnd.y, rnd.z))
+                sample_sphere_cap(center, light.e1[0], origin, Vec2::new(rnd.x, rnd.y))
             else {
                 return Vec3::ZERO; // inside the sphere: only the scattered ray finds it
             };
             point
         } else {
             // Uniform on the triangle (the square-root parameterisation).
-            let su = rnd.y.sqrt();
+            let su = rnd.x.sqrt();
             let (e1, e2) = (Vec3::from(light.e1), Vec3::from(light.e2));
-            Vec3::from(light.p0) + e1 * (su * (1.0 - rnd.z)) + e2 * (su * rnd.z)
+            Vec3::from(light.p0) + e1 * (su * (1.0 - rnd.y)) + e2 * (su * rnd.y)
         };
         let to = point - origin;
         dist2 = to.length_squared();

@@ -50,16 +50,16 @@ fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, 
         if (!HAS_ROUGH_GLASS) {
             alpha = 0.0;
         }
-        s = sample_rough_dielectric((*path).dir, ns_facing, alpha, eta, mat.color, rnd.xyz);
+        s = sample_rough_dielectric((*path).dir, ns_facing, alpha, eta, mat.color, rnd.zxy);
     }
 //#endif
 //#if plastic
     if (HAS_PLASTIC && mat.kind == MATERIAL_PLASTIC) {
         if (mat.alpha > 0.0) {
             var table = plastic_tables[mat.table];
-            s = sample_rough_plastic((*path).dir, ns_facing, mat.alpha, mat.ior, mat.color, &table, rnd.xyz);
+            s = sample_rough_plastic((*path).dir, ns_facing, mat.alpha, mat.ior, mat.color, &table, rnd.zxy);
         } else {
-            s = sample_plastic((*path).dir, ns_facing, mat.ior, mat.color, rnd.xyz);
+            s = sample_plastic((*path).dir, ns_facing, mat.ior, mat.color, rnd.zxy);
         }
     }
 //#endif
@@ -230,14 +230,15 @@ fn mis_weight(a: f32, b: f32) -> f32 {
     return 0.0;
 }
 
-// Next-event estimation at a diffuse hit (shade.rs `sample_lights`): a point on the light
-// chosen by rnd.x, a shadow ray to it, the reflected radiance it carries.
+// Next-event estimation at a diffuse hit (shade.rs `sample_lights`): a point (from rnd.xy) on
+// the light chosen by rnd.z, a shadow ray to it, the reflected radiance it carries. The BSDF
+// samplers likewise get rnd.zxy (shade.rs `lobe_first`).
 fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4<f32>) -> vec3<f32> {
     var lo = 0u;
     var hi = scene.light_count - 1u;
     while (lo < hi) {
         let mid = (lo + hi) / 2u;
-        if (lights[mid].cdf > rnd.x) {
+        if (lights[mid].cdf > rnd.z) {
             hi = mid;
         } else {
             lo = mid + 1u;
@@ -269,7 +270,7 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
     var cos_l = 1.0;
     if (is_env) {
         // A direction toward the sky; the shadow ray must escape the scene.
-        let es = sample_environment(rnd.yz, cell);
+        let es = sample_environment(rnd.xy, cell);
         wi = es.dir;
         env_pdf = es.pdf;
         side = light_side(mat, ns_facing, ng_facing, wi);
@@ -277,11 +278,11 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
             return vec3<f32>(0.0);
         }
     } else {
-        let su = sqrt(rnd.y);
-        var point = light.p0 + light.e1 * (su * (1.0 - rnd.z)) + light.e2 * (su * rnd.z);
+        let su = sqrt(rnd.x);
+        var point = light.p0 + light.e1 * (su * (1.0 - rnd.y)) + light.e2 * (su * rnd.y);
 //#if spheres
         if (is_sphere) {
-            let cap = sample_sphere_cap(light.p0, light.e1.x, origin, rnd.yz);
+            let cap = sample_sphere_cap(light.p0, light.e1.x, origin, rnd.xy);
             if (!cap.valid) {
                 return vec3<f32>(0.0);
             }
