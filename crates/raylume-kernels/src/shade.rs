@@ -582,3 +582,64 @@ pub fn sample_lights(
 
 /// The WGSL source of the functions above.
 pub const SHADE_WGSL: &str = include_str!("shade.wgsl");
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// True when the `2^k` points have exactly one in every elementary interval of area
+    /// `2^-k` (a (0, k, 2)-net in base 2).
+    fn is_net(pts: &[Vec2], k: u32) -> bool {
+        (0..=k).all(|a| {
+            let b = k - a;
+            let mut count = vec![0u32; 1 << k];
+            for p in pts {
+                let cx = (p.x * (1u32 << a) as f32) as u32;
+                let cy = (p.y * (1u32 << b) as f32) as u32;
+                count[((cy << a) | cx) as usize] += 1;
+            }
+            count.iter().all(|&c| c == 1)
+        })
+    }
+
+    #[test]
+    fn two_dimensional_samples_come_from_one_net() {
+        // Under the Sobol' samplers, what a BSDF sampler takes as its direction, (u.y, u.z) of
+        // `lobe_first`, and what light sampling takes as its point, (rnd.x, rnd.y), are over
+        // a pixel's 64 samples a (0, 6, 2)-net, at every segment: one pair of one net. The
+        // numbers of the next pair (rnd.z) only choose. (Taking (rnd.y, rnd.z), as before,
+        // pairs two nets: no net.)
+        for sampler in [SAMPLER_SOBOL, crate::gpu_types::SAMPLER_ZSOBOL] {
+            let scene = SceneUniforms {
+                sampler,
+                width: 37,
+                height: 11,
+                spp: 64,
+                seed: 5,
+                ..Default::default()
+            };
+            for (pixel, bounce) in [(0, 0), (200, 3), (406, 7)] {
+                for dim in [DIM_SCATTER, DIM_LIGHT] {
+                    let rnd: Vec<Vec4> = (0..64)
+                        .map(|s| path_rand4(&scene, pixel, s, bounce, dim))
+                        .collect();
+                    let direction: Vec<Vec2> = rnd
+                        .iter()
+                        .map(|&r| {
+                            let u = lobe_first(r);
+                            Vec2::new(u.y, u.z)
+                        })
+                        .collect();
+                    assert!(is_net(&direction, 6), "BSDF direction, pixel {pixel}");
+                    let point: Vec<Vec2> = rnd.iter().map(|r| Vec2::new(r.x, r.y)).collect();
+                    assert!(is_net(&point, 6), "light point, pixel {pixel}");
+                    let mixed: Vec<Vec2> = rnd.iter().map(|r| Vec2::new(r.y, r.z)).collect();
+                    assert!(
+                        !is_net(&mixed, 6),
+                        "two nets' numbers paired, pixel {pixel}"
+                    );
+                }
+            }
+        }
+    }
+}
