@@ -16,7 +16,9 @@ pub struct StageSeconds {
     /// Creating the GPU device (0 on the CPU, and when an earlier render already reported it;
     /// see `Tracer::prepare_backend`).
     pub device: f64,
-    /// Uploading scene data to the GPU and compiling the shader module (0 on the CPU).
+    /// Preparing the scene's data for tracing (materials, textures, lights, coat tables, the
+    /// environment guide) and, on the GPU, uploading it; near 0 when the tracer kept it from
+    /// its last render of the same scene (`RenderStats::scene_cached`).
     pub upload: f64,
     /// Preparing the batch loop on the GPU: work buffers, pipelines not compiled yet (see
     /// `pipelines`), ray sorters, warm-up dispatches (0 on the CPU).
