@@ -489,8 +489,9 @@ impl Tracer {
 
     /// Frees what the tracer keeps between renders: the GPU work buffers and ray sorters
     /// (grown to the largest render seen at the current image size: up to a few GiB for
-    /// 1000x1000 at 20 samples per batch) and the cached BVH. The next render allocates and
-    /// builds them again; `auto`'s decisions and the GPU context are kept.
+    /// 1000x1000 at 20 samples per batch), the cached BVHs and the scenes prepared and
+    /// uploaded over them (`RenderStats::scene_cached`). The next render allocates, builds
+    /// and uploads them again; `auto`'s decisions, the pipelines and the GPU context are kept.
     pub fn release_memory(&mut self) {
         self.gpu_workspace = None;
         self.bvh_cache.clear();
