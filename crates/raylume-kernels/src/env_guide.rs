@@ -127,8 +127,8 @@ impl EnvironmentGuide {
     /// uniform share is mixed in: the cell's counts blurred over the 3x3 neighbourhood of
     /// directions (wrapping in `u`, clamped in `v`: directions next to the ones found keep
     /// some weight) plus [`GUIDE_PRIOR_ESCAPES`] times all cells' blurred distribution,
-    /// normalised. The last entry is all cells' distribution itself.
-    pub fn cell_probabilities(&self) -> Vec<Vec<f64>> {
+    /// normalised; and all cells' distribution itself.
+    pub fn cell_probabilities(&self) -> GuideProbabilities {
         let cells = self.cell_count();
         let blurred: Vec<Vec<f64>> = (0..cells)
             .into_par_iter()
@@ -152,7 +152,7 @@ impl EnvironmentGuide {
                     .collect(),
             );
         }
-        let mut out: Vec<Vec<f64>> = blurred
+        let cells: Vec<Vec<f64>> = blurred
             .into_par_iter()
             .map(|b| {
                 let n: f64 = b.iter().sum();
@@ -162,9 +162,16 @@ impl EnvironmentGuide {
                     .collect()
             })
             .collect();
-        out.push(global);
-        out
+        GuideProbabilities { cells, all: global }
     }
+}
+
+/// [`EnvironmentGuide::cell_probabilities`]: per spatial cell and for all cells together,
+/// each direction cell's probability (row-major on the guide's direction grid).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GuideProbabilities {
+    pub cells: Vec<Vec<f64>>,
+    pub all: Vec<f64>,
 }
 
 /// `counts` (one spatial cell's directions) summed over each direction's 3x3 neighbourhood.
@@ -343,11 +350,11 @@ pub fn cdf_from_weights(w: usize, h: usize, weights: &[f64]) -> Vec<f32> {
 /// `(1 - GUIDE_UNIFORM_SHARE)` times the cell's guide ([`EnvironmentGuide::cell_probabilities`])
 /// plus `GUIDE_UNIFORM_SHARE` times its solid angle's share (uniform over the sphere).
 pub fn guided_constant_cdf(guide: &EnvironmentGuide) -> Vec<f32> {
-    let mut probabilities = guide.cell_probabilities();
-    probabilities.pop(); // all cells' own: not used with cells
     let solid = cell_solid_angles();
     let four_pi = 4.0 * std::f64::consts::PI;
-    probabilities
+    guide
+        .cell_probabilities()
+        .cells
         .par_iter()
         .map(|p| {
             let weights: Vec<f64> = p
@@ -372,7 +379,7 @@ pub fn guided_map_cdf(
     rotation: f32,
     radiance_weights: &[f64],
 ) -> Vec<f32> {
-    let global = guide.cell_probabilities().pop().expect("all cells' entry");
+    let global = guide.cell_probabilities().all;
     let solid = cell_solid_angles();
     let density: Vec<f64> = global
         .iter()
