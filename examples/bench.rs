@@ -372,7 +372,7 @@ fn run(args: Args) -> Result<(), String> {
     tracer.estimator = args.estimator;
     tracer.sampler = args.sampler;
     tracer.russian_roulette = args.rr_depth.0;
-    tracer.environment_guide = args.environment_guide;
+    tracer.environment_guide = Some(args.environment_guide);
     tracer.bvh_quality = Some(args.bvh_preset);
     if let Some(b) = args.batch_spp {
         tracer.batch_spp = b;

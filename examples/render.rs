@@ -94,11 +94,12 @@ struct Args {
     /// Russian roulette from this path segment on (default 5, as Mitsuba 3's `path`), or off.
     #[arg(long, default_value = "5", value_parser = parse_rr_depth)]
     rr_depth: RrDepth,
-    /// Environment sampling for nee: on (the default: shadow rays toward the sky go where
-    /// short diffuse walks from the camera found it visible, learned per region of the scene
-    /// before rendering) or off (by the sky's radiance alone, as Mitsuba 3).
-    #[arg(long, default_value = "on", value_parser = parse_on_off, action = clap::ArgAction::Set)]
-    environment_guide: bool,
+    /// Environment sampling for nee: on (shadow rays toward the sky go where short diffuse
+    /// walks from the camera found it visible, learned per region of the scene before
+    /// rendering), off (by the sky's radiance alone, as Mitsuba 3) or auto (the default: on
+    /// when the render's rays repay the walks, e.g. not for a thumbnail).
+    #[arg(long, default_value = "auto", value_parser = parse_on_off_auto, action = clap::ArgAction::Set)]
+    environment_guide: GuideChoice,
     /// Skip the scene's bloom pass.
     #[arg(long)]
     no_bloom: bool,
@@ -132,6 +133,20 @@ fn parse_on_off(s: &str) -> Result<bool, String> {
         "on" => Ok(true),
         "off" => Ok(false),
         _ => Err(format!("`{s}`: on or off")),
+    }
+}
+
+/// `--environment-guide`: `on`, `off` or `auto` (`None`: the library decides). A newtype:
+/// clap takes a bare `Option` field for an optional flag.
+#[derive(Clone, Copy, Debug)]
+struct GuideChoice(Option<bool>);
+
+fn parse_on_off_auto(s: &str) -> Result<GuideChoice, String> {
+    match s.trim() {
+        "auto" => Ok(GuideChoice(None)),
+        other => parse_on_off(other)
+            .map(|b| GuideChoice(Some(b)))
+            .map_err(|_| format!("`{s}`: on, off or auto")),
     }
 }
 
@@ -259,7 +274,7 @@ fn run(args: Args) -> Result<(), String> {
     tracer.estimator = args.estimator;
     tracer.sampler = args.sampler;
     tracer.russian_roulette = args.rr_depth.0;
-    tracer.environment_guide = args.environment_guide;
+    tracer.environment_guide = args.environment_guide.0;
     tracer.target_error = args.target_error;
     if let Some((i, n)) = args.part {
         let range =

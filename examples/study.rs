@@ -335,7 +335,9 @@ impl Knobs {
         tracer.reorder = self.reorder;
         tracer.sampler = self.sampler;
         tracer.russian_roulette = self.rr;
-        tracer.environment_guide = self.guide;
+        // Explicit either way (not the library's `None`, which decides by the render's size):
+        // every spp of a curve samples the sky alike.
+        tracer.environment_guide = Some(self.guide);
         Ok(())
     }
 }

@@ -44,6 +44,9 @@ pub const GUIDE_WALKS_PER_SIDE: u32 = 160;
 pub const GUIDE_VERTICES: u32 = 4;
 /// Probe rays per vertex (besides the walk's own next ray, which counts too when it escapes).
 pub const GUIDE_PROBES: u32 = 8;
+/// The most rays the walks trace: every walk's vertices, each with its probes.
+pub const GUIDE_MAX_RAYS: u64 =
+    (GUIDE_WALKS_PER_SIDE as u64).pow(2) * GUIDE_VERTICES as u64 * (1 + GUIDE_PROBES as u64);
 /// The share of the probability the unguided distribution keeps (defensive sampling): every
 /// direction's pdf is at least this times its unguided pdf.
 pub const GUIDE_UNIFORM_SHARE: f64 = 0.25;

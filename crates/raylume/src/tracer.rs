@@ -224,14 +224,16 @@ pub struct Tracer {
     /// After each hit of a segment `>= start` the path goes on with probability
     /// `min(max throughput, 0.95)` and its throughput is divided by it: unbiased, fewer rays.
     pub russian_roulette: Option<u32>,
-    /// Next-event estimation samples the environment by where the scene leaves it visible
-    /// (`true`, the default): before the render, diffuse random walks from the camera count
-    /// the directions in which they escape, and the sky is sampled by that (mixed with the
-    /// unguided distribution; `raylume_kernels::env_guide`). In a room lit through its windows
-    /// most shadow rays toward a uniformly sampled sky hit walls; guided, most pass. `false`:
-    /// by the environment's radiance alone, as Mitsuba 3. Unbiased either way; the same on both
-    /// backends. [`RenderStats::environment_guide`] says what was learned.
-    pub environment_guide: bool,
+    /// Whether next-event estimation samples the environment by where the scene leaves it
+    /// visible: before the render, diffuse random walks from the camera count the directions
+    /// in which they escape, and the sky is sampled by that (mixed with the unguided
+    /// distribution; `raylume_kernels::env_guide`). In a room lit through its windows most
+    /// shadow rays toward a uniformly sampled sky hit walls; guided, most pass. `Some(true)`:
+    /// always; `Some(false)`: by the environment's radiance alone, as Mitsuba 3; `None` (the
+    /// default): when the render's rays repay the walks' ([`Tracer::guide_repays`]: a 500x500
+    /// render of 16 spp does, a thumbnail does not). Unbiased either way; the same on both
+    /// backends. [`RenderStats::environment_guide`] says what was decided and learned.
+    pub environment_guide: Option<bool>,
     /// Render until the image's relative MSE (as `raylume_post::relative_mse` measures it
     /// against the converged image), estimated from the spread of its own batches, is below
     /// this value; the scene's `spp` is then the cap. `None` (the default): render the
@@ -409,6 +411,26 @@ impl Tracer {
     /// The paper's batch size: 20 samples per pixel per batch.
     pub const DEFAULT_BATCH_SPP: u32 = 20;
 
+    /// Whether a render of these settings traces at least [`Tracer::GUIDE_REPAY_FACTOR`]
+    /// times the rays the environment guide's walks may trace
+    /// (`raylume_kernels::env_guide::GUIDE_MAX_RAYS`), counting two rays (a segment and a
+    /// shadow ray) per segment of every sample: what [`Tracer::environment_guide`]'s `None`
+    /// decides by.
+    pub fn guide_repays(r: &raylume_scene::RenderSettings) -> bool {
+        let rays = f64::from(r.width)
+            * f64::from(r.height)
+            * f64::from(r.spp)
+            * (f64::from(r.max_bounces) + 1.0)
+            * 2.0;
+        rays >= Self::GUIDE_REPAY_FACTOR * raylume_kernels::env_guide::GUIDE_MAX_RAYS as f64
+    }
+
+    /// How many times the environment guide's rays a render must trace for
+    /// [`Tracer::environment_guide`]'s `None` to learn the guide: then the walks cost at most
+    /// a tenth of the render (25,600 walks, at most 0.92 M rays: ~50 ms on the H200's 16-core
+    /// host, ~0.3 s on 2 cores).
+    pub const GUIDE_REPAY_FACTOR: f64 = 10.0;
+
     /// The Russian-roulette start of [`Tracer::new`]: segment 5, as Mitsuba 3's `path`.
     pub const DEFAULT_RUSSIAN_ROULETTE: u32 = 5;
 
@@ -429,7 +451,7 @@ impl Tracer {
             estimator: Estimator::Nee,
             sampler: Sampler::Sobol,
             russian_roulette: Some(Self::DEFAULT_RUSSIAN_ROULETTE),
-            environment_guide: true,
+            environment_guide: None,
             target_error: None,
             bvh_quality: None,
             bvh_layout: BvhLayout::default(),
@@ -452,12 +474,23 @@ impl Tracer {
         }
     }
 
-    /// What the kernels prepare for the next render: the environment guide when NEE will
-    /// use it.
-    fn scene_options(&self) -> raylume_kernels::SceneOptions {
+    /// What the kernels prepare for a render of `scene`: the environment guide when NEE will
+    /// use it ([`Tracer::guides`]).
+    fn scene_options(&self, scene: &Scene) -> raylume_kernels::SceneOptions {
         raylume_kernels::SceneOptions {
-            environment_guide: self.environment_guide && self.estimator == Estimator::Nee,
+            environment_guide: self.guides(scene),
         }
+    }
+
+    /// Whether a render of `scene` learns and uses the environment guide: with NEE, as
+    /// [`Tracer::environment_guide`] says, `None` deciding by [`Tracer::guide_repays`]. It
+    /// depends on the whole render's settings (not on a part's sample range), so that every
+    /// part of a render decides alike.
+    pub(crate) fn guides(&self, scene: &Scene) -> bool {
+        self.estimator == Estimator::Nee
+            && self
+                .environment_guide
+                .unwrap_or_else(|| Self::guide_repays(&scene.render))
     }
 
     /// Sets the paper's estimator: [`Estimator::Plain`], [`Sampler::Independent`], no Russian
@@ -467,7 +500,7 @@ impl Tracer {
         self.estimator = Estimator::Plain;
         self.sampler = Sampler::Independent;
         self.russian_roulette = None;
-        self.environment_guide = false;
+        self.environment_guide = Some(false);
         self
     }
 
@@ -535,7 +568,7 @@ impl Tracer {
             estimator: self.estimator.name().into(),
             sampler: self.sampler.name().into(),
             russian_roulette: self.russian_roulette,
-            environment_guide: self.environment_guide,
+            environment_guide: self.guides(scene),
             samples: SampleRange {
                 begin: 0,
                 end: r.spp,
@@ -1040,7 +1073,7 @@ impl Tracer {
         let ctx = self.gpu.as_ref().expect("the backend choice created it");
         stats.adapter = ctx.describe();
         let t = Instant::now();
-        let options = self.scene_options();
+        let options = self.scene_options(scene);
         let prepared = prepared.of(SceneKey::of(scene, options));
         let uploaded = match (&prepared.gpu, &prepared.cpu) {
             (Some(g), _) => {
@@ -1062,10 +1095,11 @@ impl Tracer {
         let mut tracer = GpuTracer::with_scene(ctx, uploaded, pipelines)?;
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
-        tracer.set_environment_guide(self.environment_guide);
+        tracer.set_environment_guide(self.guides(scene));
         stats.environment_guide = describe_guide(
             self.estimator,
             self.environment_guide,
+            self.guides(scene),
             tracer.environment_guide_walks(),
         );
         tracer.set_russian_roulette(self.russian_roulette);
@@ -1163,7 +1197,7 @@ impl Tracer {
         report: &mut dyn FnMut(u32, u32),
     ) -> Result<Vec<[f32; 3]>, Error> {
         let t = Instant::now();
-        let options = self.scene_options();
+        let options = self.scene_options(scene);
         let prepared = prepared.of(SceneKey::of(scene, options));
         let data = match &prepared.cpu {
             Some(d) => {
@@ -1177,10 +1211,11 @@ impl Tracer {
         stats.seconds.upload = t.elapsed().as_secs_f64();
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
-        tracer.set_environment_guide(self.environment_guide);
+        tracer.set_environment_guide(self.guides(scene));
         stats.environment_guide = describe_guide(
             self.estimator,
             self.environment_guide,
+            self.guides(scene),
             tracer.environment_guide_walks(),
         );
         tracer.set_russian_roulette(self.russian_roulette);
@@ -1214,11 +1249,19 @@ fn schedules_run(out: &TraceStats) -> String {
 }
 
 /// [`RenderStats::environment_guide`]'s words.
-fn describe_guide(estimator: Estimator, on: bool, walks: Option<(u32, u64)>) -> String {
+fn describe_guide(
+    estimator: Estimator,
+    wish: Option<bool>,
+    on: bool,
+    walks: Option<(u32, u64)>,
+) -> String {
     match (estimator, on, walks) {
         (Estimator::Plain, _, _) => "unused (plain estimator)".into(),
-        (_, true, None) => "no guide (no environment or no geometry)".into(),
+        (_, false, _) if wish.is_none() => {
+            "by radiance (the render's rays would not repay learning a guide)".into()
+        }
         (_, false, _) => "by radiance (guide off)".into(),
+        (_, true, None) => "no guide (no environment or no geometry)".into(),
         (_, true, Some((w, e))) if e < raylume_kernels::env_guide::GUIDE_MIN_ESCAPES => {
             format!("by radiance (too few escapes to guide: {e} from {w} walks)")
         }

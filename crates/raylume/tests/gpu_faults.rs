@@ -227,7 +227,7 @@ fn a_scene_larger_than_a_binding_says_what_does_not_fit() {
     let mut tracer = Tracer::new(Backend::Gpu).with_gpu_context(ctx);
     // By radiance alone: the environment guide would add a second distribution as large as
     // the first (the map's texels times the guide), and the arithmetic above counts one.
-    tracer.environment_guide = false;
+    tracer.environment_guide = Some(false);
     let ok = tracer.render(&fits).unwrap();
     assert_eq!(ok.stats.backend, "gpu");
     let err = tracer.render(&scene).unwrap_err();

@@ -417,6 +417,11 @@ fn estimator_flags_and_target_error_reach_the_stats_and_the_summary() {
         ("--target-error", "lots", "lots"),
         ("--sampler", "sobolish", "unknown sampler `sobolish`"),
         (
+            "--environment-guide",
+            "sometimes",
+            "`sometimes`: on, off or auto",
+        ),
+        (
             "--rr-depth",
             "never",
             "`never` is not a path segment number or `off`",

@@ -357,6 +357,8 @@ fn prepared_scene_is_reused_only_for_the_same_scene() {
         let tracer = || {
             let mut t = Tracer::new(backend);
             t.bvh_quality = Some(raylume::BvhQuality::Quality);
+            // Learned whatever the size (the default would skip it for renders this small).
+            t.environment_guide = Some(true);
             t
         };
         let mut t = tracer();
@@ -422,16 +424,48 @@ fn prepared_scene_is_reused_only_for_the_same_scene() {
             );
         }
         // The guide is an option of the preparation: turning it off prepares again.
-        t.environment_guide = false;
+        t.environment_guide = Some(false);
         let unguided = t.render(&scene).unwrap();
         assert!(!unguided.stats.scene_cached, "{backend:?}: guide off");
         let mut fresh = tracer();
-        fresh.environment_guide = false;
+        fresh.environment_guide = Some(false);
         assert_eq!(unguided.pixels, fresh.render(&scene).unwrap().pixels);
         // Two preparations are kept per tree: back to the guide, the first is still there.
-        t.environment_guide = true;
+        t.environment_guide = Some(true);
         let guided = t.render(&scene).unwrap();
         assert!(guided.stats.scene_cached, "{backend:?}: guide on again");
         assert_eq!(guided.pixels, tracer().render(&scene).unwrap().pixels);
     }
+}
+
+/// Left to decide (`environment_guide: None`, the default), a render learns the environment
+/// guide only when its rays repay the walks' (`Tracer::GUIDE_REPAY_FACTOR` times
+/// `env_guide::GUIDE_MAX_RAYS`); `Some(true)` learns it for any render, `Some(false)` never.
+#[test]
+fn the_environment_guide_is_learned_when_the_render_repays_it() {
+    let mut scene = cornell(12, 10, 2);
+    scene.environment = raylume::scene::Environment::Constant(raylume::glam::Vec3::splat(0.5));
+    let render = |guide: Option<bool>, scene: &Scene| {
+        let mut t = Tracer::new(Backend::Cpu);
+        t.environment_guide = guide;
+        t.render(scene).unwrap().stats.environment_guide
+    };
+    let small = render(None, &scene);
+    assert!(small.contains("would not repay"), "{small}");
+    let forced = render(Some(true), &scene);
+    assert!(
+        forced.starts_with("guided") || forced.starts_with("by radiance (too few"),
+        "{forced}"
+    );
+    assert!(forced.contains("walks"), "learned: {forced}");
+    assert_eq!(render(Some(false), &scene), "by radiance (guide off)");
+    // The threshold itself: rays = w * h * spp * (bounces + 1) * 2 against 10 x 921,600.
+    let max = raylume_kernels::env_guide::GUIDE_MAX_RAYS as f64;
+    assert_eq!(max, 921_600.0);
+    let mut r = scene.render;
+    (r.width, r.height, r.max_bounces) = (100, 100, 9);
+    r.spp = ((Tracer::GUIDE_REPAY_FACTOR * max) / (100.0 * 100.0 * 10.0 * 2.0)).ceil() as u32;
+    assert!(Tracer::guide_repays(&r), "{} spp", r.spp);
+    r.spp -= 1;
+    assert!(!Tracer::guide_repays(&r), "{} spp", r.spp);
 }
