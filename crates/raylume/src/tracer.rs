@@ -411,6 +411,23 @@ impl Tracer {
     /// The paper's batch size: 20 samples per pixel per batch.
     pub const DEFAULT_BATCH_SPP: u32 = 20;
 
+    /// [`RenderStats::environment_guide`]'s words for a render that `guides` (or not) and
+    /// whose walks found `walks` (walks, escapes).
+    fn describe_guide(&self, guides: bool, walks: Option<(u32, u64)>) -> String {
+        match (self.estimator, guides, walks) {
+            (Estimator::Plain, _, _) => "unused (plain estimator)".into(),
+            (_, false, _) if self.environment_guide.is_none() => {
+                "by radiance (the render's rays would not repay learning a guide)".into()
+            }
+            (_, false, _) => "by radiance (guide off)".into(),
+            (_, true, None) => "no guide (no environment or no geometry)".into(),
+            (_, true, Some((w, e))) if e < raylume_kernels::env_guide::GUIDE_MIN_ESCAPES => {
+                format!("by radiance (too few escapes to guide: {e} from {w} walks)")
+            }
+            (_, true, Some((w, e))) => format!("guided ({e} escapes from {w} walks)"),
+        }
+    }
+
     /// Whether a render of these settings traces at least [`Tracer::GUIDE_REPAY_FACTOR`]
     /// times the rays the environment guide's walks may trace
     /// (`raylume_kernels::env_guide::GUIDE_MAX_RAYS`), counting two rays (a segment and a
@@ -1083,9 +1100,7 @@ impl Tracer {
             // The CPU's preparation of the same scene (an earlier CPU render), uploaded.
             (None, Some(data)) => Arc::new(GpuScene::upload_data(
                 ctx,
-                raylume_scene::Features::from_bits(
-                    scene.features().bits() & !(raylume_scene::Feature::Bloom as u32),
-                ),
+                raylume_kernels::tracer_features(scene),
                 bvh,
                 SceneData::clone(data),
             )?),
@@ -1095,13 +1110,9 @@ impl Tracer {
         let mut tracer = GpuTracer::with_scene(ctx, uploaded, pipelines)?;
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
-        tracer.set_environment_guide(self.guides(scene));
-        stats.environment_guide = describe_guide(
-            self.estimator,
-            self.environment_guide,
-            self.guides(scene),
-            tracer.environment_guide_walks(),
-        );
+        let guides = self.guides(scene);
+        tracer.set_environment_guide(guides);
+        stats.environment_guide = self.describe_guide(guides, tracer.environment_guide_walks());
         tracer.set_russian_roulette(self.russian_roulette);
         tracer.set_sample_range(self.samples.map(|r| r.begin..r.end));
         if let Some(workspace) = self.gpu_workspace.take() {
@@ -1211,13 +1222,9 @@ impl Tracer {
         stats.seconds.upload = t.elapsed().as_secs_f64();
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
-        tracer.set_environment_guide(self.guides(scene));
-        stats.environment_guide = describe_guide(
-            self.estimator,
-            self.environment_guide,
-            self.guides(scene),
-            tracer.environment_guide_walks(),
-        );
+        let guides = self.guides(scene);
+        tracer.set_environment_guide(guides);
+        stats.environment_guide = self.describe_guide(guides, tracer.environment_guide_walks());
         tracer.set_russian_roulette(self.russian_roulette);
         tracer.set_sample_range(self.samples.map(|r| r.begin..r.end));
         let out = match target {
@@ -1245,26 +1252,5 @@ fn schedules_run(out: &TraceStats) -> String {
         (true, true) => "megakernel + wavefront (auto trials)".into(),
         (false, true) => "wavefront".into(),
         _ => "megakernel".into(),
-    }
-}
-
-/// [`RenderStats::environment_guide`]'s words.
-fn describe_guide(
-    estimator: Estimator,
-    wish: Option<bool>,
-    on: bool,
-    walks: Option<(u32, u64)>,
-) -> String {
-    match (estimator, on, walks) {
-        (Estimator::Plain, _, _) => "unused (plain estimator)".into(),
-        (_, false, _) if wish.is_none() => {
-            "by radiance (the render's rays would not repay learning a guide)".into()
-        }
-        (_, false, _) => "by radiance (guide off)".into(),
-        (_, true, None) => "no guide (no environment or no geometry)".into(),
-        (_, true, Some((w, e))) if e < raylume_kernels::env_guide::GUIDE_MIN_ESCAPES => {
-            format!("by radiance (too few escapes to guide: {e} from {w} walks)")
-        }
-        (_, true, Some((w, e))) => format!("guided ({e} escapes from {w} walks)"),
     }
 }

@@ -137,8 +137,9 @@ impl std::fmt::Debug for GpuScene {
     }
 }
 
-/// A scene's features the tracer's pipelines must have (all but the post pass, bloom).
-fn scene_features(scene: &Scene) -> Features {
+/// A scene's features the tracer's pipelines must have (all but the post pass, bloom): what
+/// [`GpuScene::upload_data`] takes.
+pub fn tracer_features(scene: &Scene) -> Features {
     Features::from_bits(scene.features().bits() & !(Feature::Bloom as u32))
 }
 
@@ -174,7 +175,7 @@ impl GpuScene {
     ) -> Result<Self, KernelError> {
         let start = Instant::now();
         let data = SceneData::with_options(scene, bvh, options)?;
-        let mut uploaded = Self::upload_data(ctx, scene_features(scene), bvh, data)?;
+        let mut uploaded = Self::upload_data(ctx, tracer_features(scene), bvh, data)?;
         uploaded.upload_seconds = start.elapsed().as_secs_f64();
         Ok(uploaded)
     }
@@ -311,7 +312,7 @@ impl<'a> GpuTracer<'a> {
         options: &SceneOptions,
     ) -> Result<Self, KernelError> {
         let start = Instant::now();
-        check_pipelines(scene_features(scene), bvh.layout, &pipelines)?;
+        check_pipelines(tracer_features(scene), bvh.layout, &pipelines)?;
         let uploaded = Arc::new(GpuScene::upload(ctx, scene, bvh, options)?);
         let mut tracer = Self::with_scene(ctx, uploaded, pipelines)?;
         tracer.upload_seconds = start.elapsed().as_secs_f64();
