@@ -674,23 +674,38 @@ pub fn gauss_legendre_01(n: usize) -> Vec<(f64, f64)> {
     out
 }
 
-/// [`sample_ggx_vndf`] in f64.
-fn ggx_vndf_f64(wo: DVec3, alpha: f64, u: (f64, f64)) -> DVec3 {
-    let vh = DVec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
-    let lensq = vh.x * vh.x + vh.y * vh.y;
-    let t1 = if lensq > 0.0 {
-        DVec3::new(-vh.y, vh.x, 0.0) / lensq.sqrt()
-    } else {
-        DVec3::X
-    };
-    let t2 = vh.cross(t1);
-    let r = u.0.sqrt();
-    let phi = std::f64::consts::TAU * u.1;
-    let p1 = r * phi.cos();
-    let s = 0.5 * (1.0 + vh.z);
-    let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * phi.sin();
-    let nh = t1 * p1 + t2 * p2 + vh * (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
-    DVec3::new(alpha * nh.x, alpha * nh.y, nh.z.max(0.0)).normalize()
+/// [`sample_ggx_vndf`] in f64, split so that a quadrature over many samples of one `wo` computes
+/// the stretched frame once ([`VndfFrame::new`]) and each sample's trigonometry once per node
+/// ([`VndfFrame::normal`]): the same operations in the same order as one call per sample.
+struct VndfFrame {
+    vh: DVec3,
+    t1: DVec3,
+    t2: DVec3,
+    alpha: f64,
+}
+
+impl VndfFrame {
+    fn new(wo: DVec3, alpha: f64) -> Self {
+        let vh = DVec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
+        let lensq = vh.x * vh.x + vh.y * vh.y;
+        let t1 = if lensq > 0.0 {
+            DVec3::new(-vh.y, vh.x, 0.0) / lensq.sqrt()
+        } else {
+            DVec3::X
+        };
+        let t2 = vh.cross(t1);
+        Self { vh, t1, t2, alpha }
+    }
+
+    /// The visible normal of the sample `u = (r², phi / 2 pi)`, given `r` and `phi`'s cosine
+    /// and sine.
+    fn normal(&self, r: f64, cos_phi: f64, sin_phi: f64) -> DVec3 {
+        let p1 = r * cos_phi;
+        let s = 0.5 * (1.0 + self.vh.z);
+        let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * sin_phi;
+        let nh = self.t1 * p1 + self.t2 * p2 + self.vh * (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
+        DVec3::new(self.alpha * nh.x, self.alpha * nh.y, nh.z.max(0.0)).normalize()
+    }
 }
 
 fn smith_g1_f64(v: DVec3, m: DVec3, alpha: f64) -> f64 {
@@ -730,13 +745,57 @@ pub fn rough_dielectric_albedo(
     transmitted: bool,
     order: usize,
 ) -> f64 {
+    rough_dielectric_albedo_by(
+        &AlbedoQuadrature::new(order),
+        cos_i,
+        alpha,
+        eta,
+        transmitted,
+    )
+}
+
+/// The Gauss-Legendre rule of [`rough_dielectric_albedo`] over the sample square, with what
+/// depends on the nodes alone computed once: the radius `sqrt(x²)` of each radial node and
+/// the cosine and sine of each angular node's `2 pi y`.
+pub struct AlbedoQuadrature {
+    /// `(x, weight, radius)` of each radial node.
+    radial: Vec<(f64, f64, f64)>,
+    /// `(weight, cos phi, sin phi)` of each angular node.
+    angular: Vec<(f64, f64, f64)>,
+}
+
+impl AlbedoQuadrature {
+    /// The rule of order `order` in each coordinate.
+    pub fn new(order: usize) -> Self {
+        let nodes = gauss_legendre_01(order);
+        AlbedoQuadrature {
+            radial: nodes.iter().map(|&(x, w)| (x, w, (x * x).sqrt())).collect(),
+            angular: nodes
+                .iter()
+                .map(|&(y, w)| {
+                    let phi = std::f64::consts::TAU * y;
+                    (w, phi.cos(), phi.sin())
+                })
+                .collect(),
+        }
+    }
+}
+
+/// [`rough_dielectric_albedo`] with its quadrature rule given (built once for many calls).
+pub fn rough_dielectric_albedo_by(
+    rule: &AlbedoQuadrature,
+    cos_i: f64,
+    alpha: f64,
+    eta: f64,
+    transmitted: bool,
+) -> f64 {
     let wo = DVec3::new((1.0 - cos_i * cos_i).max(0.0).sqrt(), 0.0, cos_i);
-    let nodes = gauss_legendre_01(order);
+    let frame = VndfFrame::new(wo, alpha);
     let mut sum = 0.0;
-    for &(x, wx) in &nodes {
+    for &(x, wx, r) in &rule.radial {
         // u.x = x² (weight 2x): the sample map's radius sqrt(u.x) becomes smooth in x.
-        for &(y, wy) in &nodes {
-            let m = ggx_vndf_f64(wo, alpha, (x * x, y));
+        for &(wy, cos_phi, sin_phi) in &rule.angular {
+            let m = frame.normal(r, cos_phi, sin_phi);
             let c = wo.dot(m);
             let (f, cos_t) = fresnel_f64(c, eta);
             let v = if transmitted {
@@ -789,13 +848,17 @@ impl RoughPlasticTable {
         // tables in the living room: most of its upload), summed in order afterwards: the
         // same numbers as one by one.
         use rayon::prelude::*;
+        let (rule_t, rule_r) = (
+            AlbedoQuadrature::new(order_t),
+            AlbedoQuadrature::new(order_r),
+        );
         let per_cosine: Vec<(f32, f64)> = (0..res)
             .into_par_iter()
             .map(|j| {
                 let mu = (j as f64 / (res - 1) as f64).max(1e-6);
                 (
-                    rough_dielectric_albedo(mu, alpha, 1.0 / ior, true, order_t) as f32,
-                    mu * rough_dielectric_albedo(mu, alpha, ior, false, order_r),
+                    rough_dielectric_albedo_by(&rule_t, mu, alpha, 1.0 / ior, true) as f32,
+                    mu * rough_dielectric_albedo_by(&rule_r, mu, alpha, ior, false),
                 )
             })
             .collect();
