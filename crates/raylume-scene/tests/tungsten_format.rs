@@ -382,3 +382,70 @@ fn unread_keys_are_reported_not_silently_dropped() {
         assert!(all.contains(part), "{part} not in {all}");
     }
 }
+
+/// The importer decodes the BSDFs' image files ahead of the materials (on every core, while
+/// the meshes parse): what it decoded must be what reading them in order gives (each file
+/// once, however many BSDFs and nestings name it), and a file that does not decode must fail
+/// with the place that references it, as it did when textures were read one by one.
+#[test]
+fn prefetched_textures_are_the_referenced_ones_and_errors_keep_their_place() {
+    let d = TempDir::new("tungsten-prefetch");
+    d.write("tex.png", common::png_2x2());
+    d.write("bad.png", b"not a png".to_vec());
+    let ok = json!({
+        "bsdfs": [
+            { "name": "a", "type": "lambert", "albedo": "tex.png" },
+            { "name": "b", "type": "lambert", "albedo": { "type": "bitmap", "file": "tex.png" } },
+            { "name": "c", "type": "transparency", "alpha": 1.0, "base": { "type": "lambert", "albedo": "tex.png" } },
+            { "name": "d", "type": "lambert", "albedo": 0.5 }
+        ],
+        "primitives": [
+            { "type": "quad", "bsdf": "a" },
+            { "type": "quad", "bsdf": "b", "transform": { "position": [0, 0, 1] } },
+            { "type": "quad", "bsdf": "c", "transform": { "position": [0, 0, 2] } },
+            { "type": "quad", "bsdf": "d", "transform": { "position": [0, 0, 3] } }
+        ]
+    });
+    let s = Scene::load(d.write("ok.json", ok.to_string())).unwrap();
+    assert_eq!(s.textures.len(), 1, "one file, one texture");
+    let alone = Scene::load(
+        d.write(
+            "alone.json",
+            json!({ "bsdfs": [{ "name": "a", "type": "lambert", "albedo": "tex.png" }],
+                "primitives": [{ "type": "quad", "bsdf": "a" }] })
+            .to_string(),
+        ),
+    )
+    .unwrap();
+    assert_eq!(s.textures, alone.textures);
+    for m in ["a", "b", "c"] {
+        let m = s.materials.iter().find(|x| x.name == m).unwrap();
+        assert_eq!(m.albedo_texture, Some(0));
+    }
+
+    // The second BSDF's file is corrupt, the third's missing: the first reference in the
+    // materials' order fails, naming its JSON path.
+    let bad = json!({
+        "bsdfs": [
+            { "name": "a", "type": "lambert", "albedo": "tex.png" },
+            { "name": "b", "type": "lambert", "albedo": { "type": "bitmap", "file": "bad.png" } },
+            { "name": "c", "type": "lambert", "albedo": "gone.png" }
+        ],
+        "primitives": [
+            { "type": "quad", "bsdf": "a" },
+            { "type": "quad", "bsdf": "b", "transform": { "position": [0, 0, 1] } },
+            { "type": "quad", "bsdf": "c", "transform": { "position": [0, 0, 2] } }
+        ]
+    });
+    let e = Scene::load(d.write("bad.json", bad.to_string())).unwrap_err();
+    assert!(
+        matches!(e, SceneError::Image { .. }) && e.to_string().contains("bsdfs[1].albedo.file"),
+        "{e:?}"
+    );
+    let gone = json!({
+        "bsdfs": [{ "name": "c", "type": "lambert", "albedo": "gone.png" }],
+        "primitives": [{ "type": "quad", "bsdf": "c" }]
+    });
+    let e = Scene::load(d.write("gone.json", gone.to_string())).unwrap_err();
+    assert!(e.to_string().contains("bsdfs[0].albedo"), "{e:?}");
+}

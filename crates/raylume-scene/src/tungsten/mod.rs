@@ -152,13 +152,25 @@ pub(crate) fn load(path: &Path) -> Result<Scene, SceneError> {
                 t.mesh_file(p.j())
             })
             .collect();
-        let mut parsed: Vec<_> = files
-            .par_iter()
-            .map(|f| {
-                f.as_ref()
-                    .map(|(path, by)| crate::obj::parse(path, false, Some(by)))
-            })
-            .collect();
+        // The BSDFs' image files are decoded meanwhile (the living room's three JPEGs took
+        // as long as its meshes).
+        let mut images = Vec::new();
+        bitmap_files(&doc["bsdfs"], &t.dir, &mut images);
+        for p in list {
+            bitmap_files(&p["bsdf"], &t.dir, &mut images);
+        }
+        let (mut parsed, ()): (Vec<_>, ()) = rayon::join(
+            || {
+                files
+                    .par_iter()
+                    .map(|f| {
+                        f.as_ref()
+                            .map(|(path, by)| crate::obj::parse(path, false, Some(by)))
+                    })
+                    .collect()
+            },
+            || b.prefetch_textures(&images),
+        );
         for (i, parsed) in parsed.iter_mut().enumerate() {
             let p: Owned = prims.j().index(i).expect("index within the array");
             t.primitive(&mut b, p.j(), &mut materials, &mut ignored, parsed.take())?;
@@ -193,6 +205,27 @@ pub(crate) fn load(path: &Path) -> Result<Scene, SceneError> {
         b.scene.camera = crate::transform::frame_bounds(b.scene.bounds());
     }
     b.finish()
+}
+
+/// The image files a BSDF (or an array or nesting of them) may read as textures: every
+/// `albedo` given as a file name and every `bitmap` texture's `file`, relative to `dir`. More
+/// than the import will read is harmless (a prefetch: [`SceneBuilder::prefetch_textures`]).
+fn bitmap_files(v: &Value, dir: &Path, out: &mut Vec<PathBuf>) {
+    match v {
+        Value::Array(a) => a.iter().for_each(|x| bitmap_files(x, dir, out)),
+        Value::Object(o) => {
+            if let Some(Value::String(f)) = o.get("albedo") {
+                out.push(dir.join(f));
+            }
+            if o.get("type").and_then(Value::as_str) == Some("bitmap")
+                && let Some(Value::String(f)) = o.get("file")
+            {
+                out.push(dir.join(f));
+            }
+            o.values().for_each(|x| bitmap_files(x, dir, out));
+        }
+        _ => {}
+    }
 }
 
 /// A whole, non-negative number that fits u32.
