@@ -391,7 +391,7 @@ fn unread_keys_are_reported_not_silently_dropped() {
 fn prefetched_textures_are_the_referenced_ones_and_errors_keep_their_place() {
     let d = TempDir::new("tungsten-prefetch");
     d.write("tex.png", common::png_2x2());
-    d.write("bad.png", b"not a png".to_vec());
+    d.write("bad.png", b"not a png");
     let ok = json!({
         "bsdfs": [
             { "name": "a", "type": "lambert", "albedo": "tex.png" },
