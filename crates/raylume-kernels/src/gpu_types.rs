@@ -31,6 +31,17 @@ pub const MATERIAL_TWO_SIDED: u32 = 1;
 /// `GpuMaterial::texture` when the material has no albedo texture.
 pub const NO_TEXTURE: u32 = u32::MAX;
 
+/// `TextureHeader::format`: a texel is three words, the bits of its linear R, G, B floats.
+pub const TEXELS_LINEAR: u32 = 0;
+
+/// `TextureHeader::format`: a texel is one word, its 8-bit sRGB codes R, G, B in bytes 0, 1,
+/// 2 (`raylume_scene::Texels::Srgb8`), each decoded through the table at [`SRGB8_TABLE`].
+pub const TEXELS_SRGB8: u32 = 1;
+
+/// Where the texel buffer holds `raylume_scene::srgb8_table()` (256 words, the bits of each
+/// code's linear f32) when any texture is [`TEXELS_SRGB8`]: its first word.
+pub const SRGB8_TABLE: u32 = 0;
+
 /// `SceneUniforms::environment_kind`: escaping rays carry nothing.
 pub const ENVIRONMENT_BLACK: u32 = 0;
 /// `SceneUniforms::environment_kind`: constant radiance `environment_color`.
@@ -240,17 +251,18 @@ pub struct TriangleShading {
     pub flags: u32,
 }
 
-/// Where one texture's texels start in the shared texel buffer, and its size.
+/// Where one texture's texels start in the shared texel buffer, their format, and its size.
 ///
 /// `repr(C)`, `Pod`, 16 bytes. WGSL: `TextureHeader`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct TextureHeader {
-    /// Index of the first texel (each texel is 3 floats in the texel buffer).
+    /// Index of the texture's first word in the texel buffer (a buffer of 32-bit words).
     pub offset: u32,
     pub width: u32,
     pub height: u32,
-    pub _pad0: u32,
+    /// [`TEXELS_LINEAR`] (three f32 words a texel) or [`TEXELS_SRGB8`] (one word a texel).
+    pub format: u32,
 }
 
 /// An emitter of the light list that next-event estimation samples, chosen with probability
@@ -364,6 +376,9 @@ pub fn wgsl_constants() -> String {
     s += &u("NO_TABLE", NO_TABLE);
     s += &u("MATERIAL_TWO_SIDED", MATERIAL_TWO_SIDED);
     s += &u("NO_TEXTURE", NO_TEXTURE);
+    s += &u("TEXELS_LINEAR", TEXELS_LINEAR);
+    s += &u("TEXELS_SRGB8", TEXELS_SRGB8);
+    s += &u("SRGB8_TABLE", SRGB8_TABLE);
     s += &u("ENVIRONMENT_BLACK", ENVIRONMENT_BLACK);
     s += &u("ENVIRONMENT_CONSTANT", ENVIRONMENT_CONSTANT);
     s += &u("ENVIRONMENT_MAP", ENVIRONMENT_MAP);

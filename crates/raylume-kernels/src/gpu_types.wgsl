@@ -74,7 +74,7 @@ struct TextureHeader {
     offset: u32,
     width: u32,
     height: u32,
-    _pad0: u32,
+    format: u32,
 }
 
 struct GpuLight {

@@ -7,7 +7,7 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 use raylume_bvh::{GpuBvh, PRIM_SPHERE, PRIM_TRIANGLE, Primitive};
-use raylume_scene::{Camera, Environment, MaterialKind, Scene, Texture};
+use raylume_scene::{Camera, Environment, MaterialKind, Scene, Texels, Texture, srgb8_table};
 use rayon::prelude::*;
 
 use crate::KernelError;
@@ -23,7 +23,8 @@ use crate::gpu_types::{
     ENVIRONMENT_BLACK, ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuLight, GpuMaterial,
     LIGHT_ENVIRONMENT, LIGHT_SPHERE, LIGHT_TRIANGLE, MATERIAL_DIFFUSE, MATERIAL_GLASS,
     MATERIAL_METAL, MATERIAL_PLASTIC, MATERIAL_TWO_SIDED, NO_ROULETTE, NO_TABLE, NO_TEXTURE,
-    SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms, TextureHeader, TriangleShading,
+    SHADING_HAS_NORMALS, SHADING_HAS_UVS, SRGB8_TABLE, SceneUniforms, TEXELS_LINEAR,
+    TEXELS_SRGB8, TextureHeader, TriangleShading,
 };
 use crate::{Estimator, Sampler};
 
@@ -46,9 +47,11 @@ pub struct SceneData {
     /// Shading normals and uvs per primitive in leaf order; empty when no triangle has either.
     pub triangle_shading: Vec<TriangleShading>,
     pub texture_headers: Vec<TextureHeader>,
-    /// All textures' texels, RGB triples, each texture at its header's offset; the
-    /// environment map last.
-    pub texels: Vec<f32>,
+    /// 32-bit words: the sRGB table (at [`SRGB8_TABLE`], when a texture is 8-bit), all
+    /// textures' texels, each texture at its header's offset in its format (three float
+    /// words or one packed word a texel), the environment map (float words) and the
+    /// environment's distributions (float words).
+    pub texels: Vec<u32>,
     pub environment_kind: u32,
     pub environment_color: Vec3,
     /// Turns (degrees / 360).
@@ -199,13 +202,18 @@ pub fn environment_distribution(image: &Texture) -> (Vec<f32>, f32) {
     )
 }
 
-/// `texels.len()` as the index of what is appended next, or an error past 2^32 floats.
-fn texel_index(texels: &[f32]) -> Result<u32, KernelError> {
+/// `texels.len()` as the index of what is appended next, or an error past 2^32 words.
+fn texel_index(texels: &[u32]) -> Result<u32, KernelError> {
     u32::try_from(texels.len()).map_err(|_| {
         KernelError::InvalidScene(
-            "the textures and the environment's distributions hold more than 2^32 floats".into(),
+            "the textures and the environment's distributions hold more than 2^32 words".into(),
         )
     })
+}
+
+/// Appends floats to the texel buffer as their bits.
+fn extend_floats(texels: &mut Vec<u32>, floats: impl IntoIterator<Item = f32>) {
+    texels.extend(floats.into_iter().map(f32::to_bits));
 }
 
 /// The texel weights of [`environment_distribution`] (`(luminance + floor) sin θ_y`,
@@ -213,7 +221,8 @@ fn texel_index(texels: &[f32]) -> Result<u32, KernelError> {
 pub fn environment_weights(image: &Texture) -> (Vec<f64>, f32) {
     let (w, h) = (image.width as usize, image.height as usize);
     let lum = |t: &[f32; 3]| f64::from(Vec3::from(*t).dot(Vec3::from(LUMINANCE)).max(0.0));
-    let plain_mean = image.texels.iter().map(lum).sum::<f64>() / (w * h).max(1) as f64;
+    let plain_mean =
+        (0..w * h).map(|i| lum(&image.texels.linear(i))).sum::<f64>() / (w * h).max(1) as f64;
     let floor = if plain_mean > 0.0 {
         1e-3 * plain_mean
     } else {
@@ -224,7 +233,7 @@ pub fn environment_weights(image: &Texture) -> (Vec<f64>, f32) {
     for y in 0..h {
         let sin = ((y as f64 + 0.5) / h as f64 * std::f64::consts::PI).sin();
         for x in 0..w {
-            let l = lum(&image.texels[y * w + x]);
+            let l = lum(&image.texels.linear(y * w + x));
             weighted += l * sin;
             solid += sin;
             weights[y * w + x] = (l + floor) * sin;
@@ -278,7 +287,14 @@ fn plastic_tables(scene: &Scene) -> (Vec<RoughPlasticTable>, TableIndex) {
     (tables, index)
 }
 
-fn append_texture(texels: &mut Vec<f32>, t: &Texture, what: &str) -> Result<u32, KernelError> {
+/// Appends texture `t` to the texel buffer in its own format (`linear`: as floats whatever
+/// its format, for environment maps); returns its header's offset and format.
+fn append_texture(
+    texels: &mut Vec<u32>,
+    t: &Texture,
+    what: &str,
+    linear: bool,
+) -> Result<(u32, u32), KernelError> {
     let n = u64::from(t.width) * u64::from(t.height);
     if n == 0 || t.texels.len() as u64 != n {
         return Err(KernelError::InvalidScene(format!(
@@ -289,17 +305,24 @@ fn append_texture(texels: &mut Vec<f32>, t: &Texture, what: &str) -> Result<u32,
             t.texels.len()
         )));
     }
-    let offset = texels.len() / 3;
-    // Texel indices times 3 must stay within u32 in the kernels.
-    if (offset as u64 + n) * 3 > u64::from(u32::MAX) {
+    let offset = texels.len() as u64;
+    let srgb8 = matches!(t.texels, Texels::Srgb8(_)) && !linear;
+    let words = if srgb8 { n } else { 3 * n };
+    // Word indices must stay within u32 in the kernels.
+    if offset + words > u64::from(u32::MAX) {
         return Err(KernelError::InvalidScene(format!(
-            "textures hold more than {} texels in total (at {what} `{}`)",
-            u32::MAX / 3,
+            "textures hold more than 2^32 words in total (at {what} `{}`)",
             t.name
         )));
     }
-    texels.extend(t.texels.iter().flatten());
-    Ok(offset as u32)
+    match &t.texels {
+        Texels::Srgb8(codes) if srgb8 => {
+            texels.extend(codes.iter().map(|c| u32::from_le_bytes([c[0], c[1], c[2], 0])));
+        }
+        Texels::Linear(floats) => extend_floats(texels, floats.iter().flatten().copied()),
+        Texels::Srgb8(_) => extend_floats(texels, t.texels.to_linear().into_iter().flatten()),
+    }
+    Ok((offset as u32, if srgb8 { TEXELS_SRGB8 } else { TEXELS_LINEAR }))
 }
 
 impl SceneData {
@@ -339,14 +362,22 @@ impl SceneData {
             )));
         }
         let mut texels = Vec::new();
+        if scene
+            .textures
+            .iter()
+            .any(|t| matches!(t.texels, Texels::Srgb8(_)))
+        {
+            debug_assert_eq!(SRGB8_TABLE, 0, "the table comes first");
+            extend_floats(&mut texels, srgb8_table().iter().copied());
+        }
         let mut texture_headers = Vec::with_capacity(scene.textures.len());
         for t in &scene.textures {
-            let offset = append_texture(&mut texels, t, "texture")?;
+            let (offset, format) = append_texture(&mut texels, t, "texture", false)?;
             texture_headers.push(TextureHeader {
                 offset,
                 width: t.width,
                 height: t.height,
-                _pad0: 0,
+                format,
             });
         }
 
@@ -515,7 +546,8 @@ impl SceneData {
                 strength,
                 rotation,
             } => {
-                data.environment_offset = append_texture(&mut texels, image, "environment map")?;
+                (data.environment_offset, _) =
+                    append_texture(&mut texels, image, "environment map", true)?;
                 data.environment_kind = ENVIRONMENT_MAP;
                 data.environment_color = Vec3::splat(*strength);
                 data.environment_rotation = rotation / 360.0;
@@ -535,11 +567,10 @@ impl SceneData {
             } => {
                 let (weights, mean) = environment_weights(image);
                 data.environment_cdf = texel_index(&texels)?;
-                texels.extend(cdf_from_weights(
-                    image.width as usize,
-                    image.height as usize,
-                    &weights,
-                ));
+                extend_floats(
+                    &mut texels,
+                    cdf_from_weights(image.width as usize, image.height as usize, &weights),
+                );
                 environment_luminance = mean * strength;
             }
             _ => {}
@@ -562,7 +593,10 @@ impl SceneData {
                     } => {
                         let (weights, _) = environment_weights(image);
                         let (w, h) = (image.width as usize, image.height as usize);
-                        texels.extend(guided_map_cdf(&guide, w, h, rotation / 360.0, &weights));
+                        extend_floats(
+                            &mut texels,
+                            guided_map_cdf(&guide, w, h, rotation / 360.0, &weights),
+                        );
                         GuidedCdf {
                             offset,
                             width: image.width,
@@ -572,7 +606,7 @@ impl SceneData {
                         }
                     }
                     _ => {
-                        texels.extend(guided_constant_cdf(&guide));
+                        extend_floats(&mut texels, guided_constant_cdf(&guide));
                         GuidedCdf {
                             offset,
                             width: GUIDE_WIDTH,

@@ -26,7 +26,8 @@ use raylume_bvh::{Hit, PRIM_SPHERE, Primitive};
 use crate::bsdf::RoughPlasticTable;
 use crate::gpu_types::{
     ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuLight, GpuMaterial, MATERIAL_GLASS, NO_TEXTURE,
-    SHADING_HAS_NORMALS, SHADING_HAS_UVS, SceneUniforms, TextureHeader, TriangleShading,
+    SHADING_HAS_NORMALS, SHADING_HAS_UVS, SRGB8_TABLE, SceneUniforms, TEXELS_LINEAR,
+    TEXELS_SRGB8, TextureHeader, TriangleShading,
 };
 use crate::math::{INV_2PI, INV_PI, PI, acos_poly, atan2_poly, normalize};
 
@@ -40,7 +41,8 @@ pub struct Globals<'a> {
     /// Leaf-order shading data; empty when the scene has neither shading normals nor uvs.
     pub triangle_shading: &'a [TriangleShading],
     pub texture_headers: &'a [TextureHeader],
-    pub texels: &'a [f32],
+    /// 32-bit words: float bits (linear texels, distributions) or packed sRGB codes.
+    pub texels: &'a [u32],
     /// The light list (next-event estimation reads the first `scene.light_count`).
     pub lights: &'a [GpuLight],
     /// Rough plastics' coat tables, indexed by `GpuMaterial::table`.
@@ -132,11 +134,37 @@ pub fn surface_at(g: &Globals, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfaceHit
     }
 }
 
-/// Texel `(x, y)` of the texture starting at texel `offset` with row length `width`.
+/// Word `i` of the texel buffer as the f32 whose bits it holds.
 #[inline]
-pub fn texel(g: &Globals, offset: u32, width: u32, x: u32, y: u32) -> Vec3 {
-    let i = ((offset + y * width + x) * 3) as usize;
-    Vec3::new(g.texels[i], g.texels[i + 1], g.texels[i + 2])
+pub fn texel_float(g: &Globals, i: u32) -> f32 {
+    f32::from_bits(g.texels[i as usize])
+}
+
+/// The linear value of 8-bit sRGB code `c`: entry `c` of the table at [`SRGB8_TABLE`].
+#[inline]
+fn srgb8(g: &Globals, c: u32) -> f32 {
+    texel_float(g, SRGB8_TABLE + c)
+}
+
+/// Texel `(x, y)` of the texture whose texels start at word `offset`, row length `width`,
+/// in `format` ([`TEXELS_LINEAR`] or [`TEXELS_SRGB8`]), linear RGB.
+#[inline]
+pub fn texel(g: &Globals, offset: u32, width: u32, format: u32, x: u32, y: u32) -> Vec3 {
+    let j = y * width + x;
+    if format == TEXELS_SRGB8 {
+        let w = g.texels[(offset + j) as usize];
+        return Vec3::new(
+            srgb8(g, w & 0xff),
+            srgb8(g, (w >> 8) & 0xff),
+            srgb8(g, (w >> 16) & 0xff),
+        );
+    }
+    let i = offset + 3 * j;
+    Vec3::new(
+        texel_float(g, i),
+        texel_float(g, i + 1),
+        texel_float(g, i + 2),
+    )
 }
 
 #[inline]
@@ -144,14 +172,16 @@ fn wrap_index(i: i32, n: i32) -> i32 {
     ((i % n) + n) % n
 }
 
-/// Bilinear lookup at `uv` in a `width x height` texture starting at texel `offset`; `u`
-/// wraps, `v` wraps when `wrap_v` and is clamped otherwise.
+/// Bilinear lookup at `uv` in a `width x height` texture of texels in `format` starting at
+/// word `offset` (see [`texel`]); `u` wraps, `v` wraps when `wrap_v` and is clamped
+/// otherwise. Interpolates linear values (8-bit codes are decoded first).
 #[inline]
 pub fn texture_bilinear(
     g: &Globals,
     offset: u32,
     width: u32,
     height: u32,
+    format: u32,
     uv: Vec2,
     wrap_v: bool,
 ) -> Vec3 {
@@ -181,10 +211,10 @@ pub fn texture_bilinear(
             (y0 + 1).max(0).min(h - 1) as u32,
         )
     };
-    let t00 = texel(g, offset, width, ix0, iy0);
-    let t10 = texel(g, offset, width, ix1, iy0);
-    let t01 = texel(g, offset, width, ix0, iy1);
-    let t11 = texel(g, offset, width, ix1, iy1);
+    let t00 = texel(g, offset, width, format, ix0, iy0);
+    let t10 = texel(g, offset, width, format, ix1, iy0);
+    let t01 = texel(g, offset, width, format, ix0, iy1);
+    let t11 = texel(g, offset, width, format, ix1, iy1);
     let top = t00 * (1.0 - fx) + t10 * fx;
     let bottom = t01 * (1.0 - fx) + t11 * fx;
     top * (1.0 - fy) + bottom * fy
@@ -196,7 +226,7 @@ pub fn material_at(g: &Globals, surface: &SurfaceHit) -> GpuMaterial {
     let mut m = g.materials[surface.material as usize];
     if m.texture != NO_TEXTURE && m.kind != MATERIAL_GLASS {
         let h = g.texture_headers[m.texture as usize];
-        let t = texture_bilinear(g, h.offset, h.width, h.height, surface.uv, true);
+        let t = texture_bilinear(g, h.offset, h.width, h.height, h.format, surface.uv, true);
         m.color = (Vec3::from(m.color) * t).into();
     }
     m
@@ -217,6 +247,7 @@ pub fn environment_radiance(g: &Globals, dir: Vec3) -> Vec3 {
             s.environment_offset,
             s.environment_width,
             s.environment_height,
+            TEXELS_LINEAR,
             uv,
             false,
         );
@@ -232,7 +263,7 @@ fn cdf_search(g: &Globals, base: u32, count: u32, u: f32) -> u32 {
     let (mut lo, mut hi) = (0u32, count - 1);
     while lo < hi {
         let mid = (lo + hi) / 2;
-        if g.texels[(base + mid) as usize] > u {
+        if texel_float(g, base + mid) > u {
             hi = mid;
         } else {
             lo = mid + 1;
@@ -246,11 +277,11 @@ fn cdf_search(g: &Globals, base: u32, count: u32, u: f32) -> u32 {
 #[inline]
 fn cdf_step(g: &Globals, base: u32, i: u32) -> (f32, f32) {
     let before = if i > 0 {
-        g.texels[(base + i - 1) as usize]
+        texel_float(g, base + i - 1)
     } else {
         0.0
     };
-    (g.texels[(base + i) as usize] - before, before)
+    (texel_float(g, base + i) - before, before)
 }
 
 /// The guide cell ([`crate::env_guide`]) of point `p` (a vertex's outgoing ray origin on
@@ -428,7 +459,7 @@ mod tests {
 
     /// An 8x4 map with one bright texel, a dark row and a black texel, its distribution after
     /// it in the texel buffer, and uniforms that point at both (rotated by 0.3 turns).
-    fn environment_fixture() -> (Vec<f32>, SceneUniforms, Vec<f64>) {
+    fn environment_fixture() -> (Vec<u32>, SceneUniforms, Vec<f64>) {
         let (w, h) = (8u32, 4u32);
         let texels: Vec<[f32; 3]> = (0..w * h)
             .map(|i| match i {
@@ -442,12 +473,12 @@ mod tests {
             name: "sky".into(),
             width: w,
             height: h,
-            texels: texels.clone(),
+            texels: texels.clone().into(),
         };
         let (cdf, _) = crate::scene_data::environment_distribution(&image);
-        let mut buffer: Vec<f32> = texels.iter().flatten().copied().collect();
+        let mut buffer: Vec<u32> = texels.iter().flatten().map(|x| x.to_bits()).collect();
         let base = buffer.len() as u32;
-        buffer.extend(&cdf);
+        buffer.extend(cdf.iter().map(|x| x.to_bits()));
         let scene = SceneUniforms {
             environment_kind: ENVIRONMENT_MAP,
             environment_width: w,

@@ -64,10 +64,28 @@ fn surface_at(hit: Hit, origin: vec3<f32>, dir: vec3<f32>) -> SurfaceHit {
     return SurfaceHit(position, ng, ns, uv, material, offset, back_offset(magnitude, hit.t));
 }
 
+//#if textures|environment_map|constant_environment
+// surface.rs `texel_float`: word i of the texel buffer as the f32 whose bits it holds.
+fn texel_float(i: u32) -> f32 {
+    return bitcast<f32>(texels[i]);
+}
+//#endif
+
 //#if textures|environment_map
-fn texel(offset: u32, width: u32, x: u32, y: u32) -> vec3<f32> {
-    let i = (offset + y * width + x) * 3u;
-    return vec3<f32>(texels[i], texels[i + 1u], texels[i + 2u]);
+// surface.rs `srgb8`, `texel`: 8-bit sRGB codes (one word a texel) through the table at
+// SRGB8_TABLE, or three float words a texel.
+fn srgb8(c: u32) -> f32 {
+    return texel_float(SRGB8_TABLE + c);
+}
+
+fn texel(offset: u32, width: u32, format: u32, x: u32, y: u32) -> vec3<f32> {
+    let j = y * width + x;
+    if (format == TEXELS_SRGB8) {
+        let w = texels[offset + j];
+        return vec3<f32>(srgb8(w & 0xffu), srgb8((w >> 8u) & 0xffu), srgb8((w >> 16u) & 0xffu));
+    }
+    let i = offset + 3u * j;
+    return vec3<f32>(texel_float(i), texel_float(i + 1u), texel_float(i + 2u));
 }
 //#endif
 
@@ -78,7 +96,7 @@ fn wrap_index(i: i32, n: i32) -> i32 {
 //#endif
 
 //#if textures|environment_map
-fn texture_bilinear(offset: u32, width: u32, height: u32, uv: vec2<f32>, wrap_v: bool) -> vec3<f32> {
+fn texture_bilinear(offset: u32, width: u32, height: u32, format: u32, uv: vec2<f32>, wrap_v: bool) -> vec3<f32> {
     let w = i32(width);
     let h = i32(height);
     let u = uv.x - floor(uv.x);
@@ -102,10 +120,10 @@ fn texture_bilinear(offset: u32, width: u32, height: u32, uv: vec2<f32>, wrap_v:
         iy0 = u32(wrap_index(y0, h));
         iy1 = u32(wrap_index(y0 + 1, h));
     }
-    let t00 = texel(offset, width, ix0, iy0);
-    let t10 = texel(offset, width, ix1, iy0);
-    let t01 = texel(offset, width, ix0, iy1);
-    let t11 = texel(offset, width, ix1, iy1);
+    let t00 = texel(offset, width, format, ix0, iy0);
+    let t10 = texel(offset, width, format, ix1, iy0);
+    let t01 = texel(offset, width, format, ix0, iy1);
+    let t11 = texel(offset, width, format, ix1, iy1);
     let top = t00 * (1.0 - fx) + t10 * fx;
     let bottom = t01 * (1.0 - fx) + t11 * fx;
     return top * (1.0 - fy) + bottom * fy;
@@ -117,7 +135,7 @@ fn material_at(surface: SurfaceHit) -> GpuMaterial {
 //#if textures
     if (HAS_TEXTURES && m.texture != NO_TEXTURE && m.kind != MATERIAL_GLASS) {
         let h = texture_headers[m.texture];
-        m.color = m.color * texture_bilinear(h.offset, h.width, h.height, surface.uv, true);
+        m.color = m.color * texture_bilinear(h.offset, h.width, h.height, h.format, surface.uv, true);
     }
 //#endif
     return m;
@@ -137,6 +155,7 @@ fn environment_radiance(dir: vec3<f32>) -> vec3<f32> {
             scene.environment_offset,
             scene.environment_width,
             scene.environment_height,
+            TEXELS_LINEAR,
             uv,
             false,
         );
@@ -153,7 +172,7 @@ fn cdf_search(base: u32, count: u32, u: f32) -> u32 {
     var hi = count - 1u;
     while (lo < hi) {
         let mid = (lo + hi) / 2u;
-        if (texels[base + mid] > u) {
+        if (texel_float(base + mid) > u) {
             hi = mid;
         } else {
             lo = mid + 1u;
@@ -168,9 +187,9 @@ fn cdf_search(base: u32, count: u32, u: f32) -> u32 {
 fn cdf_step(base: u32, i: u32) -> vec2<f32> {
     var before = 0.0;
     if (i > 0u) {
-        before = texels[base + i - 1u];
+        before = texel_float(base + i - 1u);
     }
-    return vec2<f32>(texels[base + i] - before, before);
+    return vec2<f32>(texel_float(base + i) - before, before);
 }
 //#endif
 

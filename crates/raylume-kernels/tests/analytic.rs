@@ -159,7 +159,7 @@ fn environment_seen_directly_is_exact() {
         name: "flat".into(),
         width: 8,
         height: 4,
-        texels: vec![[0.25, 0.5, 1.0]; 32],
+        texels: vec![[0.25, 0.5, 1.0]; 32].into(),
     };
     let scene = empty(Environment::Map {
         image: map,

@@ -217,6 +217,54 @@ fn textured_matches_cpu() {
     compare("textured_matches_cpu", &textured(), 32, 32, 4, 4);
 }
 
+/// `textured()` with its texture stored as 8-bit sRGB codes, and a second, linear texture
+/// after it (on the pyramid), so that offsets past a packed texture are exercised too.
+fn textured_srgb8() -> raylume_scene::Scene {
+    let mut s = textured();
+    let t = &s.textures[0];
+    let codes: Vec<[u8; 3]> = (0..t.texels.len())
+        .map(|i| t.texels.linear(i).map(|c| (c * 255.0) as u8 ^ (i as u8 & 7)))
+        .collect();
+    s.textures[0].texels = codes.into();
+    s.textures.push(support::test_texture(3, 5));
+    let pyramid = s.triangles.last().unwrap().material as usize;
+    s.materials[pyramid].albedo_texture = Some(1);
+    s
+}
+
+#[test]
+fn srgb8_textures_match_cpu() {
+    let s = textured_srgb8();
+    assert!(matches!(s.textures[0].texels, raylume_scene::Texels::Srgb8(_)));
+    compare("srgb8_textures_match_cpu", &s, 32, 32, 4, 4);
+}
+
+/// Keeping 8-bit texels as codes is a storage choice, not an approximation: the same scene
+/// with the codes decoded to floats on load renders the same pixels, bit for bit, on the CPU
+/// and on the GPU.
+#[test]
+fn srgb8_storage_changes_no_pixel() {
+    let packed = textured_srgb8();
+    let mut floats = packed.clone();
+    for t in &mut floats.textures {
+        t.texels = raylume_scene::Texels::Linear(t.texels.to_linear());
+    }
+    let s = settings(24, 24, 2, 4, Schedule::Megakernel);
+    let cpu = [render_cpu(&packed, &s), render_cpu(&floats, &s)];
+    assert!(cpu[0].radiance == cpu[1].radiance, "CPU images differ");
+    let Some(ctx) = raylume_gpu::testing::context_or_skip("srgb8_storage_changes_no_pixel")
+    else {
+        return;
+    };
+    let gpu = [render_gpu(ctx, &packed, &s), render_gpu(ctx, &floats, &s)];
+    assert!(gpu[0].radiance == gpu[1].radiance, "GPU images differ");
+    // And the texture is seen at all: without it the image changes.
+    let mut plain = packed.clone();
+    plain.materials.iter_mut().for_each(|m| m.albedo_texture = None);
+    plain.textures.clear();
+    assert!(render_cpu(&plain, &s).radiance != cpu[0].radiance);
+}
+
 #[test]
 fn environment_lit_matches_cpu() {
     compare(

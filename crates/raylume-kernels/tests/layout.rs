@@ -72,7 +72,7 @@ fn layout_matches_wgsl() {
             environment_grid_scale, environment_cdf_width, environment_grid, environment_cdf_height),
         rust_layout!(GpuMaterial; color, kind, emission, alpha, ior, texture, flags, table, eta, _pad0, k, _pad1),
         rust_layout!(TriangleShading; n0, u0, n1, v0, n2, u1, v1, u2, v2, flags),
-        rust_layout!(TextureHeader; offset, width, height, _pad0),
+        rust_layout!(TextureHeader; offset, width, height, format),
         rust_layout!(GpuLight; p0, cdf, e1, area, e2, two_sided, emission, kind),
         rust_layout!(RayState; origin, pixel, dir, sample, throughput, depth, radiance, alive),
         rust_layout!(BounceUniforms; depth, sort_next, sort_shift, _pad2),

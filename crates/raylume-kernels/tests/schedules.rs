@@ -278,7 +278,7 @@ fn bad_input_is_a_typed_error() {
                 name: "huge".into(),
                 width: texels as u32,
                 height: 1,
-                texels: vec![[0.0; 3]; texels],
+                texels: vec![[0.0; 3]; texels].into(),
             },
             strength: 1.0,
             rotation: 0.0,

@@ -14,7 +14,7 @@ use image::{DynamicImage, ImageFormat, ImageReader, Limits};
 
 use crate::error::SceneError;
 use crate::limits::MAX_TEXTURE_SIZE;
-use crate::model::Texture;
+use crate::model::{Texels, Texture};
 
 /// The exact sRGB transfer function, decoded.
 pub(crate) fn srgb_to_linear(c: f32) -> f32 {
@@ -90,11 +90,12 @@ fn is_float(img: &DynamicImage) -> bool {
     )
 }
 
-/// Converts a decoded image to a linear texture (sRGB-decoding integer images).
+/// Converts a decoded image to a texture: 8-bit images keep their sRGB codes
+/// ([`Texels::Srgb8`]), float images are linear, 16-bit ones are sRGB-decoded to floats.
 fn to_texture(img: DynamicImage, name: &str) -> Texture {
     let (width, height) = (img.width(), img.height());
-    let texels: Vec<[f32; 3]> = if is_float(&img) {
-        img.into_rgb32f().pixels().map(|p| p.0).collect()
+    let texels = if is_float(&img) {
+        Texels::Linear(img.into_rgb32f().pixels().map(|p| p.0).collect())
     } else if matches!(
         img,
         DynamicImage::ImageLuma8(_)
@@ -102,22 +103,15 @@ fn to_texture(img: DynamicImage, name: &str) -> Texture {
             | DynamicImage::ImageRgb8(_)
             | DynamicImage::ImageRgba8(_)
     ) {
-        let lut: Vec<f32> = (0..256).map(|i| srgb_to_linear(i as f32 / 255.0)).collect();
-        img.into_rgb8()
-            .pixels()
-            .map(|p| {
-                [
-                    lut[p.0[0] as usize],
-                    lut[p.0[1] as usize],
-                    lut[p.0[2] as usize],
-                ]
-            })
-            .collect()
+        let rgb = img.into_rgb8();
+        Texels::Srgb8(rgb.pixels().map(|p| p.0).collect())
     } else {
-        img.into_rgb32f()
-            .pixels()
-            .map(|p| p.0.map(srgb_to_linear))
-            .collect()
+        Texels::Linear(
+            img.into_rgb32f()
+                .pixels()
+                .map(|p| p.0.map(srgb_to_linear))
+                .collect(),
+        )
     };
     Texture {
         name: name.to_string(),
@@ -174,8 +168,10 @@ pub(crate) fn decode_environment(
 ) -> Result<(Texture, usize), SceneError> {
     let img = decode(bytes, path, referenced_by)?;
     let mut tex = to_texture(img, &path.display().to_string());
+    // Radiance is linear: an 8-bit map (a `.hdr` name over other bytes) is decoded now.
+    let mut texels = tex.texels.to_linear();
     let mut negatives = 0;
-    for (i, t) in tex.texels.iter_mut().enumerate() {
+    for (i, t) in texels.iter_mut().enumerate() {
         if !t.iter().all(|c| c.is_finite()) {
             return Err(SceneError::NotFinite {
                 file: path.display().to_string(),
@@ -192,6 +188,7 @@ pub(crate) fn decode_environment(
             *t = t.map(|c| c.max(0.0));
         }
     }
+    tex.texels = Texels::Linear(texels);
     Ok((tex, negatives))
 }
 
@@ -221,11 +218,16 @@ mod tests {
             .unwrap();
         let t = decode_texture(&bytes, Path::new("t.png"), "test").unwrap();
         assert_eq!((t.width, t.height), (2, 2));
-        assert_eq!(t.texels[0], [1.0, 0.0, 0.0]);
+        // Kept as the file's codes, decoded on lookup as the table says.
+        assert_eq!(
+            t.texels,
+            Texels::Srgb8(vec![[255, 0, 0], [128, 128, 128], [0, 0, 255], [0, 0, 0]])
+        );
+        assert_eq!(t.texels.linear(0), [1.0, 0.0, 0.0]);
         let g = srgb_to_linear(128.0 / 255.0);
-        assert_eq!(t.texels[1], [g, g, g]);
-        assert_eq!(t.texels[2], [0.0, 0.0, 1.0]);
-        assert_eq!(t.texels[3], [0.0, 0.0, 0.0]);
+        assert_eq!(t.texels.linear(1), [g, g, g]);
+        assert_eq!(t.texels.linear(2), [0.0, 0.0, 1.0]);
+        assert_eq!(t.texels.linear(3), [0.0, 0.0, 0.0]);
     }
 
     #[test]

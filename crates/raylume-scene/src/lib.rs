@@ -96,7 +96,7 @@ pub use error::{Location, SceneError};
 pub use features::{Feature, Features};
 pub use model::{
     Bloom, Bounds, Camera, Environment, FovAxis, Material, MaterialKind, PostSettings,
-    RenderSettings, Scene, Sphere, Texture, Triangle,
+    RenderSettings, Scene, Sphere, Texels, Texture, Triangle, srgb8_table,
 };
 
 use builder::{MeshOptions, SceneBuilder};

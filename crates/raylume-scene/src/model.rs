@@ -244,16 +244,93 @@ impl Material {
     }
 }
 
-/// An RGBA texture, stored as linear RGB floats (sRGB-decoded on load) for bit-identical
-/// lookups on CPU and GPU.
+/// An RGB texture (alpha is dropped on load).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Texture {
     /// Source file, for messages.
     pub name: String,
     pub width: u32,
     pub height: u32,
-    /// Row-major, top row first, `width * height` texels, linear RGB.
-    pub texels: Vec<[f32; 3]>,
+    /// Row-major, top row first, `width * height` texels.
+    pub texels: Texels,
+}
+
+/// A texture's texels, in the precision of their file.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Texels {
+    /// Linear RGB floats: float images (`.hdr`, `.exr`), 16-bit images (sRGB-decoded on
+    /// load), environment maps.
+    Linear(Vec<[f32; 3]>),
+    /// 8-bit sRGB-encoded RGB as in the file (png, jpg): a quarter of the memory of floats on
+    /// the GPU, a third on the CPU. Both backends decode a channel `c` on lookup as
+    /// [`srgb8_table`]`()[c]`, the value the loader would have stored as a float: the same
+    /// numbers either way.
+    Srgb8(Vec<[u8; 3]>),
+}
+
+impl Texels {
+    /// The number of texels.
+    pub fn len(&self) -> usize {
+        match self {
+            Texels::Linear(t) => t.len(),
+            Texels::Srgb8(t) => t.len(),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Texel `i`, linear RGB.
+    pub fn linear(&self, i: usize) -> [f32; 3] {
+        match self {
+            Texels::Linear(t) => t[i],
+            Texels::Srgb8(t) => t[i].map(|c| srgb8_table()[c as usize]),
+        }
+    }
+
+    /// Every texel, linear RGB (a copy).
+    pub fn to_linear(&self) -> Vec<[f32; 3]> {
+        match self {
+            Texels::Linear(t) => t.clone(),
+            Texels::Srgb8(t) => t.iter().map(|c| c.map(|c| srgb8_table()[c as usize])).collect(),
+        }
+    }
+}
+
+/// Linear texels.
+impl From<Vec<[f32; 3]>> for Texels {
+    fn from(t: Vec<[f32; 3]>) -> Self {
+        Texels::Linear(t)
+    }
+}
+
+/// 8-bit sRGB texels.
+impl From<Vec<[u8; 3]>> for Texels {
+    fn from(t: Vec<[u8; 3]>) -> Self {
+        Texels::Srgb8(t)
+    }
+}
+
+/// Linear texels.
+impl FromIterator<[f32; 3]> for Texels {
+    fn from_iter<I: IntoIterator<Item = [f32; 3]>>(iter: I) -> Self {
+        Texels::Linear(iter.into_iter().collect())
+    }
+}
+
+/// 8-bit sRGB texels.
+impl FromIterator<[u8; 3]> for Texels {
+    fn from_iter<I: IntoIterator<Item = [u8; 3]>>(iter: I) -> Self {
+        Texels::Srgb8(iter.into_iter().collect())
+    }
+}
+
+/// The linear value of each 8-bit sRGB code: the exact sRGB transfer function of `c / 255`,
+/// in f32 (what [`Texels::Srgb8`] texels mean).
+pub fn srgb8_table() -> &'static [f32; 256] {
+    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| std::array::from_fn(|i| crate::image_io::srgb_to_linear(i as f32 / 255.0)))
 }
 
 /// One world-space triangle.

@@ -15,7 +15,7 @@ use crate::limits::{
     MAX_BLOOM_RADIUS, MAX_BLOOM_STRENGTH, MAX_IMAGE_SIZE, MAX_MATERIALS, MAX_RADIANCE, MAX_SPHERES,
     MAX_TEXTURE_SIZE, MAX_TEXTURES, MAX_TRIANGLES,
 };
-use crate::model::{Environment, Scene, Texture, Triangle};
+use crate::model::{Environment, Scene, Texels, Texture, Triangle};
 
 /// A triangle source: the first triangle index it produced and a label (a mesh file).
 #[derive(Clone, Debug)]
@@ -202,15 +202,18 @@ fn texture(file: &str, at: &Location, t: &Texture) -> Result<(), SceneError> {
     // The first bad texel (finite and not negative: `0 <= x < inf`, false for NaN), found on
     // every core in runs of 64k texels: a render validates its scene each time, and the
     // living room's textures are 4.9 M texels (12 ms on one core).
+    // 8-bit sRGB codes are all valid colours.
     const RUN: usize = 1 << 16;
     let ok = |c: &[f32; 3]| c.iter().all(|&x| (0.0..f32::INFINITY).contains(&x));
-    let bad = t
-        .texels
-        .par_chunks(RUN)
-        .enumerate()
-        .find_map_first(|(r, run)| run.iter().position(|c| !ok(c)).map(|i| r * RUN + i));
+    let bad = match &t.texels {
+        Texels::Linear(texels) => texels
+            .par_chunks(RUN)
+            .enumerate()
+            .find_map_first(|(r, run)| run.iter().position(|c| !ok(c)).map(|i| r * RUN + i)),
+        Texels::Srgb8(_) => None,
+    };
     if let Some(i) = bad {
-        let c = Vec3::from_array(t.texels[i]);
+        let c = Vec3::from_array(t.texels.linear(i));
         {
             let at = Location::path(format!(
                 "{} texel ({}, {})",
@@ -313,9 +316,8 @@ pub(crate) fn validate_with(s: &Scene, prov: &Provenance) -> Result<(), SceneErr
                     value: *strength as f64,
                 });
             }
-            let brightest = image
-                .texels
-                .iter()
+            let brightest = (0..image.texels.len())
+                .map(|i| image.texels.linear(i))
                 .fold(0.0f32, |m, t| m.max(t[0]).max(t[1]).max(t[2]));
             radiance(
                 file,

@@ -131,7 +131,7 @@ fn cube_with_mtl_maps_every_material() {
     );
     // map_Kd: a texture (sRGB-decoded), multiplied with Kd.
     assert_eq!(m("wood").albedo_texture, Some(0));
-    assert_eq!(s.textures[0].texels[1], [0.0, 1.0, 0.0]);
+    assert_eq!(s.textures[0].texels.linear(1), [0.0, 1.0, 0.0]);
     assert_eq!(
         s.features().names(),
         [

@@ -151,7 +151,7 @@ fn every_key_lands_in_the_scene() {
     assert_eq!(s.textures.len(), 1);
     assert_eq!((s.textures[0].width, s.textures[0].height), (2, 2));
     assert_eq!(
-        s.textures[0].texels[0],
+        s.textures[0].texels.linear(0),
         [1.0, 0.0, 0.0],
         "top-left texel is red"
     );
@@ -234,7 +234,7 @@ fn environment_map_strength_and_rotation() {
     assert_eq!((image.width, image.height), (4, 2));
     // Float images are linear: texel (x, y) = [x, y, 0.5] (Radiance HDR stores 8-bit
     // mantissas with a shared exponent: 3.0 and 0.5 are exact).
-    assert_eq!(image.texels[4 + 3], [3.0, 1.0, 0.5]);
+    assert_eq!(image.texels.linear(4 + 3), [3.0, 1.0, 0.5]);
 }
 
 #[test]

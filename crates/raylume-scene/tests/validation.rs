@@ -5,7 +5,7 @@
 use glam::{Vec2, Vec3};
 use raylume_scene::{
     Bloom, Camera, Environment, Feature, Features, FovAxis, Location, Material, Scene, SceneError,
-    Sphere, Texture, Triangle,
+    Sphere, Texels, Texture, Triangle,
 };
 
 /// A valid scene: one triangle, one sphere, two materials, a texture.
@@ -27,7 +27,7 @@ fn good() -> Scene {
         name: "t.png".into(),
         width: 1,
         height: 1,
-        texels: vec![[0.5; 3]],
+        texels: vec![[0.5; 3]].into(),
     });
     s.materials[0].albedo_texture = Some(0);
     s.triangles.push(Triangle {
@@ -140,12 +140,12 @@ fn every_invariant_has_its_error() {
         "roughness 2 is outside [0, 1]",
     );
     check(
-        |s| s.textures[0].texels.clear(),
+        |s| s.textures[0].texels = Texels::Linear(Vec::new()),
         "InvalidValue",
         "texture 0 `t.png`",
     );
     check(
-        |s| s.textures[0].texels[0][1] = nan,
+        |s| s.textures[0].texels = vec![[0.5, nan, 0.5]].into(),
         "NotFinite",
         "texel (0, 0)",
     );
@@ -256,7 +256,7 @@ fn radiance_and_bloom_strength_have_limits() {
                     name: "sky.exr".into(),
                     width: 2,
                     height: 1,
-                    texels: vec![[1.0; 3], [1e12, 0.0, 0.0]],
+                    texels: vec![[1.0; 3], [1e12, 0.0, 0.0]].into(),
                 },
                 strength: 1e9,
                 rotation: 0.0,
@@ -395,7 +395,7 @@ fn features_follow_the_materials_that_are_used() {
             name: "e".into(),
             width: 1,
             height: 1,
-            texels: vec![[1.0; 3]],
+            texels: vec![[1.0; 3]].into(),
         },
         strength: 1.0,
         rotation: 0.0,

@@ -21,7 +21,7 @@ use rayon::prelude::*;
 
 use raylume_kernels::scene_data::SceneData;
 use raylume_kernels::{GpuScene, SceneOptions};
-use raylume_scene::{Environment, Scene};
+use raylume_scene::{Environment, Scene, Texels};
 
 /// The last scenes prepared over one BVH (at most [`PREPARED_ENTRIES`], the latest first).
 #[derive(Default)]
@@ -104,8 +104,15 @@ fn hash_words<T: Sync>(items: &[T], words: impl Fn(&T, &mut dyn FnMut(u32)) + Sy
         })
 }
 
-fn texels_hash(texels: &[[f32; 3]]) -> u64 {
-    hash_words(texels, |t, eat| t.iter().for_each(|c| eat(c.to_bits())))
+fn texels_hash(texels: &Texels) -> u64 {
+    match texels {
+        Texels::Linear(t) => hash_words(t, |t, eat| t.iter().for_each(|c| eat(c.to_bits()))),
+        // The format is part of the hash: a code and a float of the same bits differ.
+        Texels::Srgb8(t) => step(
+            hash_words(t, |t, eat| eat(u32::from_le_bytes([t[0], t[1], t[2], 0]))),
+            1,
+        ),
+    }
 }
 
 impl SceneKey {

@@ -201,10 +201,8 @@ impl LightStats {
                 image, strength, ..
             } => {
                 *strength > 0.0
-                    && image
-                        .texels
-                        .iter()
-                        .any(|t| Vec3::from(*t).dot(LUMINANCE) > 0.0)
+                    && (0..image.texels.len())
+                        .any(|i| Vec3::from(image.texels.linear(i)).dot(LUMINANCE) > 0.0)
             }
         };
         Self {

@@ -18,7 +18,9 @@ use glam::Vec3;
 use raylume::{Backend, Error, Scene, Tracer};
 use raylume_gpu::{ContextOptions, GpuContext};
 use raylume_kernels::KernelError;
-use raylume_scene::{Camera, Environment, FovAxis, Material, RenderSettings, Sphere, Texture};
+use raylume_scene::{
+    Camera, Environment, FovAxis, Material, RenderSettings, Sphere, Texels, Texture,
+};
 
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("raylume-faults-{}-{name}", std::process::id()));
@@ -213,7 +215,7 @@ fn a_scene_larger_than_a_binding_says_what_does_not_fit() {
             name: "big sky".into(),
             width: width as u32,
             height: height as u32,
-            texels: vec![[0.5, 0.6, 0.7]; (width * height) as usize],
+            texels: vec![[0.5, 0.6, 0.7]; (width * height) as usize].into(),
         },
         strength: 1.0,
         rotation: 0.0,
@@ -222,7 +224,9 @@ fn a_scene_larger_than_a_binding_says_what_does_not_fit() {
     let mut fits = scene.clone();
     if let Environment::Map { image, .. } = &mut fits.environment {
         image.height -= 1;
-        image.texels.truncate((width * (height - 1)) as usize);
+        if let Texels::Linear(t) = &mut image.texels {
+            t.truncate((width * (height - 1)) as usize);
+        }
     }
     let mut tracer = Tracer::new(Backend::Gpu).with_gpu_context(ctx);
     // By radiance alone: the environment guide would add a second distribution as large as

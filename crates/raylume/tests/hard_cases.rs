@@ -607,7 +607,7 @@ fn overflowing_samples_are_counted_and_dropped_never_written() {
             name: "hdr albedo".into(),
             width: 1,
             height: 1,
-            texels: vec![[1e20; 3]],
+            texels: vec![[1e20; 3]].into(),
         }],
         spheres: vec![sphere(Vec3::ZERO, 1.0, 0)],
         render: settings(8, 8, 4, 3),

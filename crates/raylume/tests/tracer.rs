@@ -368,7 +368,7 @@ fn prepared_scene_is_reused_only_for_the_same_scene() {
             name: "checker".into(),
             width: 2,
             height: 1,
-            texels: vec![[0.9, 0.2, 0.2], [0.2, 0.9, 0.2]],
+            texels: vec![[0.9, 0.2, 0.2], [0.2, 0.9, 0.2]].into(),
         });
         let textured = scene.triangles[0].material as usize;
         scene.materials[textured].albedo_texture = Some(0);
@@ -393,7 +393,9 @@ fn prepared_scene_is_reused_only_for_the_same_scene() {
             ("the camera", |s| {
                 s.camera.position += raylume::glam::Vec3::new(0.01, 0.0, 0.0);
             }),
-            ("a texel", |s| s.textures[0].texels[0] = [0.1, 0.1, 0.9]),
+            ("a texel", |s| {
+                s.textures[0].texels = vec![[0.1, 0.1, 0.9], [0.2, 0.9, 0.2]].into()
+            }),
             ("the environment", |s| {
                 s.environment =
                     raylume::scene::Environment::Constant(raylume::glam::Vec3::splat(0.3));

@@ -11,7 +11,7 @@
 @group(0) @binding(4) var<storage, read> prim_materials: array<u32>;
 @group(0) @binding(5) var<storage, read> triangle_shading: array<TriangleShading>;
 @group(0) @binding(6) var<storage, read> texture_headers: array<TextureHeader>;
-@group(0) @binding(7) var<storage, read> texels: array<f32>;
+@group(0) @binding(7) var<storage, read> texels: array<u32>;
 // Emissive triangles for next-event estimation: the first `scene.light_count` (at least one
 // entry, a placeholder when there is none).
 @group(0) @binding(8) var<storage, read> lights: array<GpuLight>;

@@ -206,7 +206,7 @@ impl GpuScene {
                 &data.triangle_shading,
             )?,
             headers: upload::<TextureHeader>(ctx, "texture headers", &data.texture_headers)?,
-            texels: upload::<f32>(ctx, "texture and environment-map data", &data.texels)?,
+            texels: upload::<u32>(ctx, "texture and environment-map data", &data.texels)?,
             lights: upload::<GpuLight>(ctx, "light list", &data.lights)?,
             plastic_tables: upload::<RoughPlasticTable>(
                 ctx,
