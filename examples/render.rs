@@ -365,7 +365,7 @@ fn run(args: Args) -> Result<(), String> {
     };
     eprintln!(
         "raylume: rendered {} ({}x{}, {} spp, {} bounces; estimator {}, sampler {}, {roulette}, \
-         environment {}) on {} [{}]: {} (reorder {})",
+         environment {}, textures {}) on {} [{}]: {} (reorder {})",
         args.scene.display(),
         s.width,
         s.height,
@@ -374,6 +374,7 @@ fn run(args: Args) -> Result<(), String> {
         s.estimator,
         s.sampler,
         s.environment_guide,
+        s.textures,
         s.backend.to_uppercase(),
         s.adapter,
         s.backend_reason,

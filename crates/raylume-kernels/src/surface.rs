@@ -26,8 +26,8 @@ use raylume_bvh::{Hit, PRIM_SPHERE, Primitive};
 use crate::bsdf::RoughPlasticTable;
 use crate::gpu_types::{
     ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuLight, GpuMaterial, MATERIAL_GLASS, NO_TEXTURE,
-    SHADING_HAS_NORMALS, SHADING_HAS_UVS, SRGB8_TABLE, SceneUniforms, TEXELS_LINEAR,
-    TEXELS_SRGB8, TextureHeader, TriangleShading,
+    SHADING_HAS_NORMALS, SHADING_HAS_UVS, SRGB8_TABLE, SceneUniforms, TEXELS_LINEAR, TEXELS_SRGB8,
+    TextureHeader, TriangleShading,
 };
 use crate::math::{INV_2PI, INV_PI, PI, acos_poly, atan2_poly, normalize};
 

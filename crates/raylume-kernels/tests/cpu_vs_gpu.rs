@@ -79,6 +79,7 @@ fn compare_guided(
 ) {
     let options = raylume_kernels::SceneOptions {
         environment_guide: guide,
+        ..Default::default()
     };
     let Some(ctx) = raylume_gpu::testing::context_or_skip(name) else {
         return;
@@ -223,7 +224,11 @@ fn textured_srgb8() -> raylume_scene::Scene {
     let mut s = textured();
     let t = &s.textures[0];
     let codes: Vec<[u8; 3]> = (0..t.texels.len())
-        .map(|i| t.texels.linear(i).map(|c| (c * 255.0) as u8 ^ (i as u8 & 7)))
+        .map(|i| {
+            t.texels
+                .linear(i)
+                .map(|c| (c * 255.0) as u8 ^ (i as u8 & 7))
+        })
         .collect();
     s.textures[0].texels = codes.into();
     s.textures.push(support::test_texture(3, 5));
@@ -235,13 +240,17 @@ fn textured_srgb8() -> raylume_scene::Scene {
 #[test]
 fn srgb8_textures_match_cpu() {
     let s = textured_srgb8();
-    assert!(matches!(s.textures[0].texels, raylume_scene::Texels::Srgb8(_)));
+    assert!(matches!(
+        s.textures[0].texels,
+        raylume_scene::Texels::Srgb8(_)
+    ));
     compare("srgb8_textures_match_cpu", &s, 32, 32, 4, 4);
 }
 
 /// Keeping 8-bit texels as codes is a storage choice, not an approximation: the same scene
-/// with the codes decoded to floats on load renders the same pixels, bit for bit, on the CPU
-/// and on the GPU.
+/// with the codes decoded to floats on load, or decoded when the tracer's buffers are made
+/// (`SceneOptions::decode_textures`), renders the same pixels, bit for bit, on the CPU and
+/// on the GPU.
 #[test]
 fn srgb8_storage_changes_no_pixel() {
     let packed = textured_srgb8();
@@ -249,18 +258,55 @@ fn srgb8_storage_changes_no_pixel() {
     for t in &mut floats.textures {
         t.texels = raylume_scene::Texels::Linear(t.texels.to_linear());
     }
+    let decode = raylume_kernels::SceneOptions {
+        decode_textures: true,
+        ..Default::default()
+    };
+    // What is stored: the table and a word a texel of the 8x8 codes, or three words a texel;
+    // the linear 5x3 and 3x5 textures three words a texel either way.
+    let words = |o: &raylume_kernels::SceneOptions| {
+        raylume_kernels::scene_data::SceneData::with_options(&packed, &bvh(&packed), o)
+            .unwrap()
+            .texels
+            .len()
+    };
+    assert_eq!(words(&Default::default()), 256 + 64 + 2 * 3 * 15);
+    assert_eq!(words(&decode), 3 * 64 + 2 * 3 * 15);
     let s = settings(24, 24, 2, 4, Schedule::Megakernel);
-    let cpu = [render_cpu(&packed, &s), render_cpu(&floats, &s)];
+    let decoded_cpu = CpuTracer::with_options(&packed, &bvh(&packed), &decode)
+        .unwrap()
+        .render(&s, &mut |_, _| {})
+        .unwrap();
+    let cpu = [
+        render_cpu(&packed, &s),
+        render_cpu(&floats, &s),
+        decoded_cpu,
+    ];
     assert!(cpu[0].radiance == cpu[1].radiance, "CPU images differ");
-    let Some(ctx) = raylume_gpu::testing::context_or_skip("srgb8_storage_changes_no_pixel")
-    else {
+    assert!(cpu[0].radiance == cpu[2].radiance, "CPU images differ");
+    let Some(ctx) = raylume_gpu::testing::context_or_skip("srgb8_storage_changes_no_pixel") else {
         return;
     };
-    let gpu = [render_gpu(ctx, &packed, &s), render_gpu(ctx, &floats, &s)];
+    let tree = bvh(&packed);
+    let pipelines =
+        raylume_kernels::gpu::TracerPipelines::new(ctx, packed.features(), tree.layout).unwrap();
+    let decoded_gpu = GpuTracer::with_options(ctx, &packed, &tree, pipelines, &decode)
+        .unwrap()
+        .render(&s, &mut |_, _| {})
+        .unwrap();
+    let gpu = [
+        render_gpu(ctx, &packed, &s),
+        render_gpu(ctx, &floats, &s),
+        decoded_gpu,
+    ];
     assert!(gpu[0].radiance == gpu[1].radiance, "GPU images differ");
+    assert!(gpu[0].radiance == gpu[2].radiance, "GPU images differ");
     // And the texture is seen at all: without it the image changes.
     let mut plain = packed.clone();
-    plain.materials.iter_mut().for_each(|m| m.albedo_texture = None);
+    plain
+        .materials
+        .iter_mut()
+        .for_each(|m| m.albedo_texture = None);
     plain.textures.clear();
     assert!(render_cpu(&plain, &s).radiance != cpu[0].radiance);
 }

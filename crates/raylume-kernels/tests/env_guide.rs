@@ -24,6 +24,7 @@ fn learned(opening: f32) -> (raylume_scene::Scene, raylume_bvh::GpuBvh, SceneDat
         &bvh,
         &SceneOptions {
             environment_guide: true,
+            ..Default::default()
         },
     )
     .unwrap();

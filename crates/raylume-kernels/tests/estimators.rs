@@ -26,6 +26,7 @@ fn render(scene: &Scene, c: Config, size: u32, spp: u32, bounces: u32, seed: u32
     };
     let options = raylume_kernels::SceneOptions {
         environment_guide: c.guide,
+        ..Default::default()
     };
     let mut t = CpuTracer::with_options(scene, &bvh(scene), &options).unwrap();
     t.set_estimator(c.estimator);

@@ -293,7 +293,10 @@ impl Texels {
     pub fn to_linear(&self) -> Vec<[f32; 3]> {
         match self {
             Texels::Linear(t) => t.clone(),
-            Texels::Srgb8(t) => t.iter().map(|c| c.map(|c| srgb8_table()[c as usize])).collect(),
+            Texels::Srgb8(t) => t
+                .iter()
+                .map(|c| c.map(|c| srgb8_table()[c as usize]))
+                .collect(),
         }
     }
 }

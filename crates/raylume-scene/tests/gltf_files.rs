@@ -163,7 +163,9 @@ fn hierarchy_materials_and_camera() {
     // glTF's dielectric: F0 0.04 = ior 1.5, roughnessFactor's default 1.
     assert_eq!((painted.ior, painted.roughness), (1.5, 1.0));
     assert_eq!(
-        s.textures[painted.albedo_texture.unwrap() as usize].texels.linear(2),
+        s.textures[painted.albedo_texture.unwrap() as usize]
+            .texels
+            .linear(2),
         [0.0, 0.0, 1.0]
     );
     let brass = m(2);

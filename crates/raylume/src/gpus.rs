@@ -67,6 +67,7 @@ impl Tracer {
         w.estimator = self.estimator;
         w.sampler = self.sampler;
         w.environment_guide = self.environment_guide;
+        w.decode_textures = self.decode_textures;
         w.russian_roulette = self.russian_roulette;
         w.bvh_layout = self.bvh_layout;
         w.specialisation = self.specialisation;

@@ -110,6 +110,10 @@ pub struct RenderStats {
     /// escapes ...)`, `no guide (no environment or no geometry)` or `unused (plain
     /// estimator)`.
     pub environment_guide: String,
+    /// How 8-bit textures were held (`Tracer::decode_textures`): `8-bit sRGB codes`,
+    /// `decoded to floats`, each with why when the tracer chose (`... (the render's rays
+    /// repay it)`, `... (decoding would not repay)`), `floats` (no 8-bit texture) or `none`.
+    pub textures: String,
     /// The reorder policy and what it ran: `off`, `on: wavefront, sort-index before depths
     /// 1..=10`, `auto: <the plan> (fastest measured per N-ray batch: ...)`, `auto: still
     /// measuring (...)`, or why it did not run (the CPU backend).

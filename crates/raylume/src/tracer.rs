@@ -234,6 +234,14 @@ pub struct Tracer {
     /// render of 16 spp does, a thumbnail does not). Unbiased either way; the same on both
     /// backends. [`RenderStats::environment_guide`] says what was decided and learned.
     pub environment_guide: Option<bool>,
+    /// How the GPU (and the CPU mirror) hold 8-bit textures: `Some(false)` as their sRGB codes
+    /// (one 32-bit word a texel, decoded on lookup through a 256-entry table: a quarter of the
+    /// memory and upload of floats), `Some(true)` decoded to linear floats (lookups without
+    /// the table's load: the living room's 100-spp trace 1.5-2.8 % faster on the H200, its
+    /// upload 30 ms longer), `None` (the default): decoded when the render's rays repay it
+    /// ([`Tracer::decoding_repays`]). The same image either way;
+    /// [`RenderStats::textures`] says which ran.
+    pub decode_textures: Option<bool>,
     /// Render until the image's relative MSE (as `raylume_post::relative_mse` measures it
     /// against the converged image), estimated from the spread of its own batches, is below
     /// this value; the scene's `spp` is then the cap. `None` (the default): render the
@@ -469,6 +477,7 @@ impl Tracer {
             sampler: Sampler::Sobol,
             russian_roulette: Some(Self::DEFAULT_RUSSIAN_ROULETTE),
             environment_guide: None,
+            decode_textures: None,
             target_error: None,
             bvh_quality: None,
             bvh_layout: BvhLayout::default(),
@@ -492,12 +501,63 @@ impl Tracer {
     }
 
     /// What the kernels prepare for a render of `scene`: the environment guide when NEE will
-    /// use it ([`Tracer::guides`]).
+    /// use it ([`Tracer::guides`]), 8-bit textures decoded when [`Tracer::decode_textures`]
+    /// says so.
     fn scene_options(&self, scene: &Scene) -> raylume_kernels::SceneOptions {
         raylume_kernels::SceneOptions {
             environment_guide: self.guides(scene),
+            decode_textures: self.decodes_textures(scene),
         }
     }
+
+    /// Whether a render of `scene` holds its 8-bit textures decoded: as
+    /// [`Tracer::decode_textures`] says, `None` deciding by [`Tracer::decoding_repays`].
+    fn decodes_textures(&self, scene: &Scene) -> bool {
+        let codes = scene
+            .textures
+            .iter()
+            .filter(|t| matches!(t.texels, raylume_scene::Texels::Srgb8(_)))
+            .map(|t| t.texels.len() as u64)
+            .sum();
+        codes > 0
+            && self
+                .decode_textures
+                .unwrap_or_else(|| Self::decoding_repays(&scene.render, codes))
+    }
+
+    /// [`RenderStats::textures`]' words for a render of `scene`.
+    fn describe_textures(&self, scene: &Scene) -> String {
+        let codes = scene
+            .textures
+            .iter()
+            .any(|t| matches!(t.texels, raylume_scene::Texels::Srgb8(_)));
+        match (codes, self.decodes_textures(scene), self.decode_textures) {
+            (false, _, _) if scene.textures.is_empty() => "none".into(),
+            (false, _, _) => "floats".into(),
+            (true, true, None) => "decoded to floats (the render's rays repay it)".into(),
+            (true, true, _) => "decoded to floats".into(),
+            (true, false, None) => "8-bit sRGB codes (decoding would not repay)".into(),
+            (true, false, _) => "8-bit sRGB codes".into(),
+        }
+    }
+
+    /// Whether a render of these settings traces at least [`Tracer::DECODE_REPAY_FACTOR`]
+    /// path segments (`width x height x spp x (bounces + 1)`) per 8-bit texel (`texels`):
+    /// [`Tracer::decode_textures`]' `None` decides by it.
+    pub fn decoding_repays(r: &raylume_scene::RenderSettings, texels: u64) -> bool {
+        let segments = f64::from(r.width)
+            * f64::from(r.height)
+            * f64::from(r.spp)
+            * (f64::from(r.max_bounces) + 1.0);
+        segments >= Self::DECODE_REPAY_FACTOR * texels as f64
+    }
+
+    /// Path segments per 8-bit texel from which decoding the textures repays its upload
+    /// ([`Tracer::decoding_repays`]). Measured on the H200 (commit b7ed47b, the living room's
+    /// 4.9 M texels): decoded, the upload takes ~30 ms more and a 1000x1000, 100-spp,
+    /// 10-bounce trace (1.1 G segments, 225 a texel) 8-15 ms less; the break-even is near
+    /// 400-800 segments a texel.
+    pub const DECODE_REPAY_FACTOR: f64 = 600.0;
 
     /// Whether a render of `scene` learns and uses the environment guide: with NEE, as
     /// [`Tracer::environment_guide`] says, `None` deciding by [`Tracer::guide_repays`]. It
@@ -1113,6 +1173,7 @@ impl Tracer {
         let guides = self.guides(scene);
         tracer.set_environment_guide(guides);
         stats.environment_guide = self.describe_guide(guides, tracer.environment_guide_walks());
+        stats.textures = self.describe_textures(scene);
         tracer.set_russian_roulette(self.russian_roulette);
         tracer.set_sample_range(self.samples.map(|r| r.begin..r.end));
         if let Some(workspace) = self.gpu_workspace.take() {
@@ -1225,6 +1286,7 @@ impl Tracer {
         let guides = self.guides(scene);
         tracer.set_environment_guide(guides);
         stats.environment_guide = self.describe_guide(guides, tracer.environment_guide_walks());
+        stats.textures = self.describe_textures(scene);
         tracer.set_russian_roulette(self.russian_roulette);
         tracer.set_sample_range(self.samples.map(|r| r.begin..r.end));
         let out = match target {

@@ -471,3 +471,61 @@ fn the_environment_guide_is_learned_when_the_render_repays_it() {
     r.spp -= 1;
     assert!(!Tracer::guide_repays(&r), "{} spp", r.spp);
 }
+
+/// 8-bit textures are held as their sRGB codes unless the render's segments repay decoding
+/// them (`Tracer::decode_textures`: None decides by `decoding_repays`); the image is the same
+/// either way, on both backends, and the stats say which ran.
+#[test]
+fn textures_are_decoded_only_when_the_render_repays_it_and_the_image_is_the_same() {
+    let mut scene = cornell(12, 10, 2);
+    scene.textures.push(raylume::scene::Texture {
+        name: "codes".into(),
+        width: 3,
+        height: 2,
+        texels: vec![
+            [250u8, 10, 10],
+            [10, 250, 10],
+            [10, 10, 250],
+            [128, 64, 32],
+            [1, 2, 3],
+            [200, 200, 0],
+        ]
+        .into(),
+    });
+    let textured = scene.triangles[0].material as usize;
+    scene.materials[textured].albedo_texture = Some(0);
+    let mut backends = vec![Backend::Cpu];
+    if raylume_gpu::testing::context_or_skip("textures_are_decoded_only_when_the_render_repays_it")
+        .is_some()
+    {
+        backends.push(Backend::Gpu);
+    }
+    for backend in backends {
+        let render = |decode: Option<bool>| {
+            let mut t = Tracer::new(backend);
+            t.decode_textures = decode;
+            t.render(&scene).unwrap()
+        };
+        let chosen = render(None);
+        assert_eq!(
+            chosen.stats.textures, "8-bit sRGB codes (decoding would not repay)",
+            "{backend:?}"
+        );
+        let decoded = render(Some(true));
+        assert_eq!(decoded.stats.textures, "decoded to floats", "{backend:?}");
+        assert_eq!(render(Some(false)).stats.textures, "8-bit sRGB codes");
+        assert_eq!(chosen.pixels, decoded.pixels, "{backend:?}: same numbers");
+    }
+    // The threshold: segments = w * h * spp * (bounces + 1) against 600 a texel.
+    let mut r = scene.render;
+    let texels = 6u64;
+    let segments = |r: &raylume::scene::RenderSettings| {
+        f64::from(r.width * r.height * r.spp * (r.max_bounces + 1))
+    };
+    // 600 x 6 = 3,600 segments: 60x6, 1 spp, 10 segments is the edge.
+    (r.width, r.height, r.spp, r.max_bounces) = (60, 6, 1, 9);
+    assert_eq!(segments(&r), Tracer::DECODE_REPAY_FACTOR * texels as f64);
+    assert!(Tracer::decoding_repays(&r, texels));
+    r.width -= 1;
+    assert!(!Tracer::decoding_repays(&r, texels));
+}
