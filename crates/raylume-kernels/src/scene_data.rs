@@ -260,6 +260,13 @@ fn table_key(m: &raylume_scene::Material) -> Option<(u32, u32)> {
     (m.kind == MaterialKind::Plastic && alpha > 0.0).then(|| (alpha.to_bits(), m.ior.to_bits()))
 }
 
+/// Computes (and keeps for the process) the coat tables of `scene`'s rough plastics, so that
+/// preparing the scene later ([`SceneData::with_options`]) finds them: they depend on the
+/// materials alone, so a caller can compute them while it builds the BVH (the facade does).
+pub fn prepare_plastic_tables(scene: &Scene) {
+    plastic_tables(scene);
+}
+
 /// One coat table per distinct (alpha, ior) of the scene's rough plastics, and the index of
 /// each. A table is a numerical integration (~0.1 s on one core): the distinct ones are
 /// computed in parallel, and kept for the life of the process, so that repeated renders of a

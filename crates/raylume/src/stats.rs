@@ -11,7 +11,8 @@ use serde::Serialize;
 pub struct StageSeconds {
     /// Reading and validating the scene (filled by whoever loaded it, e.g. the `render` example).
     pub load: f64,
-    /// Building and flattening the BVH.
+    /// Building and flattening the BVH, and meanwhile integrating the rough plastics' coat
+    /// tables (when the BVH was not cached).
     pub bvh: f64,
     /// Creating the GPU device (0 on the CPU, and when an earlier render already reported it;
     /// see `Tracer::prepare_backend`).

@@ -995,6 +995,11 @@ impl Tracer {
                 })),
                 _ => None,
             };
+            // The rough plastics' coat tables need the materials only: integrated beside the
+            // build (which leaves cores idle in its serial passes), kept for the preparation.
+            let tables = cached.is_none().then(|| {
+                threads.spawn(|| raylume_kernels::scene_data::prepare_plastic_tables(scene))
+            });
             let bvh = match cached {
                 Some(c) => {
                     prepared = c.prepared;
@@ -1002,6 +1007,11 @@ impl Tracer {
                 }
                 None => GpuBvh::from_scene_with_layout(scene, quality, self.bvh_layout),
             };
+            if let Some(handle) = tables {
+                handle
+                    .join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+            }
             stats.seconds.bvh = t.elapsed().as_secs_f64();
             let pipelines = match compiling {
                 Some(handle) => Some(
