@@ -106,7 +106,7 @@ struct Args {
     #[arg(long, default_value = "off", value_parser = parse_on_off, action = clap::ArgAction::Set)]
     environment_guide: bool,
     /// 8-bit textures decoded to floats for the GPU (on, the default here: the table times the
-    /// trace, and decoded textures trace 1.5-2.8 % faster; the library decides by the work
+    /// trace, and decoded textures trace 1.3-2.8 % faster; the library decides by the work
     /// ahead) or kept as their sRGB codes (off).
     #[arg(long, default_value = "on", value_parser = parse_on_off, action = clap::ArgAction::Set)]
     decode_textures: bool,

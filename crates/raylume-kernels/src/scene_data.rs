@@ -105,7 +105,7 @@ pub struct SceneOptions {
     /// Store 8-bit textures decoded, as three float words a texel, instead of their sRGB codes
     /// (one word a texel, decoded on lookup through a table): four times the texture memory
     /// and upload (the living room: 58 MB against 19.5 MB), and lookups without the table's
-    /// second load (the living room's 100-spp render 1.5-2.8 % faster on the H200). The same
+    /// second load (the living room's 100-spp render 1.3-2.8 % faster on the H200). The same
     /// numbers either way.
     pub decode_textures: bool,
 }

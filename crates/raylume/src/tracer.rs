@@ -237,7 +237,7 @@ pub struct Tracer {
     /// How the GPU (and the CPU mirror) hold 8-bit textures: `Some(false)` as their sRGB codes
     /// (one 32-bit word a texel, decoded on lookup through a 256-entry table: a quarter of the
     /// memory and upload of floats), `Some(true)` decoded to linear floats (lookups without
-    /// the table's load: the living room's 100-spp trace 1.5-2.8 % faster on the H200, its
+    /// the table's load: the living room's 100-spp trace 1.3-2.8 % faster on the H200, its
     /// upload 30 ms longer), `None` (the default): decoded when the render's rays repay it
     /// ([`Tracer::decoding_repays`]). The same image either way;
     /// [`RenderStats::textures`] says which ran.
