@@ -107,20 +107,11 @@ impl Tracer {
         // One BVH for every device, built here (or found in this tracer's cache).
         let t_bvh = Instant::now();
         let quality = self.bvh_quality.unwrap_or_else(|| {
-            let rays = f64::from(r.width)
-                * f64::from(r.height)
-                * f64::from(range.len())
-                * (f64::from(r.max_bounces) + 1.0)
-                * if self.estimator == crate::Estimator::Nee {
-                    2.0
-                } else {
-                    1.0
-                };
             BvhQuality::for_work(
                 scene.triangles.len() + scene.spheres.len(),
-                rays,
+                self.estimated_rays(&r, range.len()),
                 GPU_RAYS_PER_SECOND * n as f64,
-                rayon::current_num_threads(),
+                crate::tracer::bvh_build_threads(),
             )
         });
         let key = GeometryKey::of(scene, quality, self.bvh_layout);

@@ -109,6 +109,25 @@ pub const MAX_SPP: u32 = 1 << 20;
 /// The most bounces a path may take.
 pub const MAX_BOUNCES: u32 = 1024;
 
+/// The segments a path is counted for after Russian roulette may start ending it, in the BVH
+/// preset's estimate of a render's rays ([`Tracer::bvh_quality`]): a path that survives each
+/// segment with probability `p` traces `1 / (1 - p)` more on average; 5 is `p = 0.8`. Without
+/// this the estimate took every path to its maximum depth: the living room's 10-spp first
+/// image (64 bounces) was estimated at 1.2 G rays where it traces 49 M (H200, e56a59a), and
+/// chose the Quality build (0.14-0.26 s on the H200's host) for a 0.076 s trace.
+pub const ROULETTE_TAIL_SEGMENTS: u32 = 5;
+
+/// The threads [`Tracer::bvh_quality`]'s estimate counts a build on: at most 4, however many
+/// the pool has. The builds do not scale past a few cores: on the H200's 16-core host the 3M
+/// grid's `Fast` tree took 0.146 s more than `Fastest`'s, what the per-primitive constant
+/// (`raylume_bvh::PRESET_BUILD_SECONDS`, measured on 2 cores) predicts for 4 threads, not 16.
+pub const BVH_BUILD_THREADS: usize = 4;
+
+/// The threads the BVH preset's estimate counts: the pool's, at most [`BVH_BUILD_THREADS`].
+pub(crate) fn bvh_build_threads() -> usize {
+    rayon::current_num_threads().min(BVH_BUILD_THREADS)
+}
+
 /// The ray segments a CPU thread traces a second, as [`Tracer::bvh_quality`]'s choice
 /// estimates them: 2 M, what the 2-core development machine measured on the project's scenes
 /// and the large grids (1.5–4 M a thread, NEE's shadow rays included).
@@ -264,9 +283,11 @@ pub struct Tracer {
     /// ([`Error::TargetError`]); on the GPU every batch's image is read back to estimate it.
     pub target_error: Option<f32>,
     /// The BVH build preset. `None` (the default): chosen for each render from the work
-    /// ahead ([`BvhQuality::for_work`]: the rays the render may trace, at most
-    /// `pixels x spp x (bounces + 1)`, twice that with NEE's shadow rays, against the
-    /// backend's rate, [`CPU_RAYS_PER_SECOND_PER_THREAD`] a thread or [`GPU_RAYS_PER_SECOND`]),
+    /// ahead ([`BvhQuality::for_work`]: the rays the render may trace, `pixels x spp x
+    /// segments`, the segments `bounces + 1` or with Russian roulette at most
+    /// [`ROULETTE_TAIL_SEGMENTS`] past its start, twice that with NEE's shadow rays, against
+    /// the backend's rate, [`CPU_RAYS_PER_SECOND_PER_THREAD`] a thread or
+    /// [`GPU_RAYS_PER_SECOND`], and the build on at most [`BVH_BUILD_THREADS`] threads),
     /// so that a quick look at a large scene does not wait for the `Quality` build a long
     /// render earns back; a tree of the same geometry built with `Quality` and still cached
     /// is used whatever the choice. (`BvhQuality::Fastest` for a 128x128, 4-spp look at a
@@ -434,6 +455,27 @@ impl Tracer {
             }
             (_, true, Some((w, e))) => format!("guided ({e} escapes from {w} walks)"),
         }
+    }
+
+    /// The rays a render of `spp` samples per pixel at `r`'s size may trace, as the BVH
+    /// preset's choice estimates them: every path to `r.max_bounces + 1` segments or, with
+    /// Russian roulette, to at most [`ROULETTE_TAIL_SEGMENTS`] past its start; two rays a
+    /// segment with next-event estimation (its shadow ray).
+    pub(crate) fn estimated_rays(&self, r: &raylume_scene::RenderSettings, spp: u32) -> f64 {
+        let mut segments = r.max_bounces.saturating_add(1);
+        if let Some(rr) = self.russian_roulette {
+            segments = segments.min(rr.saturating_add(ROULETTE_TAIL_SEGMENTS));
+        }
+        let per_segment = if self.estimator == Estimator::Nee {
+            2.0
+        } else {
+            1.0
+        };
+        f64::from(r.width)
+            * f64::from(r.height)
+            * f64::from(spp)
+            * f64::from(segments)
+            * per_segment
     }
 
     /// Whether a render of these settings traces at least [`Tracer::GUIDE_REPAY_FACTOR`]
@@ -915,22 +957,11 @@ impl Tracer {
             _ => CPU_RAYS_PER_SECOND_PER_THREAD * rayon::current_num_threads() as f64,
         };
         let quality = self.bvh_quality.unwrap_or_else(|| {
-            let segments = f64::from(r.max_bounces) + 1.0;
-            let per_segment = if self.estimator == Estimator::Nee {
-                2.0
-            } else {
-                1.0
-            };
-            let rays = f64::from(r.width)
-                * f64::from(r.height)
-                * f64::from(r.spp)
-                * segments
-                * per_segment;
             BvhQuality::for_work(
                 scene.triangles.len() + scene.spheres.len(),
-                rays,
+                self.estimated_rays(&r, r.spp),
                 rate,
-                rayon::current_num_threads(),
+                bvh_build_threads(),
             )
         });
         stats.bvh_preset = quality.name().into();

@@ -328,6 +328,21 @@ fn bvh_preset_follows_the_work() {
     long.render.max_bounces = 2;
     let long_render = Tracer::new(Backend::Cpu).render(&long).unwrap();
     assert_eq!(long_render.stats.bvh_preset, "quality");
+    // Russian roulette ends paths long before a deep maximum: the estimate counts at most
+    // ROULETTE_TAIL_SEGMENTS segments past its start. 32x32, 24 spp, 128 bounces, NEE: without
+    // roulette 32 * 32 * 24 * 129 * 2 = 6.3 M rays (Quality on any thread count), with it
+    // from segment 5 only 10 segments, 0.49 M (not worth Quality on any).
+    let mut deep = scene.clone();
+    (deep.render.width, deep.render.height, deep.render.spp) = (32, 32, 24);
+    deep.render.max_bounces = 128;
+    assert_eq!(raylume::ROULETTE_TAIL_SEGMENTS, 5);
+    let preset = |roulette: Option<u32>| {
+        let mut t = Tracer::new(Backend::Cpu);
+        t.russian_roulette = roulette;
+        t.render(&deep).unwrap().stats.bvh_preset
+    };
+    assert_eq!(preset(None), "quality");
+    assert_ne!(preset(Some(5)), "quality");
     // A Quality tree built on request is then reused by a chosen render of the same geometry.
     t.bvh_quality = Some(raylume::BvhQuality::Quality);
     let built = t.render(&scene).unwrap();
