@@ -321,7 +321,7 @@ fn append_texture(
         )));
     }
     let offset = texels.len() as u64;
-    let srgb8 = matches!(t.texels, Texels::Srgb8(_)) && !linear;
+    let srgb8 = t.texels.is_srgb8() && !linear;
     let words = if srgb8 { n } else { 3 * n };
     // Word indices must stay within u32 in the kernels.
     if offset + words > u64::from(u32::MAX) {
@@ -339,7 +339,10 @@ fn append_texture(
             );
         }
         Texels::Linear(floats) => extend_floats(texels, floats.iter().flatten().copied()),
-        Texels::Srgb8(_) => extend_floats(texels, t.texels.to_linear().into_iter().flatten()),
+        Texels::Srgb8(codes) => {
+            let table = srgb8_table();
+            extend_floats(texels, codes.iter().flatten().map(|&c| table[c as usize]));
+        }
     }
     Ok((
         offset as u32,
@@ -385,12 +388,7 @@ impl SceneData {
         }
         let mut texels = Vec::new();
         let decode = options.decode_textures;
-        if !decode
-            && scene
-                .textures
-                .iter()
-                .any(|t| matches!(t.texels, Texels::Srgb8(_)))
-        {
+        if !decode && scene.textures.iter().any(|t| t.texels.is_srgb8()) {
             debug_assert_eq!(SRGB8_TABLE, 0, "the table comes first");
             extend_floats(&mut texels, srgb8_table().iter().copied());
         }

@@ -281,6 +281,11 @@ impl Texels {
         self.len() == 0
     }
 
+    /// Whether these are 8-bit sRGB codes ([`Texels::Srgb8`]).
+    pub fn is_srgb8(&self) -> bool {
+        matches!(self, Texels::Srgb8(_))
+    }
+
     /// Texel `i`, linear RGB.
     pub fn linear(&self, i: usize) -> [f32; 3] {
         match self {

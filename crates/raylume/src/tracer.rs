@@ -123,6 +123,16 @@ pub const ROULETTE_TAIL_SEGMENTS: u32 = 5;
 /// (`raylume_bvh::PRESET_BUILD_SECONDS`, measured on 2 cores) predicts for 4 threads, not 16.
 pub const BVH_BUILD_THREADS: usize = 4;
 
+/// The 8-bit texels of `scene`'s textures.
+fn srgb8_texels(scene: &Scene) -> u64 {
+    scene
+        .textures
+        .iter()
+        .filter(|t| t.texels.is_srgb8())
+        .map(|t| t.texels.len() as u64)
+        .sum()
+}
+
 /// The threads the BVH preset's estimate counts: the pool's, at most [`BVH_BUILD_THREADS`].
 pub(crate) fn bvh_build_threads() -> usize {
     rayon::current_num_threads().min(BVH_BUILD_THREADS)
@@ -555,12 +565,7 @@ impl Tracer {
     /// Whether a render of `scene` holds its 8-bit textures decoded: as
     /// [`Tracer::decode_textures`] says, `None` deciding by [`Tracer::decoding_repays`].
     fn decodes_textures(&self, scene: &Scene) -> bool {
-        let codes = scene
-            .textures
-            .iter()
-            .filter(|t| matches!(t.texels, raylume_scene::Texels::Srgb8(_)))
-            .map(|t| t.texels.len() as u64)
-            .sum();
+        let codes = srgb8_texels(scene);
         codes > 0
             && self
                 .decode_textures
@@ -569,10 +574,7 @@ impl Tracer {
 
     /// [`RenderStats::textures`]' words for a render of `scene`.
     fn describe_textures(&self, scene: &Scene) -> String {
-        let codes = scene
-            .textures
-            .iter()
-            .any(|t| matches!(t.texels, raylume_scene::Texels::Srgb8(_)));
+        let codes = srgb8_texels(scene) > 0;
         match (codes, self.decodes_textures(scene), self.decode_textures) {
             (false, _, _) if scene.textures.is_empty() => "none".into(),
             (false, _, _) => "floats".into(),
