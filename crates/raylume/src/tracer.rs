@@ -123,6 +123,12 @@ pub const ROULETTE_TAIL_SEGMENTS: u32 = 5;
 /// (`raylume_bvh::PRESET_BUILD_SECONDS`, measured on 2 cores) predicts for 4 threads, not 16.
 pub const BVH_BUILD_THREADS: usize = 4;
 
+/// `width x height x spp x (bounces + 1)`: the path segments of a render of `r` whose every
+/// path reaches its maximum depth (what the guide's and the texture decoding's rules count).
+fn deepest_segments(r: &raylume_scene::RenderSettings) -> f64 {
+    f64::from(r.width) * f64::from(r.height) * f64::from(r.spp) * (f64::from(r.max_bounces) + 1.0)
+}
+
 /// The 8-bit texels of `scene`'s textures.
 fn srgb8_texels(scene: &Scene) -> u64 {
     scene
@@ -494,11 +500,7 @@ impl Tracer {
     /// shadow ray) per segment of every sample: what [`Tracer::environment_guide`]'s `None`
     /// decides by.
     pub fn guide_repays(r: &raylume_scene::RenderSettings) -> bool {
-        let rays = f64::from(r.width)
-            * f64::from(r.height)
-            * f64::from(r.spp)
-            * (f64::from(r.max_bounces) + 1.0)
-            * 2.0;
+        let rays = deepest_segments(r) * 2.0;
         rays >= Self::GUIDE_REPAY_FACTOR * raylume_kernels::env_guide::GUIDE_MAX_RAYS as f64
     }
 
@@ -589,11 +591,7 @@ impl Tracer {
     /// path segments (`width x height x spp x (bounces + 1)`) per 8-bit texel (`texels`):
     /// [`Tracer::decode_textures`]' `None` decides by it.
     pub fn decoding_repays(r: &raylume_scene::RenderSettings, texels: u64) -> bool {
-        let segments = f64::from(r.width)
-            * f64::from(r.height)
-            * f64::from(r.spp)
-            * (f64::from(r.max_bounces) + 1.0);
-        segments >= Self::DECODE_REPAY_FACTOR * texels as f64
+        deepest_segments(r) >= Self::DECODE_REPAY_FACTOR * texels as f64
     }
 
     /// Path segments per 8-bit texel from which decoding the textures repays its upload
