@@ -26,10 +26,9 @@ use raylume_scene::Camera;
 use rayon::prelude::*;
 
 use crate::camera::camera_basis;
-use crate::math::normalize;
+use crate::math::{direction_to_equirect, normalize};
 use crate::rng::{pcg4d, rand_f32};
 use crate::sampling::sample_diffuse;
-use crate::surface::direction_to_equirect;
 
 /// Columns of each cell's equirectangular direction grid (in `u`, the azimuth).
 pub const GUIDE_WIDTH: u32 = 32;
@@ -227,88 +226,182 @@ fn facing_normal(bvh: &GpuBvh, prim: u32, p: Vec3, dir: Vec3) -> Vec3 {
 /// Walks per parallel task of [`learn_environment_guide`].
 const WALKS_PER_TASK: u32 = 512;
 
-/// Sends `GUIDE_WALKS_PER_SIDE²` diffuse random walks from `camera` (through a square grid
-/// over its view, jittered) into the scene of `bvh` (bounds `scene_min + [0, scene_extent]`)
-/// and counts where their probes escape. Surfaces are treated as opaque and diffuse (as a
-/// shadow ray sees them); a vertex's rays start `1e-5` of the scene's largest extent plus
-/// `1e-6` of the point's largest coordinate off the surface (a proposal's rounding does not
-/// matter: the guide only shapes a pdf that is evaluated exactly). On every core;
-/// deterministic.
+/// What every walk of [`learn_environment_guide`] reads: the camera grid's basis, the scene's
+/// bounds and the guide's grid over them. `repr(C)`, `Pod`, 112 bytes: env_guide.wgsl's
+/// `GuideParams` (a uniform of the GPU's walks, `crate::gpu::GuideLearner`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GuideParams {
+    /// The camera's position (`camera_basis` of a `side x side` image).
+    pub origin: [f32; 3],
+    /// The scene's largest extent (1 when it has none): the walks' ray offsets scale by it.
+    pub extent: f32,
+    pub forward: [f32; 3],
+    /// Walks per side of the camera grid ([`GUIDE_WALKS_PER_SIDE`]).
+    pub side: u32,
+    pub right: [f32; 3],
+    /// Walks in all (`side²`).
+    pub walks: u32,
+    pub up: [f32; 3],
+    pub _pad0: u32,
+    /// The scene's bounds' minimum corner.
+    pub scene_min: [f32; 3],
+    pub _pad1: u32,
+    /// Cells per unit along each axis ([`guide_grid`]).
+    pub grid_scale: [f32; 3],
+    pub _pad2: u32,
+    /// Cells along each axis ([`guide_grid`]).
+    pub grid: [u32; 3],
+    pub _pad3: u32,
+}
+
+const _: () = {
+    assert!(size_of::<GuideParams>() == 112);
+    assert!(std::mem::offset_of!(GuideParams, forward) == 16);
+    assert!(std::mem::offset_of!(GuideParams, right) == 32);
+    assert!(std::mem::offset_of!(GuideParams, up) == 48);
+    assert!(std::mem::offset_of!(GuideParams, scene_min) == 64);
+    assert!(std::mem::offset_of!(GuideParams, grid_scale) == 80);
+    assert!(std::mem::offset_of!(GuideParams, grid) == 96);
+};
+
+impl GuideParams {
+    /// The walks' parameters for `camera` over a scene of bounds `scene_min + [0, scene_extent]`.
+    pub fn new(camera: &Camera, scene_min: Vec3, scene_extent: Vec3) -> Self {
+        let side = GUIDE_WALKS_PER_SIDE;
+        let [origin, forward, right, up] = camera_basis(camera, side, side);
+        let extent = match scene_extent.max_element() {
+            e if e.is_finite() && e > 0.0 => e,
+            _ => 1.0,
+        };
+        let (grid, grid_scale) = guide_grid(scene_extent);
+        Self {
+            origin: origin.into(),
+            extent,
+            forward: forward.into(),
+            side,
+            right: right.into(),
+            walks: side * side,
+            up: up.into(),
+            scene_min: scene_min.into(),
+            grid_scale: grid_scale.into(),
+            grid,
+            ..Self::default()
+        }
+    }
+
+    /// Cells in the grid.
+    pub fn cell_count(&self) -> usize {
+        self.grid.iter().map(|&n| n as usize).product()
+    }
+
+    /// Escape counters the walks fill: [`GUIDE_WIDTH`] x [`GUIDE_HEIGHT`] per cell.
+    pub fn counter_count(&self) -> usize {
+        self.cell_count() * BINS
+    }
+}
+
+/// Walk `walk` of the guide's walks (env_guide.wgsl's `guide_walk`, one GPU thread each):
+/// from the camera through its cell of the `side x side` grid (jittered), into the scene of
+/// `bvh`, up to [`GUIDE_VERTICES`] vertices; at each, [`GUIDE_PROBES`] cosine-distributed
+/// probes and the walk's next direction; `escape(counter)` for every probe that leaves the
+/// scene, and for the walk's own ray when it leaves after its first vertex (the counter
+/// `cell * GUIDE_WIDTH * GUIDE_HEIGHT + direction cell`). Surfaces are treated as opaque and
+/// diffuse (as a shadow ray sees them); a vertex's rays start `1e-5` of the scene's largest
+/// extent plus `1e-6` of the point's largest coordinate off the surface (a proposal's rounding
+/// does not matter: the guide only shapes a pdf that is evaluated exactly).
+pub fn guide_walk(walk: u32, g: &GuideParams, bvh: &GpuBvh, mut escape: impl FnMut(u32)) {
+    let (origin, forward, right, up) = (
+        Vec3::from(g.origin),
+        Vec3::from(g.forward),
+        Vec3::from(g.right),
+        Vec3::from(g.up),
+    );
+    let (scene_min, grid_scale) = (Vec3::from(g.scene_min), Vec3::from(g.grid_scale));
+    let side = g.side;
+    let (x, y) = (walk % side, walk / side);
+    let h = pcg4d([walk, 0x5eed_0001, 0, 0x9e37_79b9]);
+    let sx = 2.0 * ((x as f32 + rand_f32(h[0])) / side as f32) - 1.0;
+    let sy = 1.0 - 2.0 * ((y as f32 + rand_f32(h[1])) / side as f32);
+    let mut o = origin;
+    let mut d = normalize(forward + right * sx + up * sy);
+    let mut cell = 0;
+    let counter = |cell: u32, d: Vec3| {
+        cell * BINS as u32 + EnvironmentGuide::bin_of(direction_to_equirect(d)) as u32
+    };
+    for vertex in 0..=GUIDE_VERTICES {
+        let Some(hit) = bvh.trace_closest(&Ray::new(o, d), 0.0, f32::INFINITY) else {
+            // The camera ray escaping says nothing about the light at surfaces.
+            if vertex > 0 {
+                escape(counter(cell, d));
+            }
+            break;
+        };
+        if vertex == GUIDE_VERTICES {
+            break;
+        }
+        let p = o + d * hit.t;
+        let n = facing_normal(bvh, hit.prim, p, d);
+        o = p + n * (1e-5 * g.extent + 1e-6 * p.abs().max_element());
+        cell = cell_index(o, scene_min, grid_scale, g.grid);
+        for probe in 0..=GUIDE_PROBES {
+            let u = pcg4d([walk, vertex + 1, probe, 0x5eed_0002]);
+            let dir = sample_diffuse(n, Vec2::new(rand_f32(u[0]), rand_f32(u[1])));
+            if probe == GUIDE_PROBES {
+                d = dir;
+            } else if !bvh.trace_any(&Ray::new(o, dir), 0.0, f32::INFINITY) {
+                escape(counter(cell, dir));
+            }
+        }
+    }
+}
+
+/// Sends `GUIDE_WALKS_PER_SIDE²` diffuse random walks ([`guide_walk`]) from `camera` (through
+/// a square grid over its view, jittered) into the scene of `bvh` (bounds `scene_min +
+/// [0, scene_extent]`) and counts where their probes escape. On every core; deterministic.
+/// The GPU's walks ([`crate::gpu::GuideLearner`]) count the same.
 pub fn learn_environment_guide(
     camera: &Camera,
     bvh: &GpuBvh,
     scene_min: Vec3,
     scene_extent: Vec3,
 ) -> EnvironmentGuide {
-    let side = GUIDE_WALKS_PER_SIDE;
-    let [origin, forward, right, up] = camera_basis(camera, side, side);
-    let extent = match scene_extent.max_element() {
-        e if e.is_finite() && e > 0.0 => e,
-        _ => 1.0,
-    };
-    let (grid, grid_scale) = guide_grid(scene_extent);
-    let walks = side * side;
-    let tasks: Vec<Vec<(u32, u16)>> = (0..walks.div_ceil(WALKS_PER_TASK))
+    learn_environment_guide_with(&GuideParams::new(camera, scene_min, scene_extent), bvh)
+}
+
+/// [`learn_environment_guide`] of the walks `g` over `bvh`, on every core.
+pub fn learn_environment_guide_with(g: &GuideParams, bvh: &GpuBvh) -> EnvironmentGuide {
+    let tasks: Vec<Vec<u32>> = (0..g.walks.div_ceil(WALKS_PER_TASK))
         .into_par_iter()
         .map(|task| {
             let mut events = Vec::new();
             let first = task * WALKS_PER_TASK;
-            for walk in first..(first + WALKS_PER_TASK).min(walks) {
-                let (x, y) = (walk % side, walk / side);
-                let h = pcg4d([walk, 0x5eed_0001, 0, 0x9e37_79b9]);
-                let sx = 2.0 * ((x as f32 + rand_f32(h[0])) / side as f32) - 1.0;
-                let sy = 1.0 - 2.0 * ((y as f32 + rand_f32(h[1])) / side as f32);
-                let mut o = origin;
-                let mut d = normalize(forward + right * sx + up * sy);
-                let mut cell = 0;
-                for vertex in 0..=GUIDE_VERTICES {
-                    let Some(hit) = bvh.trace_closest(&Ray::new(o, d), 0.0, f32::INFINITY) else {
-                        // The camera ray escaping says nothing about the light at surfaces.
-                        if vertex > 0 {
-                            events.push((
-                                cell,
-                                EnvironmentGuide::bin_of(direction_to_equirect(d)) as u16,
-                            ));
-                        }
-                        break;
-                    };
-                    if vertex == GUIDE_VERTICES {
-                        break;
-                    }
-                    let p = o + d * hit.t;
-                    let n = facing_normal(bvh, hit.prim, p, d);
-                    o = p + n * (1e-5 * extent + 1e-6 * p.abs().max_element());
-                    cell = cell_index(o, scene_min, grid_scale, grid);
-                    for probe in 0..=GUIDE_PROBES {
-                        let u = pcg4d([walk, vertex + 1, probe, 0x5eed_0002]);
-                        let dir = sample_diffuse(n, Vec2::new(rand_f32(u[0]), rand_f32(u[1])));
-                        if probe == GUIDE_PROBES {
-                            d = dir;
-                        } else if !bvh.trace_any(&Ray::new(o, dir), 0.0, f32::INFINITY) {
-                            events.push((
-                                cell,
-                                EnvironmentGuide::bin_of(direction_to_equirect(dir)) as u16,
-                            ));
-                        }
-                    }
-                }
+            for walk in first..(first + WALKS_PER_TASK).min(g.walks) {
+                guide_walk(walk, g, bvh, |counter| events.push(counter));
             }
             events
         })
         .collect();
-    let cells = grid.iter().map(|&n| n as usize).product::<usize>();
-    let mut counts = vec![0u32; cells * BINS];
-    let mut escapes = 0u64;
-    for (cell, bin) in tasks.iter().flatten() {
-        counts[*cell as usize * BINS + *bin as usize] += 1;
-        escapes += 1;
+    let mut counts = vec![0u32; g.counter_count()];
+    for &counter in tasks.iter().flatten() {
+        counts[counter as usize] += 1;
     }
-    EnvironmentGuide {
-        grid,
-        grid_scale,
-        counts,
-        walks,
-        escapes,
+    EnvironmentGuide::from_counts(g, counts)
+}
+
+impl EnvironmentGuide {
+    /// The guide of walks of parameters `g` that counted `counts` (per cell, per direction
+    /// cell: [`GuideParams::counter_count`] of them).
+    pub fn from_counts(g: &GuideParams, counts: Vec<u32>) -> Self {
+        debug_assert_eq!(counts.len(), g.counter_count());
+        let escapes = counts.iter().map(|&c| u64::from(c)).sum();
+        EnvironmentGuide {
+            grid: g.grid,
+            grid_scale: Vec3::from(g.grid_scale),
+            counts,
+            walks: g.walks,
+            escapes,
+        }
     }
 }
 

@@ -55,3 +55,9 @@ fn acos_poly(x: f32) -> f32 {
     let c = clamp(x, -1.0, 1.0);
     return atan2_poly(sqrt(max(1.0 - c * c, 0.0)), c);
 }
+
+// The equirectangular coordinates of a unit direction (no rotation): math.rs.
+fn direction_to_equirect(d: vec3<f32>) -> vec2<f32> {
+    let phi = atan2_poly(d.x, -d.z);
+    return vec2<f32>(0.5 + phi * INV_2PI, acos_poly(d.y) * INV_PI);
+}

@@ -15,8 +15,8 @@ use crate::TraceSettings;
 use crate::bsdf::RoughPlasticTable;
 use crate::camera::camera_basis;
 use crate::env_guide::{
-    GUIDE_HEIGHT, GUIDE_WIDTH, cdf_from_weights, guided_constant_cdf, guided_map_cdf,
-    learn_environment_guide,
+    EnvironmentGuide, GUIDE_HEIGHT, GUIDE_WIDTH, GuideParams, cdf_from_weights,
+    guided_constant_cdf, guided_map_cdf, learn_environment_guide_with,
 };
 use crate::gpu_types::LUMINANCE;
 use crate::gpu_types::{
@@ -369,11 +369,27 @@ impl SceneData {
         Self::with_options(scene, bvh, &SceneOptions::default())
     }
 
-    /// [`SceneData::new`], also preparing what `options` asks for.
+    /// [`SceneData::new`], also preparing what `options` asks for (the environment guide's
+    /// walks on every core: [`crate::env_guide::learn_environment_guide`]).
     pub fn with_options(
         scene: &Scene,
         bvh: &GpuBvh,
         options: &SceneOptions,
+    ) -> Result<Self, KernelError> {
+        Self::with_guide_walks(scene, bvh, options, &mut |g| {
+            Ok(learn_environment_guide_with(g, bvh))
+        })
+    }
+
+    /// [`SceneData::with_options`], the environment guide learned by `walk` (given the walks'
+    /// parameters, it returns what [`crate::env_guide::learn_environment_guide`] would: the
+    /// GPU's walks, `crate::gpu::GuideLearner`). Called at most once, only when the guide is
+    /// learned; its error is returned.
+    pub fn with_guide_walks(
+        scene: &Scene,
+        bvh: &GpuBvh,
+        options: &SceneOptions,
+        walk: &mut dyn FnMut(&GuideParams) -> Result<EnvironmentGuide, KernelError>,
     ) -> Result<Self, KernelError> {
         if bvh.triangle_count as usize != scene.triangles.len()
             || bvh.sphere_count as usize != scene.spheres.len()
@@ -604,8 +620,11 @@ impl SceneData {
         }
         if options.environment_guide && environment_luminance > 0.0 && !bvh.primitives.is_empty() {
             data.environment_guide = true;
-            let guide =
-                learn_environment_guide(&scene.camera, bvh, data.scene_min, data.scene_extent);
+            let guide = walk(&GuideParams::new(
+                &scene.camera,
+                data.scene_min,
+                data.scene_extent,
+            ))?;
             data.environment_guide_walks = Some((guide.walks, guide.escapes));
             if guide.is_useful() {
                 let offset = texel_index(&texels)?;

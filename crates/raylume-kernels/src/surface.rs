@@ -29,7 +29,7 @@ use crate::gpu_types::{
     SHADING_HAS_NORMALS, SHADING_HAS_UVS, SRGB8_TABLE, SceneUniforms, TEXELS_LINEAR, TEXELS_SRGB8,
     TextureHeader, TriangleShading,
 };
-use crate::math::{INV_2PI, INV_PI, PI, acos_poly, atan2_poly, normalize};
+use crate::math::{INV_PI, PI, normalize};
 
 /// The Rust mirror of the shader's global bindings: what the plain functions read.
 #[derive(Clone, Copy)]
@@ -69,12 +69,7 @@ pub struct SurfaceHit {
     pub back_offset: f32,
 }
 
-/// The equirectangular coordinates of a unit direction (no rotation).
-#[inline]
-pub fn direction_to_equirect(d: Vec3) -> Vec2 {
-    let phi = atan2_poly(d.x, -d.z);
-    Vec2::new(0.5 + phi * INV_2PI, acos_poly(d.y) * INV_PI)
-}
+pub use crate::math::direction_to_equirect;
 
 /// The surface at `hit` of the ray `(origin, dir)`.
 #[inline]

@@ -11,11 +11,6 @@ struct SurfaceHit {
     back_offset: f32,
 }
 
-fn direction_to_equirect(d: vec3<f32>) -> vec2<f32> {
-    let phi = atan2_poly(d.x, -d.z);
-    return vec2<f32>(0.5 + phi * INV_2PI, acos_poly(d.y) * INV_PI);
-}
-
 fn surface_at(hit: Hit, origin: vec3<f32>, dir: vec3<f32>) -> SurfaceHit {
     let prim = bvh_primitives[hit.prim];
     let material = prim_materials[hit.prim];

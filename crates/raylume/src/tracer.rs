@@ -1015,6 +1015,7 @@ impl Tracer {
             .find(|p| (p.features(), p.bvh_layout(), p.specialisation()) == pipeline_key)
             .cloned();
         let gpu = self.gpu.as_ref().filter(|_| use_gpu);
+        let guides = self.guides(scene);
         let mut prepared = Prepared::default();
         let (bvh, pipelines) = std::thread::scope(|threads| {
             let compiling = match (gpu, &reuse) {
@@ -1022,6 +1023,9 @@ impl Tracer {
                     let (features, layout, specialisation) = pipeline_key;
                     let p = TracerPipelines::specialised(ctx, features, layout, specialisation)?;
                     p.compile(ctx, first_schedule)?;
+                    if guides {
+                        p.guide_learner(ctx)?;
+                    }
                     Ok::<_, raylume_kernels::KernelError>(p)
                 })),
                 _ => None,
@@ -1205,7 +1209,21 @@ impl Tracer {
                 bvh,
                 SceneData::clone(data),
             )?),
-            (None, None) => Arc::new(GpuScene::upload(ctx, scene, bvh, &options)?),
+            // The environment guide's walks on the GPU, by the pipelines' learner (compiled
+            // beside the BVH when the render guides).
+            (None, None) => {
+                let learner = match options.environment_guide {
+                    true => Some(pipelines.guide_learner(ctx)?),
+                    false => None,
+                };
+                Arc::new(GpuScene::upload_with_learner(
+                    ctx,
+                    scene,
+                    bvh,
+                    &options,
+                    learner.as_deref(),
+                )?)
+            }
         };
         prepared.gpu = Some(uploaded.clone());
         let mut tracer = GpuTracer::with_scene(ctx, uploaded, pipelines)?;

@@ -5,6 +5,7 @@
 mod batch;
 mod capture;
 mod clock;
+mod guide;
 mod layout;
 mod pipelines;
 mod policy;
@@ -13,6 +14,7 @@ mod shader;
 mod work;
 
 pub use capture::SortCapture;
+pub use guide::{GUIDE_WORKGROUP_SIZE, GuideLearner, guide_source};
 pub use pipelines::TracerPipelines;
 pub use policy::{BatchPlan, BatchPolicy, BatchTiming, DepthTiming, StageTime};
 pub use shader::{Specialisation, compose, pipeline_constants, tracer_source, tracer_source_for};
@@ -165,17 +167,65 @@ fn check_pipelines(
     Ok(())
 }
 
+/// `bvh`'s nodes (in its layout) and primitives, uploaded.
+fn upload_tree(ctx: &GpuContext, bvh: &GpuBvh) -> Result<(wgpu::Buffer, wgpu::Buffer), KernelError> {
+    let nodes = match bvh.layout {
+        BvhLayout::Binary => upload::<BvhNode>(ctx, "BVH nodes", &bvh.nodes)?,
+        BvhLayout::Wide => upload::<WideNode>(ctx, "BVH nodes", &bvh.wide_nodes)?,
+    };
+    Ok((
+        nodes,
+        upload::<Primitive>(ctx, "BVH primitives", &bvh.primitives)?,
+    ))
+}
+
 impl GpuScene {
-    /// Prepares `scene` with its BVH `bvh` ([`SceneData::with_options`]) and uploads it.
+    /// Prepares `scene` with its BVH `bvh` ([`SceneData::with_options`]) and uploads it; the
+    /// environment guide, when `options` asks for it, learned on the GPU (a
+    /// [`GuideLearner`] made for the purpose: [`GpuScene::upload_with_learner`] takes one
+    /// made beforehand, e.g. [`TracerPipelines::guide_learner`]).
     pub fn upload(
         ctx: &GpuContext,
         scene: &Scene,
         bvh: &GpuBvh,
         options: &SceneOptions,
     ) -> Result<Self, KernelError> {
+        let learner = match options.environment_guide {
+            true => Some(GuideLearner::new(ctx, bvh.layout)?),
+            false => None,
+        };
+        Self::upload_with_learner(ctx, scene, bvh, options, learner.as_ref())
+    }
+
+    /// [`GpuScene::upload`] with the environment guide's walks run by `learner` (on the GPU,
+    /// over the tree just uploaded; its layout must be `bvh`'s), or, when `None`, on the CPU
+    /// ([`crate::env_guide::learn_environment_guide`]). The counts are the same either way
+    /// wherever the GPU computes the CPU's rays (`tests/env_guide_gpu.rs`).
+    pub fn upload_with_learner(
+        ctx: &GpuContext,
+        scene: &Scene,
+        bvh: &GpuBvh,
+        options: &SceneOptions,
+        learner: Option<&GuideLearner>,
+    ) -> Result<Self, KernelError> {
         let start = Instant::now();
-        let data = SceneData::with_options(scene, bvh, options)?;
-        let mut uploaded = Self::upload_data(ctx, tracer_features(scene), bvh, data)?;
+        let tree = upload_tree(ctx, bvh)?;
+        let data = match learner {
+            Some(l) if options.environment_guide => {
+                if l.layout() != bvh.layout {
+                    return Err(KernelError::InvalidSettings(format!(
+                        "a guide learner for the {} BVH layout given a {} tree",
+                        l.layout().name(),
+                        bvh.layout.name()
+                    )));
+                }
+                SceneData::with_guide_walks(scene, bvh, options, &mut |g| {
+                    l.learn(ctx, &tree.0, &tree.1, g)
+                })?
+            }
+            _ => SceneData::with_options(scene, bvh, options)?,
+        };
+        let mut uploaded = Self::upload_data_over(ctx, tracer_features(scene), bvh, data, tree)?;
         uploaded.upload_seconds = start.elapsed().as_secs_f64();
         Ok(uploaded)
     }
@@ -186,18 +236,27 @@ impl GpuScene {
         ctx: &GpuContext,
         features: Features,
         bvh: &GpuBvh,
+        data: SceneData,
+    ) -> Result<Self, KernelError> {
+        data.check_bvh(bvh)?;
+        let tree = upload_tree(ctx, bvh)?;
+        Self::upload_data_over(ctx, features, bvh, data, tree)
+    }
+
+    /// [`GpuScene::upload_data`] with `bvh`'s nodes and primitives uploaded already (`tree`).
+    fn upload_data_over(
+        ctx: &GpuContext,
+        features: Features,
+        bvh: &GpuBvh,
         mut data: SceneData,
+        (nodes, primitives): (wgpu::Buffer, wgpu::Buffer),
     ) -> Result<Self, KernelError> {
         let start = Instant::now();
         data.check_bvh(bvh)?;
-        let nodes = match bvh.layout {
-            BvhLayout::Binary => upload::<BvhNode>(ctx, "BVH nodes", &bvh.nodes)?,
-            BvhLayout::Wide => upload::<WideNode>(ctx, "BVH nodes", &bvh.wide_nodes)?,
-        };
         let full_shading = !data.triangle_shading.is_empty();
         let buffers = GpuSceneBuffers {
             nodes,
-            primitives: upload::<Primitive>(ctx, "BVH primitives", &bvh.primitives)?,
+            primitives,
             materials: upload::<GpuMaterial>(ctx, "materials", &data.materials)?,
             prim_materials: upload::<u32>(ctx, "primitive material indices", &data.prim_materials)?,
             shading: upload::<TriangleShading>(
@@ -303,7 +362,7 @@ impl<'a> GpuTracer<'a> {
     }
 
     /// [`GpuTracer::with_pipelines`], also preparing what `options` asks for (the environment
-    /// guide, learned on the CPU before the upload).
+    /// guide, learned on the GPU by `pipelines`' [`TracerPipelines::guide_learner`]).
     pub fn with_options(
         ctx: &'a GpuContext,
         scene: &Scene,
@@ -313,7 +372,17 @@ impl<'a> GpuTracer<'a> {
     ) -> Result<Self, KernelError> {
         let start = Instant::now();
         check_pipelines(tracer_features(scene), bvh.layout, &pipelines)?;
-        let uploaded = Arc::new(GpuScene::upload(ctx, scene, bvh, options)?);
+        let learner = match options.environment_guide {
+            true => Some(pipelines.guide_learner(ctx)?),
+            false => None,
+        };
+        let uploaded = Arc::new(GpuScene::upload_with_learner(
+            ctx,
+            scene,
+            bvh,
+            options,
+            learner.as_deref(),
+        )?);
         let mut tracer = Self::with_scene(ctx, uploaded, pipelines)?;
         tracer.upload_seconds = start.elapsed().as_secs_f64();
         Ok(tracer)

@@ -10,6 +10,7 @@ use raylume_bvh::BvhLayout;
 use raylume_gpu::{GpuContext, wgpu};
 use raylume_scene::Features;
 
+use super::guide::GuideLearner;
 use super::layout::bind_group_layouts;
 use super::shader::{Specialisation, pipeline_constants, tracer_source_for};
 use crate::{KernelError, Schedule};
@@ -37,6 +38,8 @@ pub struct TracerPipelines {
     permute_layout: wgpu::PipelineLayout,
     module: wgpu::ShaderModule,
     compiled: Mutex<HashMap<&'static str, wgpu::ComputePipeline>>,
+    /// The environment guide's walks over trees of this layout, made on first use.
+    guide: Mutex<Option<Arc<GuideLearner>>>,
     /// Seconds spent making the module and compiling pipelines so far.
     seconds: Mutex<f64>,
 }
@@ -138,6 +141,7 @@ impl TracerPipelines {
             permute_layout,
             module,
             compiled: Mutex::new(HashMap::new()),
+            guide: Mutex::new(None),
             seconds: Mutex::new(start.elapsed().as_secs_f64()),
         }))
     }
@@ -168,6 +172,24 @@ impl TracerPipelines {
             self.pipeline(ctx, entry)?;
         }
         Ok(())
+    }
+
+    /// The environment guide's walks over trees of this module's layout
+    /// ([`GuideLearner`]), compiled on first use (its time counted in [`Self::seconds`]).
+    pub fn guide_learner(&self, ctx: &GpuContext) -> Result<Arc<GuideLearner>, KernelError> {
+        let cached = || self.guide.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        if let Some(l) = cached() {
+            return Ok(l);
+        }
+        let learner = Arc::new(GuideLearner::new(ctx, self.bvh_layout)?);
+        *self.seconds.lock().unwrap_or_else(|e| e.into_inner()) += learner.seconds();
+        // Two threads asking at once both compile; the first stored wins.
+        Ok(self
+            .guide
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .get_or_insert(learner)
+            .clone())
     }
 
     /// The compute pipeline of entry point `entry`, compiled on first use.
