@@ -330,18 +330,25 @@ fn append_texture(
             t.name
         )));
     }
+    // On every core: the living room's 4.9 M texels took 12-16 ms on one.
     match &t.texels {
         Texels::Srgb8(codes) if srgb8 => {
-            texels.extend(
+            texels.par_extend(
                 codes
-                    .iter()
+                    .par_iter()
                     .map(|c| u32::from_le_bytes([c[0], c[1], c[2], 0])),
             );
         }
-        Texels::Linear(floats) => extend_floats(texels, floats.iter().flatten().copied()),
+        Texels::Linear(floats) => {
+            texels.par_extend(floats.par_iter().flat_map_iter(|c| c.map(f32::to_bits)))
+        }
         Texels::Srgb8(codes) => {
             let table = srgb8_table();
-            extend_floats(texels, codes.iter().flatten().map(|&c| table[c as usize]));
+            texels.par_extend(
+                codes
+                    .par_iter()
+                    .flat_map_iter(|c| c.map(|c| table[c as usize].to_bits())),
+            );
         }
     }
     Ok((
@@ -517,31 +524,39 @@ impl SceneData {
             }
             Ok((material, shading))
         };
-        // The first bad primitive's error, as a loop would report it.
-        if let Some(e) = bvh
-            .primitives
-            .par_iter()
-            .enumerate()
-            .find_map_first(|(leaf, p)| lookup(leaf, p).err())
-        {
-            return Err(e);
-        }
-        let looked_up = |leaf: usize, p: &Primitive| lookup(leaf, p).unwrap_or_default();
-        let prim_materials: Vec<u32> = bvh
-            .primitives
-            .par_iter()
-            .enumerate()
-            .map(|(leaf, p)| looked_up(leaf, p).0)
-            .collect();
-        let triangle_shading: Vec<TriangleShading> = if has_shading {
+        // One pass on every core; only when a primitive failed, a second for the first bad
+        // one's error, as a loop would report it.
+        let failed = std::sync::atomic::AtomicBool::new(false);
+        let looked_up = |(leaf, p): (usize, &Primitive)| {
+            lookup(leaf, p).unwrap_or_else(|_| {
+                failed.store(true, std::sync::atomic::Ordering::Relaxed);
+                Default::default()
+            })
+        };
+        let mut prim_materials: Vec<u32> = Vec::new();
+        let mut triangle_shading: Vec<TriangleShading> = Vec::new();
+        if has_shading {
             bvh.primitives
                 .par_iter()
                 .enumerate()
-                .map(|(leaf, p)| looked_up(leaf, p).1)
-                .collect()
+                .map(looked_up)
+                .unzip_into_vecs(&mut prim_materials, &mut triangle_shading);
         } else {
-            Vec::new()
-        };
+            bvh.primitives
+                .par_iter()
+                .enumerate()
+                .map(|lp| looked_up(lp).0)
+                .collect_into_vec(&mut prim_materials);
+        }
+        if failed.into_inner()
+            && let Some(e) = bvh
+                .primitives
+                .par_iter()
+                .enumerate()
+                .find_map_first(|(leaf, p)| lookup(leaf, p).err())
+        {
+            return Err(e);
+        }
 
         let mut data = SceneData {
             camera: scene.camera,

@@ -18,7 +18,8 @@ use support::*;
 /// land on the other side; each such probe moves one count. Lavapipe has matched exactly.
 #[test]
 fn gpu_walks_count_what_the_cpu_walks_count() {
-    let Some(ctx) = raylume_gpu::testing::context_or_skip("gpu_walks_count_what_the_cpu_walks_count")
+    let Some(ctx) =
+        raylume_gpu::testing::context_or_skip("gpu_walks_count_what_the_cpu_walks_count")
     else {
         return;
     };
@@ -34,14 +35,25 @@ fn gpu_walks_count_what_the_cpu_walks_count() {
             let g = GuideParams::new(&scene.camera, data.scene_min, data.scene_extent);
             let cpu = learn_environment_guide_with(&g, &bvh);
             let (nodes, primitives) = (
-                ctx.storage_buffer("nodes", bvh.node_bytes(), raylume_gpu::wgpu::BufferUsages::empty())
-                    .unwrap(),
-                ctx.storage_buffer("primitives", &bvh.primitives, raylume_gpu::wgpu::BufferUsages::empty())
-                    .unwrap(),
+                ctx.storage_buffer(
+                    "nodes",
+                    bvh.node_bytes(),
+                    raylume_gpu::wgpu::BufferUsages::empty(),
+                )
+                .unwrap(),
+                ctx.storage_buffer(
+                    "primitives",
+                    &bvh.primitives,
+                    raylume_gpu::wgpu::BufferUsages::empty(),
+                )
+                .unwrap(),
             );
             let gpu = learner.learn(ctx, &nodes, &primitives, &g).unwrap();
             assert_eq!(gpu.counts.len(), cpu.counts.len(), "{name}");
-            assert_eq!((gpu.grid, gpu.grid_scale, gpu.walks), (cpu.grid, cpu.grid_scale, cpu.walks));
+            assert_eq!(
+                (gpu.grid, gpu.grid_scale, gpu.walks),
+                (cpu.grid, cpu.grid_scale, cpu.walks)
+            );
             // Enough escapes for the comparison to mean something.
             assert!(cpu.escapes > 1000, "{name}: {} escapes", cpu.escapes);
             let moved: u64 = gpu
@@ -67,7 +79,8 @@ fn gpu_walks_count_what_the_cpu_walks_count() {
 /// preparation's (within the tolerance above), and without the option nothing is learned.
 #[test]
 fn a_gpu_upload_learns_the_guide_on_the_gpu() {
-    let Some(ctx) = raylume_gpu::testing::context_or_skip("a_gpu_upload_learns_the_guide_on_the_gpu")
+    let Some(ctx) =
+        raylume_gpu::testing::context_or_skip("a_gpu_upload_learns_the_guide_on_the_gpu")
     else {
         return;
     };

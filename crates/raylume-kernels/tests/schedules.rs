@@ -246,6 +246,26 @@ fn bad_input_is_a_typed_error() {
         .err()
         .expect("missing texture");
     assert!(e.to_string().contains("texture 3"), "{e}");
+    // Triangles with a material out of range: the error names the first such primitive of
+    // the tree (the preparation looks them up on every core, then reports as a loop would).
+    let mut bad_materials = scene.clone();
+    let last = bad_materials.triangles.len() - 1;
+    for t in [2, last] {
+        bad_materials.triangles[t].material = 99;
+    }
+    let first_bad = bvh
+        .primitives
+        .iter()
+        .position(|p| [2, last as u32].contains(&p.scene_index()))
+        .unwrap();
+    let e = CpuTracer::new(&bad_materials, &bvh)
+        .err()
+        .expect("material out of range");
+    assert!(
+        e.to_string()
+            .contains(&format!("BVH primitive {first_bad} uses material 99")),
+        "{e}"
+    );
 
     let Some(ctx) = raylume_gpu::testing::context_or_skip("bad_input_is_a_typed_error") else {
         return;

@@ -67,32 +67,35 @@ impl GuideLearner {
     pub fn new(ctx: &GpuContext, layout: BvhLayout) -> Result<Self, KernelError> {
         let start = Instant::now();
         let device = &ctx.device;
-        let (group_layout, pipeline) = ctx.scoped("compiling the environment guide's walks", || {
-            let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("raylume learn_guide"),
-                entries: &[
-                    storage_entry(0, true),
-                    storage_entry(1, true),
-                    uniform_entry(2, false),
-                    storage_entry(3, false),
-                ],
-            });
-            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("raylume learn_guide"),
-                bind_group_layouts: &[Some(&group_layout)],
-                immediate_size: 0,
-            });
-            let module = ctx.shader_module("raylume learn_guide", &guide_source(layout));
-            let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("learn_guide"),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some("learn_guide"),
-                compilation_options: Default::default(),
-                cache: None,
-            });
-            (group_layout, pipeline)
-        })?;
+        let (group_layout, pipeline) =
+            ctx.scoped("compiling the environment guide's walks", || {
+                let group_layout =
+                    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                        label: Some("raylume learn_guide"),
+                        entries: &[
+                            storage_entry(0, true),
+                            storage_entry(1, true),
+                            uniform_entry(2, false),
+                            storage_entry(3, false),
+                        ],
+                    });
+                let pipeline_layout =
+                    device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                        label: Some("raylume learn_guide"),
+                        bind_group_layouts: &[Some(&group_layout)],
+                        immediate_size: 0,
+                    });
+                let module = ctx.shader_module("raylume learn_guide", &guide_source(layout));
+                let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some("learn_guide"),
+                    layout: Some(&pipeline_layout),
+                    module: &module,
+                    entry_point: Some("learn_guide"),
+                    compilation_options: Default::default(),
+                    cache: None,
+                });
+                (group_layout, pipeline)
+            })?;
         Ok(Self {
             layout,
             group_layout,

@@ -168,7 +168,10 @@ fn check_pipelines(
 }
 
 /// `bvh`'s nodes (in its layout) and primitives, uploaded.
-fn upload_tree(ctx: &GpuContext, bvh: &GpuBvh) -> Result<(wgpu::Buffer, wgpu::Buffer), KernelError> {
+fn upload_tree(
+    ctx: &GpuContext,
+    bvh: &GpuBvh,
+) -> Result<(wgpu::Buffer, wgpu::Buffer), KernelError> {
     let nodes = match bvh.layout {
         BvhLayout::Binary => upload::<BvhNode>(ctx, "BVH nodes", &bvh.nodes)?,
         BvhLayout::Wide => upload::<WideNode>(ctx, "BVH nodes", &bvh.wide_nodes)?,
