@@ -383,7 +383,7 @@ fn run(args: Args) -> Result<(), String> {
     eprintln!(
         "raylume: trace {:.3} s, {:.1} Mrays/s, total {:.3} s from the file to the image (load {:.3} \
          and device {:.3} together, bvh {:.3} {} {}{} and pipelines {:.3}{} together, upload \
-         {:.3}, prepare {:.3}, post {:.3}, save {:.3})",
+         {:.3} (guide {:.3}), prepare {:.3}, post {:.3}, save {:.3})",
         s.seconds.trace,
         s.mrays_per_s,
         s.seconds.total,
@@ -396,6 +396,7 @@ fn run(args: Args) -> Result<(), String> {
         s.seconds.pipelines,
         if s.pipelines_cached { " cached" } else { "" },
         s.seconds.upload,
+        s.seconds.guide,
         s.seconds.prepare,
         s.seconds.post,
         s.seconds.save

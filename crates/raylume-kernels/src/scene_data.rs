@@ -70,6 +70,8 @@ pub struct SceneData {
     pub environment_guided_cdf: Option<GuidedCdf>,
     /// What the guide's walks found (`None` when no guide was learned).
     pub environment_guide_walks: Option<(u32, u64)>,
+    /// Seconds the guide's walks took, on the CPU or the GPU (0 when none ran).
+    pub environment_guide_seconds: f64,
     /// Whether next-event estimation samples the environment by the guided distribution
     /// (when there is one; [`SceneData::uniforms`]).
     pub environment_guide: bool,
@@ -575,6 +577,7 @@ impl SceneData {
             environment_select: 0.0,
             environment_guided_cdf: None,
             environment_guide_walks: None,
+            environment_guide_seconds: 0.0,
             environment_guide: false,
             scene_min: Vec3::ZERO,
             scene_extent: Vec3::ZERO,
@@ -635,11 +638,13 @@ impl SceneData {
         }
         if options.environment_guide && environment_luminance > 0.0 && !bvh.primitives.is_empty() {
             data.environment_guide = true;
+            let start = std::time::Instant::now();
             let guide = walk(&GuideParams::new(
                 &scene.camera,
                 data.scene_min,
                 data.scene_extent,
             ))?;
+            data.environment_guide_seconds = start.elapsed().as_secs_f64();
             data.environment_guide_walks = Some((guide.walks, guide.escapes));
             if guide.is_useful() {
                 let offset = texel_index(&texels)?;

@@ -21,6 +21,9 @@ pub struct StageSeconds {
     /// environment guide) and, on the GPU, uploading it; near 0 when the tracer kept it from
     /// its last render of the same scene (`RenderStats::scene_cached`).
     pub upload: f64,
+    /// Of `upload`: the environment guide's walks (on the GPU for a GPU render; 0 when no
+    /// guide was learned or the preparation was kept from an earlier render).
+    pub guide: f64,
     /// Preparing the batch loop on the GPU: work buffers, pipelines not compiled yet (see
     /// `pipelines`), ray sorters, warm-up dispatches (0 on the CPU).
     pub prepare: f64,

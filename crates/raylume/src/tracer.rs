@@ -1197,6 +1197,8 @@ impl Tracer {
         let t = Instant::now();
         let options = self.scene_options(scene);
         let prepared = prepared.of(SceneKey::of(scene, options));
+        // Whether the scene was prepared (and its guide learned) by this render.
+        let mut fresh = false;
         let uploaded = match (&prepared.gpu, &prepared.cpu) {
             (Some(g), _) => {
                 stats.scene_cached = true;
@@ -1212,6 +1214,7 @@ impl Tracer {
             // The environment guide's walks on the GPU, by the pipelines' learner (compiled
             // beside the BVH when the render guides).
             (None, None) => {
+                fresh = true;
                 let learner = match options.environment_guide {
                     true => Some(pipelines.guide_learner(ctx)?),
                     false => None,
@@ -1225,6 +1228,9 @@ impl Tracer {
                 )?)
             }
         };
+        if fresh {
+            stats.seconds.guide = uploaded.data().environment_guide_seconds;
+        }
         prepared.gpu = Some(uploaded.clone());
         let mut tracer = GpuTracer::with_scene(ctx, uploaded, pipelines)?;
         tracer.set_estimator(self.estimator);
@@ -1337,6 +1343,9 @@ impl Tracer {
             }
             None => Arc::new(SceneData::with_options(scene, bvh, &options)?),
         };
+        if !stats.scene_cached {
+            stats.seconds.guide = data.environment_guide_seconds;
+        }
         prepared.cpu = Some(data.clone());
         let mut tracer = CpuTracer::with_data(bvh, SceneData::clone(&data))?;
         stats.seconds.upload = t.elapsed().as_secs_f64();

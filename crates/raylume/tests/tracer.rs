@@ -440,10 +440,19 @@ fn prepared_scene_is_reused_only_for_the_same_scene() {
                 "{backend:?}: {what} changed: the image of a fresh tracer"
             );
         }
+        // The scene has a sky now: a fresh preparation's walks are timed (`seconds.guide`, on
+        // the render's backend), a render without walks reports none.
+        let walked = tracer().render(&scene).unwrap().stats;
+        assert!(
+            walked.seconds.guide > 0.0 && walked.seconds.guide <= walked.seconds.upload,
+            "{backend:?}: {:?}",
+            walked.seconds
+        );
         // The guide is an option of the preparation: turning it off prepares again.
         t.environment_guide = Some(false);
         let unguided = t.render(&scene).unwrap();
         assert!(!unguided.stats.scene_cached, "{backend:?}: guide off");
+        assert_eq!(unguided.stats.seconds.guide, 0.0, "{backend:?}: no walks");
         let mut fresh = tracer();
         fresh.environment_guide = Some(false);
         assert_eq!(unguided.pixels, fresh.render(&scene).unwrap().pixels);
@@ -451,6 +460,7 @@ fn prepared_scene_is_reused_only_for_the_same_scene() {
         t.environment_guide = Some(true);
         let guided = t.render(&scene).unwrap();
         assert!(guided.stats.scene_cached, "{backend:?}: guide on again");
+        assert_eq!(guided.stats.seconds.guide, 0.0, "{backend:?}: kept, not walked");
         assert_eq!(guided.pixels, tracer().render(&scene).unwrap().pixels);
     }
 }
