@@ -86,6 +86,14 @@ pub fn acos_poly(x: f32) -> f32 {
     atan2_poly((1.0 - c * c).max(0.0).sqrt(), c)
 }
 
+/// The equirectangular coordinates of a unit direction (no rotation): `u = 0.5 + φ / 2π`
+/// with `φ = atan2(x, -z)`, `v = θ / π` from +y (math.wgsl's `direction_to_equirect`).
+#[inline]
+pub fn direction_to_equirect(d: Vec3) -> glam::Vec2 {
+    let phi = atan2_poly(d.x, -d.z);
+    glam::Vec2::new(0.5 + phi * INV_2PI, acos_poly(d.y) * INV_PI)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -163,12 +171,4 @@ mod tests {
         let literal = line.trim_end_matches(';').rsplit(' ').next().unwrap();
         assert_eq!(literal.parse::<f32>().unwrap(), MAX_SAMPLE_RADIANCE);
     }
-}
-
-/// The equirectangular coordinates of a unit direction (no rotation): `u = 0.5 + φ / 2π`
-/// with `φ = atan2(x, -z)`, `v = θ / π` from +y (math.wgsl's `direction_to_equirect`).
-#[inline]
-pub fn direction_to_equirect(d: Vec3) -> glam::Vec2 {
-    let phi = atan2_poly(d.x, -d.z);
-    glam::Vec2::new(0.5 + phi * INV_2PI, acos_poly(d.y) * INV_PI)
 }
