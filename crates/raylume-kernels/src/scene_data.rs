@@ -70,7 +70,8 @@ pub struct SceneData {
     pub environment_guided_cdf: Option<GuidedCdf>,
     /// What the guide's walks found (`None` when no guide was learned).
     pub environment_guide_walks: Option<(u32, u64)>,
-    /// Seconds the guide's walks took, on the CPU or the GPU (0 when none ran).
+    /// Seconds the preparation waited for the guide's walks (all of them on the CPU; on the
+    /// GPU what was left of them when it needed their counts); 0 when none ran.
     pub environment_guide_seconds: f64,
     /// Whether next-event estimation samples the environment by the guided distribution
     /// (when there is one; [`SceneData::uniforms`]).

@@ -21,8 +21,10 @@ pub struct StageSeconds {
     /// environment guide) and, on the GPU, uploading it; near 0 when the tracer kept it from
     /// its last render of the same scene (`RenderStats::scene_cached`).
     pub upload: f64,
-    /// Of `upload`: the environment guide's walks (on the GPU for a GPU render; 0 when no
-    /// guide was learned or the preparation was kept from an earlier render).
+    /// Of `upload`: the environment guide's walks, as long as the preparation waited for them
+    /// (on the CPU, all of them; on the GPU they run while the CPU prepares the rest of the
+    /// scene, and this is what was left); 0 when no guide was learned or the preparation was
+    /// kept from an earlier render.
     pub guide: f64,
     /// Preparing the batch loop on the GPU: work buffers, pipelines not compiled yet (see
     /// `pipelines`), ray sorters, warm-up dispatches (0 on the CPU).

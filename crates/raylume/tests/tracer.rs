@@ -460,7 +460,10 @@ fn prepared_scene_is_reused_only_for_the_same_scene() {
         t.environment_guide = Some(true);
         let guided = t.render(&scene).unwrap();
         assert!(guided.stats.scene_cached, "{backend:?}: guide on again");
-        assert_eq!(guided.stats.seconds.guide, 0.0, "{backend:?}: kept, not walked");
+        assert_eq!(
+            guided.stats.seconds.guide, 0.0,
+            "{backend:?}: kept, not walked"
+        );
         assert_eq!(guided.pixels, tracer().render(&scene).unwrap().pixels);
     }
 }

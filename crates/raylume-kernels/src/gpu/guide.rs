@@ -123,6 +123,19 @@ impl GuideLearner {
         primitives: &wgpu::Buffer,
         g: &GuideParams,
     ) -> Result<EnvironmentGuide, KernelError> {
+        self.start(ctx, nodes, primitives, g)?.finish(ctx)
+    }
+
+    /// [`GuideLearner::learn`] without waiting: the walks are submitted, and
+    /// [`PendingGuide::finish`] reads their counts when they are needed (the CPU prepares the
+    /// rest of the scene meanwhile).
+    pub fn start(
+        &self,
+        ctx: &GpuContext,
+        nodes: &wgpu::Buffer,
+        primitives: &wgpu::Buffer,
+        g: &GuideParams,
+    ) -> Result<PendingGuide, KernelError> {
         let counters = g.counter_count();
         let counts = ctx
             .storage_buffer_zeroed(
@@ -161,7 +174,25 @@ impl GuideLearner {
             }
             ctx.queue.submit([enc.finish()]);
         })?;
-        let counts = ctx.read_buffer::<u32>(&counts, counters)?;
-        Ok(EnvironmentGuide::from_counts(g, counts))
+        Ok(PendingGuide { params: *g, counts })
+    }
+}
+
+/// Walks submitted by [`GuideLearner::start`], their counts not read yet.
+pub struct PendingGuide {
+    params: GuideParams,
+    counts: wgpu::Buffer,
+}
+
+impl PendingGuide {
+    /// The walks' parameters.
+    pub fn params(&self) -> &GuideParams {
+        &self.params
+    }
+
+    /// Waits for the walks and reads their counts back.
+    pub fn finish(self, ctx: &GpuContext) -> Result<EnvironmentGuide, KernelError> {
+        let counts = ctx.read_buffer::<u32>(&self.counts, self.params.counter_count())?;
+        Ok(EnvironmentGuide::from_counts(&self.params, counts))
     }
 }

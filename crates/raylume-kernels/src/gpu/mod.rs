@@ -14,7 +14,7 @@ mod shader;
 mod work;
 
 pub use capture::SortCapture;
-pub use guide::{GUIDE_WORKGROUP_SIZE, GuideLearner, guide_source};
+pub use guide::{GUIDE_WORKGROUP_SIZE, GuideLearner, PendingGuide, guide_source};
 pub use pipelines::TracerPipelines;
 pub use policy::{BatchPlan, BatchPolicy, BatchTiming, DepthTiming, StageTime};
 pub use shader::{Specialisation, compose, pipeline_constants, tracer_source, tracer_source_for};
@@ -29,6 +29,7 @@ use raylume_sort::RadixSorter;
 
 use crate::batches::Batch;
 use crate::bsdf::RoughPlasticTable;
+use crate::env_guide::GuideParams;
 use crate::gpu_types::{GpuLight, GpuMaterial, SceneUniforms, TextureHeader, TriangleShading};
 use crate::scene_data::{SceneData, SceneOptions};
 use crate::{KernelError, TraceOutput, TraceSettings};
@@ -213,7 +214,7 @@ impl GpuScene {
     ) -> Result<Self, KernelError> {
         let start = Instant::now();
         let tree = upload_tree(ctx, bvh)?;
-        let data = match learner {
+        let learner = match learner {
             Some(l) if options.environment_guide => {
                 if l.layout() != bvh.layout {
                     return Err(KernelError::InvalidSettings(format!(
@@ -222,11 +223,36 @@ impl GpuScene {
                         bvh.layout.name()
                     )));
                 }
-                SceneData::with_guide_walks(scene, bvh, options, &mut |g| {
-                    l.learn(ctx, &tree.0, &tree.1, g)
+                Some(l)
+            }
+            _ => None,
+        };
+        // The walks start on the GPU now and are read back when the preparation needs them:
+        // the CPU packs the textures and looks up the primitives meanwhile. (Started whenever
+        // the preparation may learn a guide; unread if it does not, e.g. a black sky.)
+        let mut pending = match learner {
+            Some(l)
+                if !bvh.primitives.is_empty()
+                    && !matches!(scene.environment, raylume_scene::Environment::Black) =>
+            {
+                let bounds = scene.bounds();
+                let (min, extent) = match bounds.is_empty() {
+                    true => (glam::Vec3::ZERO, glam::Vec3::ZERO),
+                    false => (bounds.min, bounds.extent()),
+                };
+                let g = GuideParams::new(&scene.camera, min, extent);
+                Some(l.start(ctx, &tree.0, &tree.1, &g)?)
+            }
+            _ => None,
+        };
+        let data = match learner {
+            Some(l) => {
+                SceneData::with_guide_walks(scene, bvh, options, &mut |g| match pending.take() {
+                    Some(p) if p.params() == g => p.finish(ctx),
+                    _ => l.learn(ctx, &tree.0, &tree.1, g),
                 })?
             }
-            _ => SceneData::with_options(scene, bvh, options)?,
+            None => SceneData::with_options(scene, bvh, options)?,
         };
         let mut uploaded = Self::upload_data_over(ctx, tracer_features(scene), bvh, data, tree)?;
         uploaded.upload_seconds = start.elapsed().as_secs_f64();
