@@ -301,7 +301,7 @@ impl GuideParams {
     }
 }
 
-/// Walk `walk` of the guide's walks (env_guide.wgsl's `guide_walk`, one GPU thread each):
+/// Walk `walk` of the guide's walks (env_guide.wgsl's `guide_walk`, on the GPU split into one thread per probe):
 /// from the camera through its cell of the `side x side` grid (jittered), into the scene of
 /// `bvh`, up to [`GUIDE_VERTICES`] vertices; at each, [`GUIDE_PROBES`] cosine-distributed
 /// probes and the walk's next direction; `escape(counter)` for every probe that leaves the

@@ -1,4 +1,4 @@
-// raylume-kernels: the environment guide's walks on the GPU, one thread a walk: the WGSL mirror
+// raylume-kernels: the environment guide's walks on the GPU, GUIDE_PROBES threads a walk: the WGSL mirror
 // of env_guide.rs (`GuideParams`, `guide_walk`, `cell_index`, `EnvironmentGuide::bin_of`,
 // `facing_normal`), same constants (from Rust) and operation order. Assembled by
 // gpu/guide.rs after the traversal, gpu_types.wgsl, math.wgsl, rng.wgsl and sampling.wgsl.
@@ -62,8 +62,11 @@ fn guide_escape(cell: u32, d: vec3<f32>) {
     atomicAdd(&guide_counts[cell * GUIDE_WIDTH * GUIDE_HEIGHT + guide_bin_of(direction_to_equirect(d))], 1u);
 }
 
-// env_guide.rs `guide_walk`.
-fn guide_walk(walk: u32) {
+// env_guide.rs `guide_walk`, split into GUIDE_PROBES lanes (one thread each): every lane
+// follows the walk (the same rays, so a warp's lanes of one walk run together) and traces
+// probe `lane` at each vertex; lane 0 also counts the walk's own escape. The lanes together
+// count what guide_walk counts, with eight times the threads to hide the traversal's latency.
+fn guide_walk(walk: u32, lane: u32) {
     let side = guide.side;
     let x = walk % side;
     let y = walk / side;
@@ -77,7 +80,7 @@ fn guide_walk(walk: u32) {
         let hit = trace_closest(Ray(o, d), 0.0, T_MAX_LIMIT);
         if hit.prim == INVALID_INDEX {
             // The camera ray escaping says nothing about the light at surfaces.
-            if vertex > 0u {
+            if vertex > 0u && lane == 0u {
                 guide_escape(cell, d);
             }
             break;
@@ -90,21 +93,19 @@ fn guide_walk(walk: u32) {
         let a = abs(p);
         o = p + n * (1e-5 * guide.extent + 1e-6 * max(a.x, max(a.y, a.z)));
         cell = guide_cell_index(o);
-        for (var probe = 0u; probe <= GUIDE_PROBES; probe++) {
-            let u = pcg4d(vec4<u32>(walk, vertex + 1u, probe, 0x5eed0002u));
-            let dir = sample_diffuse(n, vec2<f32>(rand_f32(u.x), rand_f32(u.y)));
-            if probe == GUIDE_PROBES {
-                d = dir;
-            } else if !trace_any(Ray(o, dir), 0.0, T_MAX_LIMIT) {
-                guide_escape(cell, dir);
-            }
+        let u = pcg4d(vec4<u32>(walk, vertex + 1u, lane, 0x5eed0002u));
+        let dir = sample_diffuse(n, vec2<f32>(rand_f32(u.x), rand_f32(u.y)));
+        if !trace_any(Ray(o, dir), 0.0, T_MAX_LIMIT) {
+            guide_escape(cell, dir);
         }
+        let next = pcg4d(vec4<u32>(walk, vertex + 1u, GUIDE_PROBES, 0x5eed0002u));
+        d = sample_diffuse(n, vec2<f32>(rand_f32(next.x), rand_f32(next.y)));
     }
 }
 
 @compute @workgroup_size(GUIDE_WORKGROUP_SIZE)
 fn learn_guide(@builtin(global_invocation_id) id: vec3<u32>) {
-    if id.x < guide.walks {
-        guide_walk(id.x);
+    if id.x < guide.walks * GUIDE_PROBES {
+        guide_walk(id.x / GUIDE_PROBES, id.x % GUIDE_PROBES);
     }
 }

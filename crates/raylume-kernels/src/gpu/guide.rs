@@ -1,8 +1,8 @@
-//! [`GuideLearner`]: the environment guide's walks on the GPU (`env_guide.wgsl`, one thread a
-//! walk, the mirror of [`crate::env_guide::guide_walk`]). On the H200's 16-core host the CPU's
-//! walks took ~50 ms of a first image whose trace took 78 ms; the GPU traces their ~0.9 M
-//! rays in a few milliseconds. The counts are integer sums, so where the GPU computes the same
-//! rays as the CPU (which the tests check) it learns the same guide.
+//! [`GuideLearner`]: the environment guide's walks on the GPU (`env_guide.wgsl`: the mirror of
+//! [`crate::env_guide::guide_walk`], each walk split into `GUIDE_PROBES` threads that follow
+//! the same path and trace one probe each). On the H200's 16-core host the CPU's walks took
+//! ~50 ms of a first image whose trace took 78 ms. The counts are integer sums, so where the
+//! GPU computes the same rays as the CPU (which the tests check) it learns the same guide.
 
 use std::time::Instant;
 
@@ -170,7 +170,9 @@ impl GuideLearner {
                 });
                 pass.set_pipeline(&self.pipeline);
                 pass.set_bind_group(0, &group, &[]);
-                pass.dispatch_workgroups(g.walks.div_ceil(GUIDE_WORKGROUP_SIZE), 1, 1);
+                // GUIDE_PROBES lanes a walk (env_guide.wgsl): 204,800 threads.
+                let threads = g.walks * GUIDE_PROBES;
+                pass.dispatch_workgroups(threads.div_ceil(GUIDE_WORKGROUP_SIZE), 1, 1);
             }
             ctx.queue.submit([enc.finish()]);
         })?;
