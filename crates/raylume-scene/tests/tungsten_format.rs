@@ -448,4 +448,27 @@ fn prefetched_textures_are_the_referenced_ones_and_errors_keep_their_place() {
     });
     let e = Scene::load(d.write("gone.json", gone.to_string())).unwrap_err();
     assert!(e.to_string().contains("bsdfs[0].albedo"), "{e:?}");
+
+    // The meshes are added while the images decode: a corrupt image referenced by a primitive
+    // before a broken mesh is the error, and a broken mesh before the corrupt image's first
+    // reference is, as in the file's order.
+    d.write("broken.obj", "v 0 0 0\nv 1 0 0\nf 1 2 7\n");
+    let mesh = |bsdf: &str| json!({ "type": "mesh", "file": "broken.obj", "bsdf": bsdf });
+    let quad = |bsdf: &str| json!({ "type": "quad", "bsdf": bsdf });
+    let bsdfs = json!([
+        { "name": "fine", "type": "lambert", "albedo": 0.5 },
+        { "name": "corrupt", "type": "lambert", "albedo": "bad.png" }
+    ]);
+    let texture_first = json!({ "bsdfs": bsdfs, "primitives": [quad("corrupt"), mesh("fine")] });
+    let e = Scene::load(d.write("texture-first.json", texture_first.to_string())).unwrap_err();
+    assert!(
+        matches!(e, SceneError::Image { .. }) && e.to_string().contains("bsdfs[1].albedo"),
+        "{e:?}"
+    );
+    let mesh_first = json!({ "bsdfs": bsdfs, "primitives": [mesh("fine"), quad("corrupt")] });
+    let e = Scene::load(d.write("mesh-first.json", mesh_first.to_string())).unwrap_err();
+    assert!(
+        !matches!(e, SceneError::Image { .. }) && e.to_string().contains("broken.obj"),
+        "{e:?}"
+    );
 }
