@@ -229,19 +229,16 @@ impl SceneBuilder {
                 })
                 .collect()
         };
-        match std::thread::Builder::new()
+        // Without a thread to be had, the textures decode at their references.
+        if let Ok(decoding) = std::thread::Builder::new()
             .name("raylume texture prefetch".into())
             .spawn(decode)
         {
-            Ok(decoding) => {
-                self.settle_prefetch();
-                self.prefetch = Some(Prefetch {
-                    paths: set,
-                    decoding,
-                });
-            }
-            // No thread to be had: the textures decode at their references.
-            Err(_) => {}
+            self.settle_prefetch();
+            self.prefetch = Some(Prefetch {
+                paths: set,
+                decoding,
+            });
         }
     }
 
