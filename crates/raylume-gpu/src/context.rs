@@ -276,7 +276,7 @@ impl GpuContext {
                 .to_string(),
             is_software: ai.device_type == wgpu::DeviceType::Cpu,
         };
-        let ctx = Self {
+        Ok(Self {
             adapter,
             device,
             queue,
@@ -285,27 +285,7 @@ impl GpuContext {
             features,
             lost,
             uncaptured,
-        };
-        ctx.first_submission()?;
-        Ok(ctx)
-    }
-
-    /// A first submission (clearing 16 bytes), waited for: whatever the driver sets up
-    /// lazily for a queue's first work is paid here, where the device opens (beside the
-    /// scene's load in the `render` example), instead of in the first render's upload.
-    fn first_submission(&self) -> Result<(), GpuError> {
-        self.scoped("a first submission to the new device", || {
-            let b = self.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("raylume first submission"),
-                size: 16,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            });
-            let mut enc = self.device.create_command_encoder(&Default::default());
-            enc.clear_buffer(&b, 0, None);
-            self.queue.submit([enc.finish()]);
-        })?;
-        self.wait("a first submission to the new device")
+        })
     }
 
     /// One line naming the adapter, for logs: `NVIDIA H100 80GB HBM3 (Vulkan, DiscreteGpu)`.
