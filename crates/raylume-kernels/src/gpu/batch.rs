@@ -1,5 +1,6 @@
 //! The stages of one batch, recorded for [`super::clock::StageClock`]: the megakernel, or the
-//! wavefront with its sorts (raylume-sort), permutations and test copies between bounces.
+//! wavefront with its sorts (raylume-sort) and permutations between bounces, and whatever a
+//! [`BounceProbe`] injects before a bounce (the tests' copies of the sorted rays).
 
 use std::collections::HashMap;
 
@@ -7,10 +8,30 @@ use raylume_gpu::wgpu;
 use raylume_sort::{RadixSorter, SortLen};
 
 use super::BatchPlan;
-use super::capture::CaptureBuffers;
 use super::clock::{Record, Stage};
 use super::work::WorkBuffers;
 use crate::{ReorderMode, Schedule};
+
+/// The ray queue (and queue count, and bind group of group 1) bounce `depth` reads: the two
+/// queues alternate by depth parity, as pbrt-v4's wavefront `CurrentRayQueue(depth)`; the
+/// bounce appends its continuing rays to the other (`NextRayQueue`).
+pub(crate) fn current_queue(depth: u32) -> usize {
+    (depth & 1) as usize
+}
+
+/// A stage injected before each wavefront bounce is traced, after its sort and permutation:
+/// how a test looks at the rays (`GpuTracer::capture_sort`, `capture.rs`) without the
+/// production recording knowing what it copies.
+pub(crate) trait BounceProbe {
+    /// The stage to record before bounce `depth`, whose rays are in ray-state buffer `states`
+    /// of `work` and in queue [`current_queue`]`(depth)`; `None`: nothing.
+    fn before_bounce<'r>(
+        &'r self,
+        depth: u32,
+        work: &'r WorkBuffers,
+        states: usize,
+    ) -> Option<Stage<'r>>;
+}
 
 /// Builds the stages of one batch.
 #[derive(Clone, Copy)]
@@ -20,7 +41,7 @@ pub(crate) struct BatchRecorder<'r> {
     pub scene_bg: &'r wgpu::BindGroup,
     /// One per sorted key width.
     pub sorters: &'r [RadixSorter],
-    pub capture: Option<(u32, &'r CaptureBuffers)>,
+    pub probe: Option<&'r dyn BounceProbe>,
     pub ray_groups: (u32, u32),
     pub pixel_groups: (u32, u32),
     /// The persistent schedule's dispatch: the batch's samples, at most
@@ -35,7 +56,7 @@ impl<'r> BatchRecorder<'r> {
         let w = self.work;
         pass.set_pipeline(&self.pipes[pipe]);
         pass.set_bind_group(0, self.scene_bg, &[]);
-        let parity = (depth & 1) as usize;
+        let parity = current_queue(depth);
         pass.set_bind_group(
             1,
             &w.bind_groups[2 * states + parity],
@@ -96,7 +117,7 @@ impl<'r> BatchRecorder<'r> {
             if plan.reorder.sorts_before(depth) {
                 // propagate(depth - 1) left the live rays and their keys in the queue this
                 // bounce reads, with their count at the same parity.
-                let q = (depth & 1) as usize;
+                let q = current_queue(depth);
                 let sorter = self
                     .sorters
                     .iter()
@@ -127,31 +148,8 @@ impl<'r> BatchRecorder<'r> {
                     states = 1 - states;
                 }
             }
-            if let Some((at, c)) = self.capture
-                && at == depth
-            {
-                let s = states;
-                let q = (depth & 1) as usize;
-                out.push(Stage {
-                    label: "capture",
-                    depth: Some(depth),
-                    submit_after: false,
-                    record: Record::Untimed(Box::new(move |enc| {
-                        let size = |b: &wgpu::Buffer, d: &wgpu::Buffer| b.size().min(d.size());
-                        enc.copy_buffer_to_buffer(&w.queue_counts, 0, &c.counts, 0, 16);
-                        enc.copy_buffer_to_buffer(
-                            &w.ray_keys,
-                            0,
-                            &c.keys,
-                            0,
-                            size(&w.ray_keys, &c.keys),
-                        );
-                        let rq = &w.ray_queues[q];
-                        enc.copy_buffer_to_buffer(rq, 0, &c.rays, 0, size(rq, &c.rays));
-                        let st = &w.ray_states[s];
-                        enc.copy_buffer_to_buffer(st, 0, &c.states, 0, size(st, &c.states));
-                    })),
-                });
+            if let Some(stage) = self.probe.and_then(|p| p.before_bounce(depth, w, states)) {
+                out.push(stage);
             }
             let s = states;
             let mut stage = Stage::pass("propagate", Some(depth), move |pass| {

@@ -3,9 +3,12 @@
 
 use raylume_gpu::{GpuContext, wgpu};
 
+use super::batch::{BounceProbe, current_queue};
+use super::clock::{Record, Stage};
+use super::work::WorkBuffers;
 use super::{BatchPlan, GpuTracer};
-use crate::KernelError;
-use crate::gpu_types::RayState;
+use crate::gpu_types::{RayState, SceneUniforms};
+use crate::{KernelError, Schedule};
 
 /// What bounce `depth` of the last batch of the last render was about to trace
 /// ([`GpuTracer::capture_sort`]).
@@ -61,6 +64,65 @@ impl CaptureBuffers {
     }
 }
 
+impl Capture {
+    /// Before a render's batches: forget the last copy, and hold buffers for `capacity` rays
+    /// when a batch may run the wavefront.
+    pub fn prepare(
+        &mut self,
+        ctx: &GpuContext,
+        capacity: u32,
+        wavefront: bool,
+    ) -> Result<(), KernelError> {
+        self.taken = None;
+        if wavefront && self.buffers.as_ref().is_none_or(|b| b.capacity != capacity) {
+            self.buffers = None;
+            self.buffers = Some(CaptureBuffers::new(ctx, capacity)?);
+        }
+        Ok(())
+    }
+
+    /// The probe a batch's recorder injects (when the buffers exist).
+    pub fn probe(&self) -> Option<&dyn BounceProbe> {
+        self.buffers.as_ref().map(|_| self as &dyn BounceProbe)
+    }
+
+    /// After a batch of `plan` with uniforms `u`: a wavefront batch that reached the depth
+    /// copied it.
+    pub fn batch_done(&mut self, plan: BatchPlan, u: &SceneUniforms, max_bounces: u32) {
+        if plan.schedule == Schedule::Wavefront && self.depth <= max_bounces {
+            self.taken = Some((plan, u.scene_min, u.scene_extent));
+        }
+    }
+}
+
+impl BounceProbe for Capture {
+    /// At the captured depth: copies of the queue counts, the keys, the queue and the ray
+    /// states the bounce reads (untimed).
+    fn before_bounce<'r>(
+        &'r self,
+        depth: u32,
+        w: &'r WorkBuffers,
+        states: usize,
+    ) -> Option<Stage<'r>> {
+        let c = self.buffers.as_ref().filter(|_| depth == self.depth)?;
+        let q = current_queue(depth);
+        Some(Stage {
+            label: "capture",
+            depth: Some(depth),
+            submit_after: false,
+            record: Record::Untimed(Box::new(move |enc| {
+                let size = |b: &wgpu::Buffer, d: &wgpu::Buffer| b.size().min(d.size());
+                enc.copy_buffer_to_buffer(&w.queue_counts, 0, &c.counts, 0, 16);
+                enc.copy_buffer_to_buffer(&w.ray_keys, 0, &c.keys, 0, size(&w.ray_keys, &c.keys));
+                let rq = &w.ray_queues[q];
+                enc.copy_buffer_to_buffer(rq, 0, &c.rays, 0, size(rq, &c.rays));
+                let st = &w.ray_states[states];
+                enc.copy_buffer_to_buffer(st, 0, &c.states, 0, size(st, &c.states));
+            })),
+        })
+    }
+}
+
 impl GpuTracer<'_> {
     /// Test hook: from the next render on, copy what bounce `depth` reads (its queue, the key
     /// buffer and the ray states) just before it is traced, after any sort and permutation
@@ -83,7 +145,7 @@ impl GpuTracer<'_> {
             return Ok(None);
         };
         let counts: Vec<u32> = self.ctx.read_buffer(&b.counts, 4)?;
-        let count = counts[(c.depth & 1) as usize].min(b.capacity);
+        let count = counts[current_queue(c.depth)].min(b.capacity);
         let n = count as usize;
         Ok(Some(SortCapture {
             depth: c.depth,

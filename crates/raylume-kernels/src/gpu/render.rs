@@ -8,7 +8,6 @@ use raylume_gpu::wgpu;
 use raylume_sort::{RadixSorter, SortLen, SortOptions};
 
 use super::batch::BatchRecorder;
-use super::capture::CaptureBuffers;
 use super::clock::{StageClock, StageTime};
 use super::work::{self, WorkBuffers, WorkLayouts};
 use super::{
@@ -96,11 +95,8 @@ impl GpuTracer<'_> {
             let t_batch = Instant::now();
             let (u, times) = self.run_batch(&p, &plan, bi, settings, hook.is_some(), &mut clock)?;
             let wall_seconds = t_batch.elapsed().as_secs_f64();
-            if let Some(c) = self.capture.as_mut()
-                && plan.schedule == Schedule::Wavefront
-                && c.depth <= max_bounces
-            {
-                c.taken = Some((plan, u.scene_min, u.scene_extent));
+            if let Some(c) = self.capture.as_mut() {
+                c.batch_done(plan, &u, max_bounces);
             }
             add_depth_times(&mut depths, &times);
             let timing = BatchTiming {
@@ -251,11 +247,7 @@ impl GpuTracer<'_> {
         key_bits.dedup();
         self.prepare_sorters(&key_bits, key.capacity)?;
         if let Some(c) = self.capture.as_mut() {
-            c.taken = None;
-            if wavefront && c.buffers.as_ref().is_none_or(|b| b.capacity != capacity) {
-                c.buffers = None;
-                c.buffers = Some(CaptureBuffers::new(ctx, capacity)?);
-            }
+            c.prepare(ctx, capacity, wavefront)?;
         }
         let base = self.data.uniforms(settings);
         self.warm_pipelines(&pipes, &base, capacity)?;
@@ -358,10 +350,7 @@ impl GpuTracer<'_> {
             pipes: &p.pipes,
             scene_bg: &self.scene.bind_group,
             sorters: &self.sorters,
-            capture: self
-                .capture
-                .as_ref()
-                .and_then(|c| Some((c.depth, c.buffers.as_ref()?))),
+            probe: self.capture.as_ref().and_then(|c| c.probe()),
             ray_groups: dispatch_size(b.rays(), workgroup_size(), max_dim),
             persistent_groups: dispatch_size(
                 b.rays()
