@@ -96,12 +96,35 @@ impl GuideLearner {
                 });
                 (group_layout, pipeline)
             })?;
-        Ok(Self {
+        let mut learner = Self {
             layout,
             group_layout,
             pipeline,
-            seconds: start.elapsed().as_secs_f64(),
-        })
+            seconds: 0.0,
+        };
+        learner.warm_up(ctx)?;
+        learner.seconds = start.elapsed().as_secs_f64();
+        Ok(learner)
+    }
+
+    /// One dispatch of no walks, waited for: the H200's driver spends ~16 ms on a pipeline's
+    /// first dispatch (measured 2026-12-02: 16-18 ms for the first, 0.3-1 ms for later ones,
+    /// whatever the buffers), which is paid here, where the learner is made (beside the BVH
+    /// build in `raylume::Tracer`), instead of in the render's upload.
+    fn warm_up(&self, ctx: &GpuContext) -> Result<(), KernelError> {
+        let none = wgpu::BufferUsages::empty();
+        let nodes = ctx.storage_buffer_zeroed("guide warm-up nodes", 128, none)?;
+        let primitives = ctx.storage_buffer_zeroed("guide warm-up primitives", 64, none)?;
+        let g = GuideParams {
+            side: 1,
+            walks: 0,
+            grid: [1, 1, 1],
+            ..GuideParams::default()
+        };
+        let pending = self.start(ctx, &nodes, &primitives, &g)?;
+        ctx.wait("warming up the environment guide's walks")?;
+        drop(pending);
+        Ok(())
     }
 
     /// The layout of the trees it walks.
@@ -170,9 +193,11 @@ impl GuideLearner {
                 });
                 pass.set_pipeline(&self.pipeline);
                 pass.set_bind_group(0, &group, &[]);
-                // GUIDE_PROBES lanes a walk (env_guide.wgsl): 204,800 threads.
+                // GUIDE_PROBES lanes a walk (env_guide.wgsl): 204,800 threads; at least one
+                // workgroup (the warm-up's has no walk).
                 let threads = g.walks * GUIDE_PROBES;
-                pass.dispatch_workgroups(threads.div_ceil(GUIDE_WORKGROUP_SIZE), 1, 1);
+                let groups = threads.div_ceil(GUIDE_WORKGROUP_SIZE).max(1);
+                pass.dispatch_workgroups(groups, 1, 1);
             }
             ctx.queue.submit([enc.finish()]);
         })?;
