@@ -6,7 +6,7 @@
 
 use std::time::Instant;
 
-use raylume_bvh::BvhLayout;
+use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh};
 use raylume_gpu::{GpuContext, wgpu};
 use wgpu::util::DeviceExt;
 
@@ -107,23 +107,29 @@ impl GuideLearner {
         Ok(learner)
     }
 
-    /// One dispatch of no walks, waited for: the H200's driver spends ~16 ms on a pipeline's
-    /// first dispatch (measured 2026-12-02: 16-18 ms for the first, 0.3-1 ms for later ones,
-    /// whatever the buffers), which is paid here, where the learner is made (beside the BVH
-    /// build in `raylume::Tracer`), instead of in the render's upload.
+    /// One walk over a one-triangle tree, waited for: on the H200 the process's first walks
+    /// that read the tree took 16-22 ms however few they were, later ones 0.3-1 ms (the
+    /// living room's 25,600: 0.9-1.0 ms), and a dispatch whose threads read nothing (no
+    /// walks) did not take that cost away (measured 2026-12-02 with a throwaway timing
+    /// binary on the device). Paid here, where the learner is made (beside the BVH build in
+    /// `raylume::Tracer`), instead of in the render's upload.
     fn warm_up(&self, ctx: &GpuContext) -> Result<(), KernelError> {
+        let one = [raylume_scene::Triangle::flat(
+            [glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y],
+            0,
+        )];
+        let tree = GpuBvh::build_with_layout(&one, &[], BvhQuality::Fastest, self.layout)
+            .map_err(|e| KernelError::InvalidScene(format!("the guide's warm-up tree: {e}")))?;
         let none = wgpu::BufferUsages::empty();
-        let nodes = ctx.storage_buffer_zeroed("guide warm-up nodes", 128, none)?;
-        let primitives = ctx.storage_buffer_zeroed("guide warm-up primitives", 64, none)?;
-        let g = GuideParams {
-            side: 1,
-            walks: 0,
-            grid: [1, 1, 1],
-            ..GuideParams::default()
-        };
-        let pending = self.start(ctx, &nodes, &primitives, &g)?;
-        ctx.wait("warming up the environment guide's walks")?;
-        drop(pending);
+        let nodes = ctx.storage_buffer("guide warm-up nodes", tree.node_bytes(), none)?;
+        let primitives = ctx.storage_buffer("guide warm-up primitives", &tree.primitives, none)?;
+        let g = GuideParams::new(
+            &raylume_scene::Camera::default(),
+            glam::Vec3::ZERO,
+            glam::Vec3::ONE,
+        );
+        let g = GuideParams { walks: 1, ..g };
+        self.start(ctx, &nodes, &primitives, &g)?.finish(ctx)?;
         Ok(())
     }
 
@@ -193,11 +199,9 @@ impl GuideLearner {
                 });
                 pass.set_pipeline(&self.pipeline);
                 pass.set_bind_group(0, &group, &[]);
-                // GUIDE_PROBES lanes a walk (env_guide.wgsl): 204,800 threads; at least one
-                // workgroup (the warm-up's has no walk).
+                // GUIDE_PROBES lanes a walk (env_guide.wgsl): 204,800 threads.
                 let threads = g.walks * GUIDE_PROBES;
-                let groups = threads.div_ceil(GUIDE_WORKGROUP_SIZE).max(1);
-                pass.dispatch_workgroups(groups, 1, 1);
+                pass.dispatch_workgroups(threads.div_ceil(GUIDE_WORKGROUP_SIZE), 1, 1);
             }
             ctx.queue.submit([enc.finish()]);
         })?;
