@@ -260,8 +260,8 @@ pub struct Tracer {
     /// `min(max throughput, 0.95)` and its throughput is divided by it: unbiased, fewer rays.
     pub russian_roulette: Option<u32>,
     /// Whether next-event estimation samples the environment by where the scene leaves it
-    /// visible: before the render, diffuse random walks from the camera count the directions
-    /// in which they escape, and the sky is sampled by that (mixed with the unguided
+    /// visible: before the render, diffuse random walks from the camera (on the GPU for a GPU
+    /// render) count the directions in which they escape, and the sky is sampled by that (mixed with the unguided
     /// distribution; `raylume_kernels::env_guide`). In a room lit through its windows most
     /// shadow rays toward a uniformly sampled sky hit walls; guided, most pass. `Some(true)`:
     /// always; `Some(false)`: by the environment's radiance alone, as Mitsuba 3; `None` (the
