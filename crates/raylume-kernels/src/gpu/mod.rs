@@ -272,7 +272,8 @@ impl GpuScene {
         Self::upload_data_over(ctx, features, bvh, data, tree)
     }
 
-    /// [`GpuScene::upload_data`] with `bvh`'s nodes and primitives uploaded already (`tree`).
+    /// [`GpuScene::upload_data`] with `bvh`'s nodes and primitives uploaded already (`tree`),
+    /// `data` checked against `bvh` (or prepared from it).
     fn upload_data_over(
         ctx: &GpuContext,
         features: Features,
@@ -281,7 +282,6 @@ impl GpuScene {
         (nodes, primitives): (wgpu::Buffer, wgpu::Buffer),
     ) -> Result<Self, KernelError> {
         let start = Instant::now();
-        data.check_bvh(bvh)?;
         let full_shading = !data.triangle_shading.is_empty();
         let buffers = GpuSceneBuffers {
             nodes,
