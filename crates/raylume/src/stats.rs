@@ -120,6 +120,10 @@ pub struct RenderStats {
     /// `decoded to floats`, each with why when the tracer chose (`... (the render's rays
     /// repay it)`, `... (decoding would not repay)`), `floats` (no 8-bit texture) or `none`.
     pub textures: String,
+    /// Bytes of the texel buffer the render read (`SceneData::texels`: textures, the 8-bit
+    /// decoding table, an environment map and its distributions, the environment guide's):
+    /// how much `textures`' choice holds (0 for `Backend::Gpus`, which does not report it).
+    pub texel_bytes: u64,
     /// The reorder policy and what it ran: `off`, `on: wavefront, sort-index before depths
     /// 1..=10`, `auto: <the plan> (fastest measured per N-ray batch: ...)`, `auto: still
     /// measuring (...)`, or why it did not run (the CPU backend).

@@ -1240,6 +1240,7 @@ impl Tracer {
         if fresh {
             stats.seconds.guide = uploaded.data().environment_guide_seconds;
         }
+        let uploaded_bytes = uploaded.texel_bytes();
         prepared.gpu = Some(uploaded.clone());
         let mut tracer = GpuTracer::with_scene(ctx, uploaded, pipelines)?;
         tracer.set_estimator(self.estimator);
@@ -1248,6 +1249,7 @@ impl Tracer {
         tracer.set_environment_guide(guides);
         stats.environment_guide = self.describe_guide(guides, tracer.environment_guide_walks());
         stats.textures = self.describe_textures(scene);
+        stats.texel_bytes = uploaded_bytes;
         tracer.set_russian_roulette(self.russian_roulette);
         tracer.set_sample_range(self.samples.map(|r| r.begin..r.end));
         if let Some(workspace) = self.gpu_workspace.take() {
@@ -1364,6 +1366,7 @@ impl Tracer {
         tracer.set_environment_guide(guides);
         stats.environment_guide = self.describe_guide(guides, tracer.environment_guide_walks());
         stats.textures = self.describe_textures(scene);
+        stats.texel_bytes = 4 * data.texels.len() as u64;
         tracer.set_russian_roulette(self.russian_roulette);
         tracer.set_sample_range(self.samples.map(|r| r.begin..r.end));
         let out = match target {

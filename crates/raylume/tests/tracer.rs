@@ -543,6 +543,15 @@ fn textures_are_decoded_only_when_the_render_repays_it_and_the_image_is_the_same
         assert_eq!(decoded.stats.textures, "decoded to floats", "{backend:?}");
         assert_eq!(render(Some(false)).stats.textures, "8-bit sRGB codes");
         assert_eq!(chosen.pixels, decoded.pixels, "{backend:?}: same numbers");
+        // What was held, not only what was said: the codes take a word a texel after the
+        // 256-word decoding table, the decoded texels three words each (whatever else the
+        // buffer holds is the same either way).
+        let table = raylume::scene::srgb8_table().len() as u64;
+        assert_eq!(
+            chosen.stats.texel_bytes - decoded.stats.texel_bytes,
+            4 * (table + 6) - 4 * 3 * 6,
+            "{backend:?}"
+        );
     }
     // The threshold: segments = w * h * spp * (bounces + 1) against 600 a texel.
     let mut r = scene.render;

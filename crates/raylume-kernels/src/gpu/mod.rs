@@ -113,6 +113,8 @@ pub struct GpuScene {
     /// Whether `buffers.shading` holds a record per primitive (else one placeholder).
     full_shading: bool,
     buffers: GpuSceneBuffers,
+    /// Words of the texel buffer (its CPU copy is emptied after the upload).
+    texel_words: u64,
     upload_seconds: f64,
 }
 
@@ -303,6 +305,7 @@ impl GpuScene {
             )?,
         };
         ctx.wait("uploading the scene")?;
+        let texel_words = data.texels.len() as u64;
         // Only what the uniforms need stays on the CPU.
         data.texels = Vec::new();
         data.triangle_shading = Vec::new();
@@ -313,6 +316,7 @@ impl GpuScene {
             primitives: bvh.primitives.len() as u32,
             full_shading,
             buffers,
+            texel_words,
             upload_seconds: start.elapsed().as_secs_f64(),
         })
     }
@@ -320,6 +324,12 @@ impl GpuScene {
     /// Seconds [`GpuScene::upload`] took (preparing and uploading).
     pub fn upload_seconds(&self) -> f64 {
         self.upload_seconds
+    }
+
+    /// Bytes of the texel buffer uploaded ([`SceneData::texels`]: textures, the 8-bit
+    /// decoding table, an environment map and its distributions, the guide's).
+    pub fn texel_bytes(&self) -> u64 {
+        4 * self.texel_words
     }
 
     /// What was prepared (its texels and shading data emptied: they live on the GPU).
