@@ -365,7 +365,7 @@ fn run(args: Args) -> Result<(), String> {
     };
     eprintln!(
         "raylume: rendered {} ({}x{}, {} spp, {} bounces; estimator {}, sampler {}, {roulette}, \
-         environment {}, textures {}) on {} [{}]: {} (reorder {})",
+         environment {}, textures {}, texel buffer {:.1} MB) on {} [{}]: {} (reorder {})",
         args.scene.display(),
         s.width,
         s.height,
@@ -375,6 +375,7 @@ fn run(args: Args) -> Result<(), String> {
         s.sampler,
         s.environment_guide,
         s.textures,
+        s.texel_bytes as f64 / 1e6,
         s.backend.to_uppercase(),
         s.adapter,
         s.backend_reason,
