@@ -507,8 +507,8 @@ impl Tracer {
     /// How many times the environment guide's rays a render must trace for
     /// [`Tracer::environment_guide`]'s `None` to learn the guide: then the walks cost at most
     /// about a tenth of the render (25,600 walks, at most 0.92 M rays: ~0.3 s on 2 CPU
-    /// cores, ~50 ms on the H200's 16-core host; a GPU render runs them on the GPU, where
-    /// the living room's first image waited 15-23 ms for them, 2026-12-02).
+    /// cores, ~50 ms on the H200's 16-core host; a GPU render runs them on the GPU: ~1 ms
+    /// for the living room's on the H200, 2026-12-02, docs/RESULTS.md).
     pub const GUIDE_REPAY_FACTOR: f64 = 10.0;
 
     /// The Russian-roulette start of [`Tracer::new`]: segment 5, as Mitsuba 3's `path`.
