@@ -392,6 +392,54 @@ fn check_input(triangles: &[Triangle], spheres: &[Sphere]) -> Result<(), BvhErro
     Ok(())
 }
 
+impl GpuBvh {
+    /// The input of a build on the GPU ([`crate::lbvh`]; `raylume_kernels::gpu::LbvhBuilder`):
+    /// `triangles` checked as [`GpuBvh::build`] checks them, as [`Primitive`]s in scene order.
+    pub fn lbvh_input(triangles: &[Triangle]) -> Result<Vec<Primitive>, BvhError> {
+        check_input(triangles, &[])?;
+        let mut source = Vec::with_capacity(triangles.len());
+        source.par_extend(
+            triangles
+                .par_iter()
+                .enumerate()
+                .map(|(i, t)| Primitive::triangle(t.positions.map(|p| p.to_array()), i as u32)),
+        );
+        Ok(source)
+    }
+
+    /// The binary tree of an LBVH ([`crate::lbvh::lbvh_binary`], or the GPU build's read
+    /// back) over `source` (scene-order triangles, [`GpuBvh::lbvh_input`]), its primitives put
+    /// in leaf order; the build began at `start`. A tree deeper than the traversal's stack is
+    /// [`BvhError::TooDeep`].
+    pub fn from_lbvh(
+        tree: crate::lbvh::LbvhTree,
+        source: &[Primitive],
+        start: Instant,
+    ) -> Result<GpuBvh, BvhError> {
+        BvhError::check_depth(tree.max_depth)?;
+        if tree.order.len() != source.len() {
+            return Err(BvhError::Inconsistent(format!(
+                "an LBVH of {} primitives over {}",
+                tree.order.len(),
+                source.len()
+            )));
+        }
+        let mut primitives = Vec::with_capacity(source.len());
+        primitives.par_extend(tree.order.par_iter().map(|&i| source[i as usize]));
+        let mut bvh = GpuBvh {
+            layout: BvhLayout::Binary,
+            nodes: tree.nodes,
+            wide_nodes: Vec::new(),
+            primitives,
+            triangle_count: source.len() as u32,
+            sphere_count: 0,
+            stats: BvhStats::default(),
+        };
+        bvh.stats = BvhStats::measure(&bvh, BvhQuality::Fastest, tree.max_depth, None, start);
+        Ok(bvh)
+    }
+}
+
 /// Primitive copies and nodes must stay addressable by `u32`.
 fn check_output(flat: &Flat) -> Result<(), BvhError> {
     if flat.primitives.len() > MAX_U32_COUNT {

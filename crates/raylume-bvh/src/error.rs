@@ -41,6 +41,10 @@ pub enum BvhError {
          (MAX_STACK_DEPTH)"
     )]
     TooDeep { depth: usize, max: usize },
+    /// A tree and primitives that do not belong together (e.g. an LBVH read back from the GPU
+    /// for another primitive count: [`GpuBvh::from_lbvh`](crate::GpuBvh::from_lbvh)).
+    #[error("inconsistent BVH input: {0}")]
+    Inconsistent(String),
 }
 
 impl BvhError {

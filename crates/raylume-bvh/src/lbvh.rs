@@ -1,19 +1,85 @@
 //! A linear BVH (Karras, *Maximizing Parallelism in the Construction of BVHs, Octrees, and
-//! k-d Trees*, HPG 2012) for [`BvhQuality::Fastest`](crate::BvhQuality::Fastest): primitives
-//! sorted along a 63-bit Morton curve of their box centres, and the binary radix tree over the
-//! sorted codes, every inner node found independently of the others, so the whole build runs on
-//! every core (obvhs' PLOC, the other presets' builder, hardly does: 351 of 654 ms of the 3M
-//! grid's build on 16 cores). One primitive a leaf, as an obvhs [`Bvh2`] with each node's
-//! children side by side, which the reinsertion and the eight-wide converter then take as a
-//! PLOC tree. Its SAH cost is higher than PLOC's (the Morton order alone decides the splits):
-//! the preset for renders of few rays over many primitives.
+//! k-d Trees*, HPG 2012): primitives sorted along a 63-bit Morton curve of their box centres,
+//! and the binary radix tree over the sorted codes, every inner node found independently of
+//! the others. Two uses:
+//!
+//! - [`BvhQuality::Fastest`](crate::BvhQuality::Fastest) on the CPU (`build_lbvh`): one
+//!   primitive a leaf, as an obvhs `Bvh2` with each node's children side by side, which the
+//!   reinsertion and the eight-wide converter then take as a PLOC tree (obvhs' PLOC, the
+//!   other presets' builder, hardly uses the cores: 351 of 654 ms of the 3M grid's build on
+//!   16 cores). Its SAH cost is higher than PLOC's (the Morton order alone decides the
+//!   splits): the preset for renders of few rays over many primitives.
+//! - The build on the GPU (`raylume_kernels::gpu::LbvhBuilder`, the WGSL of [`LBVH_WGSL`]):
+//!   [`lbvh_binary`] is its reference, function for function ([`LbvhParams`],
+//!   [`morton_code`], [`lbvh_delta`], [`lbvh_node`]), and writes the same [`BvhNode`]s in
+//!   the same places: inner node `i` of the radix tree is node `i` (the root 0), a leaf is
+//!   the slot of its parent that holds sorted primitive `k`.
+//!
+//! [`LBVH_WGSL`]: crate::LBVH_WGSL
 
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3A;
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::{Bvh2, node::Bvh2Node};
 use rayon::prelude::*;
 
+use crate::bounds::primitive_aabb;
+use crate::{BvhNode, INVALID_INDEX, PRIM_TRIANGLE, Primitive};
+
 /// Subtrees of at least this many leaves are emitted on two threads.
 const PARALLEL_LEAVES: u32 = 4096;
+
+/// Bits of each axis in a [`morton_code`] (three axes: 63 bits).
+pub const LBVH_AXIS_BITS: u32 = 21;
+
+/// What every kernel of the GPU build reads (WGSL `LbvhParams`): the grid the Morton codes
+/// quantise the box centres to, the primitive count, and the refit pass.
+///
+/// `repr(C)`, `Pod`, 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct LbvhParams {
+    /// The smallest box centre, per axis.
+    pub centre_min: [f32; 3],
+    /// Primitives.
+    pub count: u32,
+    /// `(2^21 - 1) / extent` per axis (the extent at least 1e-30): a centre's grid cell is
+    /// `(centre - centre_min) * scale`, truncated.
+    pub scale: [f32; 3],
+    /// The refit pass this dispatch runs (1, 2, ...; the GPU build's `lbvh_refit`).
+    pub pass: u32,
+}
+
+impl LbvhParams {
+    /// The grid of the centres of `boxes` (finite).
+    pub(crate) fn of_boxes(boxes: &[Aabb]) -> Self {
+        let (lo, hi) = boxes
+            .par_iter()
+            .map(|b| b.center())
+            .fold(
+                || (Vec3A::INFINITY, Vec3A::NEG_INFINITY),
+                |(lo, hi), c| (lo.min(c), hi.max(c)),
+            )
+            .reduce(
+                || (Vec3A::INFINITY, Vec3A::NEG_INFINITY),
+                |a, b| (a.0.min(b.0), a.1.max(b.1)),
+            );
+        let scale =
+            (hi - lo).max(Vec3A::splat(1e-30)).recip() * ((1u64 << LBVH_AXIS_BITS) - 1) as f32;
+        Self {
+            centre_min: lo.to_array(),
+            count: boxes.len() as u32,
+            scale: scale.to_array(),
+            pass: 0,
+        }
+    }
+
+    /// The grid of `primitives`' box centres (finite), as the GPU build uses it.
+    pub fn of_primitives(primitives: &[Primitive]) -> Self {
+        let boxes: Vec<Aabb> = primitives.par_iter().map(primitive_aabb).collect();
+        Self::of_boxes(&boxes)
+    }
+}
 
 /// 21 bits spread to every third bit.
 fn spread3(x: u64) -> u64 {
@@ -26,11 +92,196 @@ fn spread3(x: u64) -> u64 {
     x
 }
 
-/// An inner node of the radix tree: its two children (`(index, is a leaf)`) and the first
-/// and last leaves it covers.
+/// The 63-bit Morton code of a box centre on `params`' grid: x in bits 0, 3, 6, ..., y in
+/// 1, 4, ..., z in 2, 5, ... (WGSL `morton_code`, the code as two words, low first).
+pub fn morton_code(centre: Vec3A, params: &LbvhParams) -> u64 {
+    let lo = Vec3A::from_array(params.centre_min);
+    let scale = Vec3A::from_array(params.scale);
+    let q = ((centre - lo) * scale).max(Vec3A::ZERO);
+    spread3(q.x as u64) | (spread3(q.y as u64) << 1) | (spread3(q.z as u64) << 2)
+}
+
+/// Karras' δ over sorted `codes`: the length of the common prefix of keys `i` and `j` (the
+/// key of leaf `i` being `(codes[i], i)`: the index breaks ties between equal codes), -1
+/// outside the leaves (WGSL `lbvh_delta`).
+pub fn lbvh_delta(codes: &[u64], i: i64, j: i64) -> i64 {
+    let n = codes.len() as i64;
+    if j < 0 || j >= n {
+        return -1;
+    }
+    let (a, b) = (codes[i as usize], codes[j as usize]);
+    if a == b {
+        64 + i64::from((i as u64 ^ j as u64).leading_zeros())
+    } else {
+        i64::from((a ^ b).leading_zeros())
+    }
+}
+
+/// Inner node `i` of the radix tree over sorted `codes` (WGSL `lbvh_node`): its children and
+/// the leaves it covers (Karras' Figure 4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LbvhInner {
+    /// The children: `(index, is a leaf)`; a leaf's index is its sorted position, an inner
+    /// child's its node.
+    pub children: [(u32, bool); 2],
+    /// The first and last leaves (sorted positions) under the node.
+    pub range: (u32, u32),
+}
+
+/// [`LbvhInner`] of inner node `i` (`0 <= i < codes.len() - 1`).
+pub fn lbvh_node(codes: &[u64], i: i64) -> LbvhInner {
+    let delta = |j: i64| lbvh_delta(codes, i, j);
+    let d: i64 = if delta(i + 1) > delta(i - 1) { 1 } else { -1 };
+    let d_min = delta(i - d);
+    let mut l_max = 2i64;
+    while delta(i + l_max * d) > d_min {
+        l_max *= 2;
+    }
+    let mut l = 0i64;
+    let mut t = l_max / 2;
+    while t >= 1 {
+        if delta(i + (l + t) * d) > d_min {
+            l += t;
+        }
+        t /= 2;
+    }
+    let j = i + l * d;
+    let d_node = delta(j);
+    let mut s = 0i64;
+    let mut t = l;
+    loop {
+        t = (t + 1) / 2;
+        if delta(i + (s + t) * d) > d_node {
+            s += t;
+        }
+        if t <= 1 {
+            break;
+        }
+    }
+    let gamma = i + s * d + d.min(0);
+    let (first, last) = (i.min(j), i.max(j));
+    LbvhInner {
+        children: [
+            (gamma as u32, first == gamma),
+            (gamma as u32 + 1, last == gamma + 1),
+        ],
+        range: (first as u32, last as u32),
+    }
+}
+
+/// Primitive indices sorted by (Morton code of their box centre, index), and the sorted codes.
+fn sorted_codes(boxes: &[Aabb], params: &LbvhParams) -> (Vec<u64>, Vec<u32>) {
+    let mut codes: Vec<(u64, u32)> = boxes
+        .par_iter()
+        .enumerate()
+        .map(|(i, b)| (morton_code(b.center(), params), i as u32))
+        .collect();
+    codes.par_sort_unstable();
+    codes.into_par_iter().unzip()
+}
+
+/// The tree the GPU build writes ([`lbvh_binary`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LbvhTree {
+    /// Inner node `i` of the radix tree at `nodes[i]` (the root at 0): `n - 1` nodes for `n`
+    /// primitives, each slot a leaf of one primitive (count 1, index its sorted position) or an
+    /// inner node (count 0). One primitive: a root with one leaf slot and an empty one.
+    pub nodes: Vec<BvhNode>,
+    /// The primitives' sorted order: sorted position `k` holds `primitives[order[k]]`.
+    pub order: Vec<u32>,
+    /// Nodes on the longest root-to-leaf path, the root counting 1 (what the GPU build's
+    /// refit pass count reaches).
+    pub max_depth: usize,
+}
+
+/// The linear BVH over `primitives` (triangles; none empty) in the layout the GPU build
+/// (`raylume_kernels::gpu::LbvhBuilder`) writes: its reference, node for node.
+pub fn lbvh_binary(primitives: &[Primitive]) -> LbvhTree {
+    let n = primitives.len();
+    let boxes: Vec<Aabb> = primitives.par_iter().map(primitive_aabb).collect();
+    let slot = |b: &Aabb| (b.min.to_array(), b.max.to_array());
+    if n <= 1 {
+        let mut root = BvhNode {
+            left_index: INVALID_INDEX,
+            right_index: INVALID_INDEX,
+            ..Default::default()
+        };
+        if let Some(b) = boxes.first() {
+            (root.left_min, root.left_max) = slot(b);
+            (root.left_index, root.left_count) = (0, 1);
+        }
+        return LbvhTree {
+            nodes: vec![root],
+            order: (0..n as u32).collect(),
+            max_depth: 1,
+        };
+    }
+    let params = LbvhParams::of_boxes(&boxes);
+    let (codes, order) = sorted_codes(&boxes, &params);
+    let inner: Vec<LbvhInner> = (0..n as i64 - 1)
+        .into_par_iter()
+        .map(|i| lbvh_node(&codes, i))
+        .collect();
+    // Boxes and heights bottom-up: an inner node after its inner children (its height is
+    // one more than theirs), as the GPU's refit passes find them, pass by pass.
+    let mut nodes = vec![BvhNode::default(); n - 1];
+    let mut height = vec![0usize; n - 1];
+    let mut stack = vec![(0u32, false)];
+    while let Some((i, children_done)) = stack.pop() {
+        let node = inner[i as usize];
+        if !children_done {
+            stack.push((i, true));
+            for (c, leaf) in node.children {
+                if !leaf {
+                    stack.push((c, false));
+                }
+            }
+            continue;
+        }
+        let mut out = BvhNode::default();
+        let mut h = 0;
+        for (side, (c, leaf)) in node.children.into_iter().enumerate() {
+            let (b, count) = if leaf {
+                (boxes[order[c as usize] as usize], 1)
+            } else {
+                let k = nodes[c as usize];
+                h = h.max(height[c as usize]);
+                let b = Aabb::new(k.left_min.into(), k.left_max.into())
+                    .union(&Aabb::new(k.right_min.into(), k.right_max.into()));
+                (b, 0)
+            };
+            let (min, max) = slot(&b);
+            if side == 0 {
+                (out.left_min, out.left_max, out.left_index, out.left_count) = (min, max, c, count);
+            } else {
+                (
+                    out.right_min,
+                    out.right_max,
+                    out.right_index,
+                    out.right_count,
+                ) = (min, max, c, count);
+            }
+        }
+        nodes[i as usize] = out;
+        height[i as usize] = h + 1;
+    }
+    LbvhTree {
+        nodes,
+        order,
+        max_depth: height[0],
+    }
+}
+
+/// Whether `p` is a primitive the GPU build takes: a triangle.
+pub fn lbvh_takes(p: &Primitive) -> bool {
+    p.kind() == PRIM_TRIANGLE
+}
+
+/// An inner node of the CPU's radix tree: its two children (`(index, is a leaf)`) and the
+/// first and last leaves it covers.
 type Inner = ([(u32, bool); 2], (u32, u32));
 
-/// The sorted keys the radix tree is built over.
+/// The sorted keys the CPU's radix tree is built over.
 struct Radix {
     /// Sorted Morton codes; the key of leaf `i` is `(codes[i], i)`. (Apart from the
     /// primitives: the δ searches read only these, 8 bytes a leaf.)
@@ -38,64 +289,11 @@ struct Radix {
 }
 
 impl Radix {
-    /// Karras' δ: the length of the common prefix of keys `i` and `j` (the index breaking
-    /// ties between equal codes), -1 outside the leaves.
-    fn delta(&self, i: i64, j: i64) -> i64 {
-        let n = self.codes.len() as i64;
-        if j < 0 || j >= n {
-            return -1;
-        }
-        let (a, b) = (self.codes[i as usize], self.codes[j as usize]);
-        if a == b {
-            64 + i64::from((i as u64 ^ j as u64).leading_zeros())
-        } else {
-            i64::from((a ^ b).leading_zeros())
-        }
-    }
-
     /// Inner node `i`'s children, `((left, left is a leaf), (right, right is a leaf))`, and
-    /// its range of leaves (Karras' Figure 4).
+    /// its range of leaves.
     fn node(&self, i: i64) -> Inner {
-        let d: i64 = if self.delta(i, i + 1) > self.delta(i, i - 1) {
-            1
-        } else {
-            -1
-        };
-        let d_min = self.delta(i, i - d);
-        let mut l_max = 2i64;
-        while self.delta(i, i + l_max * d) > d_min {
-            l_max *= 2;
-        }
-        let mut l = 0i64;
-        let mut t = l_max / 2;
-        while t >= 1 {
-            if self.delta(i, i + (l + t) * d) > d_min {
-                l += t;
-            }
-            t /= 2;
-        }
-        let j = i + l * d;
-        let d_node = self.delta(i, j);
-        let mut s = 0i64;
-        let mut t = l;
-        loop {
-            t = (t + 1) / 2;
-            if self.delta(i, i + (s + t) * d) > d_node {
-                s += t;
-            }
-            if t <= 1 {
-                break;
-            }
-        }
-        let gamma = i + s * d + d.min(0);
-        let (first, last) = (i.min(j), i.max(j));
-        (
-            [
-                (gamma as u32, first == gamma),
-                (gamma as u32 + 1, last == gamma + 1),
-            ],
-            (first as u32, last as u32),
-        )
+        let LbvhInner { children, range } = lbvh_node(&self.codes, i);
+        (children, range)
     }
 }
 
@@ -112,30 +310,8 @@ pub(crate) fn build_lbvh(aabbs: &[Aabb]) -> Bvh2 {
         bvh.max_depth = 1;
         return bvh;
     }
-    let (lo, hi) = aabbs
-        .par_iter()
-        .map(|b| b.center())
-        .fold(
-            || (glam::Vec3A::INFINITY, glam::Vec3A::NEG_INFINITY),
-            |(lo, hi), c| (lo.min(c), hi.max(c)),
-        )
-        .reduce(
-            || (glam::Vec3A::INFINITY, glam::Vec3A::NEG_INFINITY),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
-        );
-    let scale = (hi - lo).max(glam::Vec3A::splat(1e-30)).recip() * ((1u64 << 21) - 1) as f32;
-    let mut codes: Vec<(u64, u32)> = aabbs
-        .par_iter()
-        .enumerate()
-        .map(|(i, b)| {
-            let q = ((b.center() - lo) * scale).max(glam::Vec3A::ZERO);
-            let code =
-                spread3(q.x as u64) | (spread3(q.y as u64) << 1) | (spread3(q.z as u64) << 2);
-            (code, i as u32)
-        })
-        .collect();
-    codes.par_sort_unstable();
-    let (codes, prims): (Vec<u64>, Vec<u32>) = codes.into_par_iter().unzip();
+    let params = LbvhParams::of_boxes(aabbs);
+    let (codes, prims) = sorted_codes(aabbs, &params);
     let radix = Radix { codes };
     let inner: Vec<Inner> = (0..n as i64 - 1)
         .into_par_iter()

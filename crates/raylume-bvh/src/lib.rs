@@ -50,7 +50,7 @@ mod builder;
 mod error;
 mod flatten;
 mod gpu_bvh;
-mod lbvh;
+pub mod lbvh;
 mod median;
 mod quality;
 mod stats;
@@ -118,6 +118,20 @@ pub const WIDE_TRAVERSE_WGSL: &str = concat!(
     "\n",
     include_str!("wide_traverse.wgsl"),
 );
+
+/// The WGSL of [`gpu_types`]: `BvhNode`, `Primitive`, `WideNode` and the constants of the
+/// layout (the first part of [`TRAVERSE_WGSL`]), for shaders that write trees rather than
+/// traverse them.
+pub const BVH_TYPES_WGSL: &str = include_str!("gpu_types.wgsl");
+
+/// The WGSL of [`lbvh`]'s GPU half: `LbvhParams`, `LbvhInner`, `lbvh_box_min`,
+/// `lbvh_box_max`, `morton_code`, `lbvh_delta`, `lbvh_node` (and helpers `lbvh_spread`,
+/// `lbvh_clz64`), the same arithmetic as the Rust functions of those names. It needs
+/// [`BVH_TYPES_WGSL`]'s `Primitive`, the constant `LBVH_AXIS_BITS`
+/// ([`lbvh::LBVH_AXIS_BITS`]) and, at module scope, `lbvh_params: LbvhParams` and
+/// `lbvh_codes: array<vec2<u32>>` (the sorted codes, low word first); it declares no
+/// bindings.
+pub const LBVH_WGSL: &str = include_str!("lbvh.wgsl");
 
 /// [`TRAVERSE_WGSL`] or [`WIDE_TRAVERSE_WGSL`], by layout.
 pub const fn traverse_wgsl(layout: BvhLayout) -> &'static str {

@@ -52,6 +52,21 @@ fn check_fixture(f: Fixture, seed: u64) {
             bvh.stats.sah_cost
         );
     }
+    // The tree the GPU build writes (its CPU reference, `lbvh_binary`), over triangles only.
+    if f.spheres.is_empty() {
+        let source = GpuBvh::lbvh_input(&f.triangles).unwrap();
+        let tree = raylume_bvh::lbvh::lbvh_binary(&source);
+        assert_eq!(tree.nodes.len(), source.len().max(2) - 1);
+        let bvh = GpuBvh::from_lbvh(tree, &source, std::time::Instant::now()).unwrap();
+        bvh.validate()
+            .unwrap_or_else(|e| panic!("{} LBVH binary: {e}", f.name));
+        let got = check_against_brute_force(&f, &bvh, &qs, &reference);
+        assert_eq!(got, hits);
+        eprintln!(
+            "{} LBVH binary: {} nodes, depth {}, SAH {:.1}",
+            f.name, bvh.stats.node_count, bvh.stats.max_depth, bvh.stats.sah_cost
+        );
+    }
 }
 
 #[test]

@@ -22,6 +22,9 @@ pub enum KernelError {
     /// The scene's data is inconsistent with itself or with its BVH.
     #[error("invalid scene for the tracer: {0}")]
     InvalidScene(String),
+    /// A BVH could not be built (e.g. on the GPU: a tree deeper than the traversal's stack).
+    #[error(transparent)]
+    Bvh(#[from] raylume_bvh::BvhError),
     /// The settings cannot be rendered.
     #[error("invalid trace settings: {0}")]
     InvalidSettings(String),

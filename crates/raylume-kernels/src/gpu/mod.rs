@@ -7,6 +7,7 @@ mod capture;
 mod clock;
 mod guide;
 mod layout;
+mod lbvh;
 mod pipelines;
 mod policy;
 mod render;
@@ -15,6 +16,7 @@ mod work;
 
 pub use capture::SortCapture;
 pub use guide::{GUIDE_WORKGROUP_SIZE, GuideLearner, PendingGuide, guide_source};
+pub use lbvh::{LBVH_WORKGROUP_SIZE, LbvhBuild, LbvhBuilder, lbvh_source};
 pub use pipelines::TracerPipelines;
 pub use policy::{BatchPlan, BatchPolicy, BatchTiming, DepthTiming, StageTime};
 pub use shader::{Specialisation, compose, pipeline_constants, tracer_source, tracer_source_for};

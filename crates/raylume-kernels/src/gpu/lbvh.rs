@@ -1,0 +1,320 @@
+//! [`LbvhBuilder`]: the BVH built on the GPU, the paper's future work ("the BVH construction
+//! takes a significant amount of time for the more complex scenes"): Karras' linear BVH
+//! (`gpu/lbvh.wgsl` over raylume-bvh's [`LBVH_WGSL`](raylume_bvh::LBVH_WGSL)), the mirror of
+//! [`raylume_bvh::lbvh::lbvh_binary`], node for node. The primitives' 63-bit Morton codes are
+//! sorted by raylume-sort's radix sort (two stable 32-bit sorts: low words, then high), the
+//! radix tree's inner nodes are found each by its own thread, and the boxes are filled in
+//! by one refit pass per level (a node is finished at the pass after its last inner child,
+//! so the pass that finishes the root is the tree's depth; a dispatch boundary orders each
+//! pass's writes before the next one's reads, which atomics in one pass would not in WGSL).
+//!
+//! The tree is the [`BvhLayout::Binary`] layout with one primitive a leaf, in the radix
+//! tree's order (inner node `i` at node `i`), over triangles only; its nodes and primitives
+//! stay on the GPU for the tracer ([`GpuScene::upload_over_tree`](super::GpuScene)) and are
+//! read back as a [`GpuBvh`] (for the CPU's preparation, caches and tests).
+
+use std::time::Instant;
+
+use raylume_bvh::lbvh::{LBVH_AXIS_BITS, LbvhParams, LbvhTree};
+use raylume_bvh::{BvhNode, GpuBvh, MAX_STACK_DEPTH, Primitive};
+use raylume_gpu::{GpuContext, wgpu};
+use raylume_sort::{RadixSorter, SortLen, SortOptions};
+use wgpu::util::DeviceExt;
+
+use super::layout::{storage_entry, uniform_entry};
+use crate::KernelError;
+
+/// Threads per workgroup of the LBVH kernels.
+pub const LBVH_WORKGROUP_SIZE: u32 = 256;
+
+/// The kernels in the order a build runs them (the sorts between `lbvh_encode`,
+/// `lbvh_high_keys` and `lbvh_gather`; `lbvh_refit` once per level).
+const ENTRY_POINTS: [&str; 5] = [
+    "lbvh_encode",
+    "lbvh_high_keys",
+    "lbvh_gather",
+    "lbvh_inner",
+    "lbvh_refit",
+];
+
+/// The builder's WGSL: the tree's types, the LBVH functions and `gpu/lbvh.wgsl`, with the
+/// constants from Rust.
+pub fn lbvh_source() -> String {
+    let mut s = String::from("// raylume-kernels: the LBVH built on the GPU (gpu/lbvh.rs)\n");
+    s += &format!("const LBVH_AXIS_BITS: u32 = {LBVH_AXIS_BITS}u;\n");
+    s += &format!("const LBVH_WORKGROUP_SIZE: u32 = {LBVH_WORKGROUP_SIZE}u;\n");
+    for part in [
+        raylume_bvh::BVH_TYPES_WGSL,
+        raylume_bvh::LBVH_WGSL,
+        include_str!("lbvh.wgsl"),
+    ] {
+        s += "\n";
+        s += part;
+    }
+    s
+}
+
+/// The compiled LBVH kernels and a radix sorter, made once per context
+/// ([`LbvhBuilder::build`] grows the sorter when a scene needs more).
+pub struct LbvhBuilder {
+    group_layout: wgpu::BindGroupLayout,
+    pipelines: Vec<wgpu::ComputePipeline>,
+    sorter: Option<RadixSorter>,
+    seconds: f64,
+}
+
+impl std::fmt::Debug for LbvhBuilder {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LbvhBuilder")
+            .field("sort_capacity", &self.sorter.as_ref().map(|s| s.max_len()))
+            .finish()
+    }
+}
+
+/// A tree built by [`LbvhBuilder::build`]: on the GPU, and read back.
+pub struct LbvhBuild {
+    /// The tree on the CPU: the nodes read back, the primitives in leaf order.
+    pub bvh: GpuBvh,
+    /// `bvh.nodes` on the GPU (`bvh_nodes`; `COPY_SRC`, as `primitives`).
+    pub nodes: wgpu::Buffer,
+    /// `bvh.primitives` on the GPU (`bvh_primitives`).
+    pub primitives: wgpu::Buffer,
+    /// Seconds from the upload of the triangles to the tree's finish on the GPU (before the
+    /// read-back).
+    pub gpu_seconds: f64,
+}
+
+impl std::fmt::Debug for LbvhBuild {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LbvhBuild")
+            .field("nodes", &self.bvh.nodes.len())
+            .field("gpu_seconds", &self.gpu_seconds)
+            .finish()
+    }
+}
+
+impl LbvhBuilder {
+    /// Compiles the kernels.
+    pub fn new(ctx: &GpuContext) -> Result<Self, KernelError> {
+        let start = Instant::now();
+        let device = &ctx.device;
+        let (group_layout, pipelines) = ctx.scoped("compiling the GPU BVH build", || {
+            let mut entries: Vec<_> = (0..8).map(|b| storage_entry(b, b == 0)).collect();
+            entries.push(uniform_entry(8, true));
+            let group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("raylume lbvh"),
+                entries: &entries,
+            });
+            let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("raylume lbvh"),
+                bind_group_layouts: &[Some(&group_layout)],
+                immediate_size: 0,
+            });
+            let module = ctx.shader_module("raylume lbvh", &lbvh_source());
+            let pipelines = ENTRY_POINTS
+                .iter()
+                .map(|entry| {
+                    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                        label: Some(entry),
+                        layout: Some(&pipeline_layout),
+                        module: &module,
+                        entry_point: Some(entry),
+                        compilation_options: Default::default(),
+                        cache: None,
+                    })
+                })
+                .collect();
+            (group_layout, pipelines)
+        })?;
+        Ok(Self {
+            group_layout,
+            pipelines,
+            sorter: None,
+            seconds: start.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// Seconds [`LbvhBuilder::new`] took (compiling).
+    pub fn seconds(&self) -> f64 {
+        self.seconds
+    }
+
+    /// Builds the tree over `source` (scene-order triangles: [`GpuBvh::lbvh_input`]) on the
+    /// GPU and reads it back. A tree deeper than [`MAX_STACK_DEPTH`] is
+    /// [`raylume_bvh::BvhError::TooDeep`] (as [`KernelError::Bvh`]), for the caller to build
+    /// on the CPU instead.
+    pub fn build(
+        &mut self,
+        ctx: &GpuContext,
+        source: &[Primitive],
+    ) -> Result<LbvhBuild, KernelError> {
+        let start = Instant::now();
+        let n = source.len();
+        if let Some(p) = source
+            .iter()
+            .position(|p| !raylume_bvh::lbvh::lbvh_takes(p))
+        {
+            return Err(KernelError::InvalidScene(format!(
+                "the GPU BVH build takes triangles only; primitive {p} is not one"
+            )));
+        }
+        let count = u32::try_from(n).map_err(|_| {
+            KernelError::Bvh(raylume_bvh::BvhError::TooManyPrimitives {
+                what: "primitives",
+                count: n,
+                limit: u32::MAX as usize,
+            })
+        })?;
+        let none = wgpu::BufferUsages::empty();
+        let copy = wgpu::BufferUsages::COPY_SRC;
+        if n < 2 {
+            // No inner node to find: the reference's one-node tree, uploaded.
+            let tree = raylume_bvh::lbvh::lbvh_binary(source);
+            let nodes = ctx
+                .storage_buffer("BVH nodes", &tree.nodes, copy)
+                .map_err(KernelError::from_upload)?;
+            let bvh = GpuBvh::from_lbvh(tree, source, start)?;
+            let primitives = ctx
+                .storage_buffer("BVH primitives", &bvh.primitives, copy)
+                .map_err(KernelError::from_upload)?;
+            return Ok(LbvhBuild {
+                bvh,
+                nodes,
+                primitives,
+                gpu_seconds: start.elapsed().as_secs_f64(),
+            });
+        }
+        if self.sorter.as_ref().is_none_or(|s| s.max_len() < count) {
+            self.sorter = None;
+            self.sorter = Some(RadixSorter::new(ctx, count, SortOptions::full_keys())?);
+        }
+        let sorter = self.sorter.as_ref().expect("made above");
+        let params = LbvhParams::of_primitives(source);
+        let words = |k: u64| k * n as u64 * 4;
+        let zeroed = |label: &str, bytes: u64, usage| {
+            ctx.storage_buffer_zeroed(label, bytes, usage)
+                .map_err(KernelError::from_upload)
+        };
+        let gpu_start = Instant::now();
+        let source_buffer = ctx
+            .storage_buffer("BVH build triangles", source, none)
+            .map_err(KernelError::from_upload)?;
+        let unsorted = zeroed("BVH build codes", words(2), none)?;
+        let keys = zeroed("BVH build sort keys", words(1), none)?;
+        let values = zeroed("BVH build order", words(1), copy)?;
+        let codes = zeroed("BVH build sorted codes", words(2), none)?;
+        let primitives = zeroed("BVH primitives", words(12), copy)?;
+        let nodes = zeroed("BVH nodes", (n as u64 - 1) * 64, copy)?;
+        let state = zeroed("BVH build node heights", words(1), copy)?;
+
+        // One parameter block per refit pass (pass 0: the other kernels), at dynamic offsets.
+        let stride = u64::from(ctx.limits.min_uniform_buffer_offset_alignment).max(32);
+        let passes = MAX_STACK_DEPTH as u32;
+        let mut blocks = vec![0u8; (stride * u64::from(passes + 1)) as usize];
+        for p in 0..=passes {
+            let at = (u64::from(p) * stride) as usize;
+            let block = LbvhParams { pass: p, ..params };
+            blocks[at..at + 32].copy_from_slice(bytemuck::bytes_of(&block));
+        }
+        ctx.scoped(
+            "building the BVH on the GPU",
+            || -> Result<(), KernelError> {
+                let uniforms = ctx
+                    .device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("BVH build parameters"),
+                        contents: &blocks,
+                        usage: wgpu::BufferUsages::UNIFORM,
+                    });
+                let buffers = [
+                    &source_buffer,
+                    &unsorted,
+                    &keys,
+                    &values,
+                    &codes,
+                    &primitives,
+                    &nodes,
+                    &state,
+                ];
+                let mut entries: Vec<wgpu::BindGroupEntry> = buffers
+                    .iter()
+                    .enumerate()
+                    .map(|(b, buffer)| wgpu::BindGroupEntry {
+                        binding: b as u32,
+                        resource: buffer.as_entire_binding(),
+                    })
+                    .collect();
+                entries.push(wgpu::BindGroupEntry {
+                    binding: 8,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &uniforms,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(32),
+                    }),
+                });
+                let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("raylume lbvh"),
+                    layout: &self.group_layout,
+                    entries: &entries,
+                });
+                let max_x = ctx.limits.max_compute_workgroups_per_dimension;
+                let grid = |threads: u32| {
+                    let groups = threads.div_ceil(LBVH_WORKGROUP_SIZE).max(1);
+                    (groups.min(max_x), groups.div_ceil(max_x))
+                };
+                let mut enc = ctx.device.create_command_encoder(&Default::default());
+                let run =
+                    |enc: &mut wgpu::CommandEncoder, kernel: usize, pass: u32, threads: u32| {
+                        let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                            label: Some(ENTRY_POINTS[kernel]),
+                            timestamp_writes: None,
+                        });
+                        cp.set_pipeline(&self.pipelines[kernel]);
+                        cp.set_bind_group(0, &group, &[(u64::from(pass) * stride) as u32]);
+                        let (x, y) = grid(threads);
+                        cp.dispatch_workgroups(x, y, 1);
+                    };
+                run(&mut enc, 0, 0, count);
+                sorter.encode(&mut enc, &keys, &values, SortLen::Fixed(count), None)?;
+                run(&mut enc, 1, 0, count);
+                sorter.encode(&mut enc, &keys, &values, SortLen::Fixed(count), None)?;
+                run(&mut enc, 2, 0, count);
+                run(&mut enc, 3, 0, count - 1);
+                {
+                    let mut cp = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                        label: Some("lbvh_refit"),
+                        timestamp_writes: None,
+                    });
+                    cp.set_pipeline(&self.pipelines[4]);
+                    let (x, y) = grid(count - 1);
+                    for p in 1..=passes {
+                        cp.set_bind_group(0, &group, &[(u64::from(p) * stride) as u32]);
+                        cp.dispatch_workgroups(x, y, 1);
+                    }
+                }
+                ctx.queue.submit([enc.finish()]);
+                Ok(())
+            },
+        )??;
+        let depth = ctx.read_buffer::<u32>(&state, 1)?[0] as usize;
+        let gpu_seconds = gpu_start.elapsed().as_secs_f64();
+        if depth == 0 {
+            return Err(KernelError::Bvh(raylume_bvh::BvhError::TooDeep {
+                depth: MAX_STACK_DEPTH + 1,
+                max: MAX_STACK_DEPTH,
+            }));
+        }
+        let tree = LbvhTree {
+            nodes: ctx.read_buffer::<BvhNode>(&nodes, n - 1)?,
+            order: ctx.read_buffer::<u32>(&values, n)?,
+            max_depth: depth,
+        };
+        let bvh = GpuBvh::from_lbvh(tree, source, start)?;
+        Ok(LbvhBuild {
+            bvh,
+            nodes,
+            primitives,
+            gpu_seconds,
+        })
+    }
+}

@@ -1,0 +1,167 @@
+//! The BVH built on the GPU (`raylume_kernels::gpu::LbvhBuilder`, `gpu/lbvh.wgsl`) is its CPU
+//! reference (`raylume_bvh::lbvh::lbvh_binary`) node for node: the same sorted order, the same
+//! children, the same boxes bit for bit (a box is a min/max of the triangles' own coordinates:
+//! no rounding), the same depth; the primitives left on the GPU are the read-back tree's, and
+//! the tree passes every invariant the traversal relies on (`GpuBvh::validate`; the reference
+//! is checked against brute-force ray queries in raylume-bvh's `brute_force.rs`).
+
+use glam::Vec3;
+use raylume_bvh::lbvh::lbvh_binary;
+use raylume_bvh::{BvhError, GpuBvh, Primitive};
+use raylume_kernels::KernelError;
+use raylume_kernels::gpu::LbvhBuilder;
+use raylume_scene::Triangle;
+
+fn lcg(seed: &mut u64) -> f32 {
+    *seed = seed
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    (*seed >> 40) as f32 / (1u64 << 24) as f32
+}
+
+/// `n` small random triangles in a 10-unit cube; every seventh a copy of the first (equal
+/// Morton codes: the index breaks the tie).
+fn soup(n: usize, seed: u64) -> Vec<Triangle> {
+    let mut s = seed;
+    let v = |s: &mut u64| Vec3::new(lcg(s), lcg(s), lcg(s));
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        if i % 7 == 6 {
+            out.push(out[0]);
+            continue;
+        }
+        let c = v(&mut s) * 10.0;
+        out.push(Triangle::flat(
+            [c, c + v(&mut s) * 0.3, c + v(&mut s) * 0.3],
+            0,
+        ));
+    }
+    out
+}
+
+/// A height field of `k` x `k` quads (two triangles each): issue 19's grids in small.
+fn grid(k: usize) -> Vec<Triangle> {
+    let h = |x: usize, z: usize| ((x * 7 + z * 13) % 5) as f32 * 0.1;
+    let p = |x: usize, z: usize| Vec3::new(x as f32, h(x, z), z as f32);
+    let mut out = Vec::new();
+    for z in 0..k {
+        for x in 0..k {
+            out.push(Triangle::flat([p(x, z), p(x + 1, z), p(x + 1, z + 1)], 0));
+            out.push(Triangle::flat([p(x, z), p(x + 1, z + 1), p(x, z + 1)], 0));
+        }
+    }
+    out
+}
+
+fn check(builder: &mut LbvhBuilder, ctx: &raylume_gpu::GpuContext, name: &str, t: &[Triangle]) {
+    let source = GpuBvh::lbvh_input(t).unwrap();
+    let reference = lbvh_binary(&source);
+    let built = builder.build(ctx, &source).unwrap();
+    assert_eq!(
+        built.bvh.nodes.len(),
+        reference.nodes.len(),
+        "{name}: nodes"
+    );
+    let expected =
+        GpuBvh::from_lbvh(reference.clone(), &source, std::time::Instant::now()).unwrap();
+    assert_eq!(
+        built.bvh.primitives, expected.primitives,
+        "{name}: sorted order"
+    );
+    if let Some(i) = (0..reference.nodes.len()).find(|&i| built.bvh.nodes[i] != reference.nodes[i])
+    {
+        panic!(
+            "{name}: node {i} differs:\nGPU {:?}\nCPU {:?}",
+            built.bvh.nodes[i], reference.nodes[i]
+        );
+    }
+    assert_eq!(
+        built.bvh.stats.max_depth, reference.max_depth,
+        "{name}: depth"
+    );
+    built
+        .bvh
+        .validate()
+        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let on_gpu = ctx
+        .read_buffer::<Primitive>(&built.primitives, source.len())
+        .unwrap();
+    assert_eq!(on_gpu, built.bvh.primitives, "{name}: the GPU's primitives");
+    let nodes = ctx
+        .read_buffer::<raylume_bvh::BvhNode>(&built.nodes, built.bvh.nodes.len())
+        .unwrap();
+    assert_eq!(nodes, built.bvh.nodes, "{name}: the GPU's nodes");
+    eprintln!(
+        "{name}: {} triangles, {} nodes, depth {}",
+        source.len(),
+        built.bvh.nodes.len(),
+        reference.max_depth
+    );
+}
+
+#[test]
+fn the_gpu_build_is_its_cpu_reference_node_for_node() {
+    let Some(ctx) =
+        raylume_gpu::testing::context_or_skip("the_gpu_build_is_its_cpu_reference_node_for_node")
+    else {
+        return;
+    };
+    let mut builder = LbvhBuilder::new(ctx).unwrap();
+    let one = soup(1, 1);
+    check(&mut builder, ctx, "one triangle", &one);
+    for n in [2usize, 3, 5, 100] {
+        check(
+            &mut builder,
+            ctx,
+            &format!("soup of {n}"),
+            &soup(n, n as u64),
+        );
+    }
+    check(&mut builder, ctx, "grid 40x40", &grid(40));
+    // A larger input than the sorter was made for: it grows.
+    check(&mut builder, ctx, "soup of 20000", &soup(20_000, 7));
+    // Every triangle the same: the codes tie everywhere, the index orders them.
+    check(&mut builder, ctx, "coincident", &vec![soup(1, 3)[0]; 300]);
+}
+
+/// Triangles whose Morton codes make the radix tree a chain: one point per leading-bit
+/// position of the 63-bit code (a cell of 2^k - 1 along one axis), plus copies of the origin.
+fn chain() -> Vec<Triangle> {
+    let tiny = |c: Vec3| Triangle::flat([c, c, c], 0);
+    let mut out = vec![tiny(Vec3::ZERO); 8];
+    for axis in 0..3 {
+        for k in 0..21 {
+            let mut c = Vec3::ZERO;
+            c[axis] = 1.5 * (1u32 << k) as f32 / (1u32 << 21) as f32;
+            out.push(tiny(c));
+        }
+    }
+    out
+}
+
+#[test]
+fn a_tree_deeper_than_the_stack_is_an_error_not_a_wrong_tree() {
+    let Some(ctx) = raylume_gpu::testing::context_or_skip(
+        "a_tree_deeper_than_the_stack_is_an_error_not_a_wrong_tree",
+    ) else {
+        return;
+    };
+    let mut builder = LbvhBuilder::new(ctx).unwrap();
+    let source = GpuBvh::lbvh_input(&chain()).unwrap();
+    let reference = lbvh_binary(&source);
+    assert!(
+        reference.max_depth > raylume_bvh::MAX_STACK_DEPTH,
+        "the chain is {} deep: not past the stack",
+        reference.max_depth
+    );
+    match builder.build(ctx, &source) {
+        Err(KernelError::Bvh(BvhError::TooDeep { .. })) => {}
+        other => panic!("expected TooDeep, got {other:?}"),
+    }
+    // Spheres are the CPU builders' (their boxes carry a slack the GPU would round otherwise).
+    let ball = Primitive::sphere([0.0; 3], 1.0, 0);
+    assert!(matches!(
+        builder.build(ctx, &[source[0], ball]),
+        Err(KernelError::InvalidScene(_))
+    ));
+}
