@@ -417,26 +417,42 @@ impl GpuBvh {
         start: Instant,
     ) -> Result<GpuBvh, BvhError> {
         BvhError::check_depth(tree.max_depth)?;
-        if tree.order.len() != source.len() {
+        let mut bvh = GpuBvh {
+            nodes: tree.nodes,
+            ..GpuBvh::lbvh_leaves(&tree.order, source)?
+        };
+        bvh.stats = BvhStats::of_lbvh(&bvh, tree.max_depth, start);
+        Ok(bvh)
+    }
+
+    /// `source` (scene-order triangles) in an LBVH's leaf `order`, as a binary-layout
+    /// [`GpuBvh`] **without nodes** (what a tree kept on the GPU leaves on the CPU: the
+    /// leaves' primitives, for the scene's preparation). Not a tree to traverse or validate.
+    pub fn lbvh_leaves(order: &[u32], source: &[Primitive]) -> Result<GpuBvh, BvhError> {
+        if order.len() != source.len() {
             return Err(BvhError::Inconsistent(format!(
-                "an LBVH of {} primitives over {}",
-                tree.order.len(),
+                "an LBVH order of {} primitives over {}",
+                order.len(),
+                source.len()
+            )));
+        }
+        if let Some(&i) = order.par_iter().find_any(|&&i| i as usize >= source.len()) {
+            return Err(BvhError::Inconsistent(format!(
+                "an LBVH order naming primitive {i} of {}",
                 source.len()
             )));
         }
         let mut primitives = Vec::with_capacity(source.len());
-        primitives.par_extend(tree.order.par_iter().map(|&i| source[i as usize]));
-        let mut bvh = GpuBvh {
+        primitives.par_extend(order.par_iter().map(|&i| source[i as usize]));
+        Ok(GpuBvh {
             layout: BvhLayout::Binary,
-            nodes: tree.nodes,
+            nodes: Vec::new(),
             wide_nodes: Vec::new(),
             primitives,
             triangle_count: source.len() as u32,
             sphere_count: 0,
             stats: BvhStats::default(),
-        };
-        bvh.stats = BvhStats::measure(&bvh, BvhQuality::Fastest, tree.max_depth, None, start);
-        Ok(bvh)
+        })
     }
 }
 

@@ -58,6 +58,12 @@ fn slot_area(min: [f32; 3], max: [f32; 3]) -> f32 {
 }
 
 impl BvhStats {
+    /// The stats of a binary LBVH (`GpuBvh::from_lbvh`, or one built on the GPU and read
+    /// back) `max_depth` deep, whose build began at `start`.
+    pub fn of_lbvh(bvh: &GpuBvh, max_depth: usize, start: Instant) -> BvhStats {
+        Self::measure(bvh, BvhQuality::Fastest, max_depth, None, start)
+    }
+
     pub(crate) fn measure(
         bvh: &GpuBvh,
         quality: BvhQuality,

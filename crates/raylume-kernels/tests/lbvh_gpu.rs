@@ -9,7 +9,7 @@ use glam::Vec3;
 use raylume_bvh::lbvh::lbvh_binary;
 use raylume_bvh::{BvhError, GpuBvh, Primitive};
 use raylume_kernels::KernelError;
-use raylume_kernels::gpu::LbvhBuilder;
+use raylume_kernels::gpu::{GpuScene, LbvhBuilder};
 use raylume_scene::Triangle;
 
 fn lcg(seed: &mut u64) -> f32 {
@@ -56,45 +56,40 @@ fn grid(k: usize) -> Vec<Triangle> {
 fn check(builder: &mut LbvhBuilder, ctx: &raylume_gpu::GpuContext, name: &str, t: &[Triangle]) {
     let source = GpuBvh::lbvh_input(t).unwrap();
     let reference = lbvh_binary(&source);
-    let built = builder.build(ctx, &source).unwrap();
-    assert_eq!(
-        built.bvh.nodes.len(),
-        reference.nodes.len(),
-        "{name}: nodes"
-    );
-    let expected =
-        GpuBvh::from_lbvh(reference.clone(), &source, std::time::Instant::now()).unwrap();
-    assert_eq!(
-        built.bvh.primitives, expected.primitives,
-        "{name}: sorted order"
-    );
-    if let Some(i) = (0..reference.nodes.len()).find(|&i| built.bvh.nodes[i] != reference.nodes[i])
-    {
+    let resident = builder.build(ctx, &source).unwrap();
+    assert_eq!(resident.node_count(), reference.nodes.len(), "{name}: nodes");
+    assert_eq!(resident.max_depth(), reference.max_depth, "{name}: depth");
+    let expected = GpuBvh::from_lbvh(reference.clone(), &source, std::time::Instant::now())
+        .unwrap();
+    assert_eq!(resident.primitives(), expected.primitives, "{name}: sorted order");
+    let built = resident.read_back(ctx).unwrap();
+    if let Some(i) = (0..reference.nodes.len()).find(|&i| built.nodes[i] != reference.nodes[i]) {
         panic!(
             "{name}: node {i} differs:\nGPU {:?}\nCPU {:?}",
-            built.bvh.nodes[i], reference.nodes[i]
+            built.nodes[i], reference.nodes[i]
         );
     }
-    assert_eq!(
-        built.bvh.stats.max_depth, reference.max_depth,
-        "{name}: depth"
-    );
-    built
-        .bvh
-        .validate()
-        .unwrap_or_else(|e| panic!("{name}: {e}"));
+    assert_eq!(built.stats.max_depth, reference.max_depth, "{name}: depth");
+    built.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
+    // What the tracer reads is what was read back.
+    let scene = raylume_scene::Scene {
+        triangles: t.to_vec(),
+        materials: vec![raylume_scene::Material::diffuse("grey", Vec3::splat(0.5))],
+        ..Default::default()
+    };
+    let uploaded = GpuScene::upload_resident(ctx, &scene, &resident, &Default::default(), None)
+        .unwrap();
+    let (nodes, primitives) = uploaded.tree_buffers();
+    let on_gpu = ctx.read_buffer::<Primitive>(primitives, source.len()).unwrap();
+    assert_eq!(on_gpu, built.primitives, "{name}: the GPU's primitives");
     let on_gpu = ctx
-        .read_buffer::<Primitive>(&built.primitives, source.len())
+        .read_buffer::<raylume_bvh::BvhNode>(nodes, built.nodes.len())
         .unwrap();
-    assert_eq!(on_gpu, built.bvh.primitives, "{name}: the GPU's primitives");
-    let nodes = ctx
-        .read_buffer::<raylume_bvh::BvhNode>(&built.nodes, built.bvh.nodes.len())
-        .unwrap();
-    assert_eq!(nodes, built.bvh.nodes, "{name}: the GPU's nodes");
+    assert_eq!(on_gpu, built.nodes, "{name}: the GPU's nodes");
     eprintln!(
         "{name}: {} triangles, {} nodes, depth {}",
         source.len(),
-        built.bvh.nodes.len(),
+        built.nodes.len(),
         reference.max_depth
     );
 }

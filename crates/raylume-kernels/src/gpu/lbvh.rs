@@ -10,12 +10,12 @@
 //!
 //! The tree is the [`BvhLayout::Binary`] layout with one primitive a leaf, in the radix
 //! tree's order (inner node `i` at node `i`), over triangles only; its nodes and primitives
-//! stay on the GPU for the tracer ([`GpuScene::upload_over_tree`](super::GpuScene)) and are
-//! read back as a [`GpuBvh`] (for the CPU's preparation, caches and tests).
+//! stay on the GPU for the tracer ([`ResidentBvh`], [`GpuScene::upload_resident`](super::GpuScene::upload_resident));
+//! the CPU reads back the primitives' order only ([`ResidentBvh::read_back`] reads the rest).
 
 use std::time::Instant;
 
-use raylume_bvh::lbvh::{LBVH_AXIS_BITS, LbvhParams, LbvhTree};
+use raylume_bvh::lbvh::{LBVH_AXIS_BITS, LbvhParams};
 use raylume_bvh::{BvhNode, GpuBvh, MAX_STACK_DEPTH, Primitive};
 use raylume_gpu::{GpuContext, wgpu};
 use raylume_sort::{RadixSorter, SortLen, SortOptions};
@@ -71,25 +71,71 @@ impl std::fmt::Debug for LbvhBuilder {
     }
 }
 
-/// A tree built by [`LbvhBuilder::build`]: on the GPU, and read back.
-pub struct LbvhBuild {
-    /// The tree on the CPU: the nodes read back, the primitives in leaf order.
-    pub bvh: GpuBvh,
-    /// `bvh.nodes` on the GPU (`bvh_nodes`; `COPY_SRC`, as `primitives`).
-    pub nodes: wgpu::Buffer,
-    /// `bvh.primitives` on the GPU (`bvh_primitives`).
-    pub primitives: wgpu::Buffer,
-    /// Seconds from the upload of the triangles to the tree's finish on the GPU (before the
-    /// read-back).
-    pub gpu_seconds: f64,
+/// A BVH built on the GPU by [`LbvhBuilder::build`]: its nodes and leaf-order primitives
+/// stay there (reading 3M triangles' nodes back and measuring them took longer than the
+/// build); the CPU keeps the primitives' leaf order, which the scene's preparation needs
+/// ([`GpuScene::upload_resident`](super::GpuScene::upload_resident)).
+pub struct ResidentBvh {
+    /// The leaf-order primitives and the scene's counts, as a [`GpuBvh`] without nodes (never
+    /// handed out: [`ResidentBvh::read_back`] makes a whole one).
+    pub(crate) leaves: GpuBvh,
+    /// `bvh_nodes` ([`BvhLayout::Binary`](raylume_bvh::BvhLayout::Binary), `COPY_SRC`).
+    pub(crate) nodes: wgpu::Buffer,
+    /// `bvh_primitives` (`COPY_SRC`).
+    pub(crate) primitives: wgpu::Buffer,
+    node_count: usize,
+    max_depth: usize,
+    gpu_seconds: f64,
+    seconds: f64,
 }
 
-impl std::fmt::Debug for LbvhBuild {
+impl std::fmt::Debug for ResidentBvh {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("LbvhBuild")
-            .field("nodes", &self.bvh.nodes.len())
+        f.debug_struct("ResidentBvh")
+            .field("node_count", &self.node_count)
+            .field("max_depth", &self.max_depth)
             .field("gpu_seconds", &self.gpu_seconds)
             .finish()
+    }
+}
+
+impl ResidentBvh {
+    /// Inner nodes ([`BvhNode`]s): one fewer than the primitives (one for a single one).
+    pub fn node_count(&self) -> usize {
+        self.node_count
+    }
+
+    /// Nodes on the longest root-to-leaf path, the root counting 1.
+    pub fn max_depth(&self) -> usize {
+        self.max_depth
+    }
+
+    /// The primitives in leaf order (as `bvh_primitives` holds them).
+    pub fn primitives(&self) -> &[Primitive] {
+        &self.leaves.primitives
+    }
+
+    /// Seconds from the upload of the triangles to the finished tree on the GPU.
+    pub fn gpu_seconds(&self) -> f64 {
+        self.gpu_seconds
+    }
+
+    /// Seconds [`LbvhBuilder::build`] took, the order's read-back and the leaf order on the
+    /// CPU included.
+    pub fn seconds(&self) -> f64 {
+        self.seconds
+    }
+
+    /// The whole tree on the CPU: the nodes read back (for the CPU's traversal, checks, tests).
+    pub fn read_back(&self, ctx: &GpuContext) -> Result<GpuBvh, KernelError> {
+        let start = Instant::now();
+        let nodes = ctx.read_buffer::<BvhNode>(&self.nodes, self.node_count)?;
+        let mut bvh = GpuBvh {
+            nodes,
+            ..self.leaves.clone()
+        };
+        bvh.stats = raylume_bvh::BvhStats::of_lbvh(&bvh, self.max_depth, start);
+        Ok(bvh)
     }
 }
 
@@ -147,7 +193,7 @@ impl LbvhBuilder {
         &mut self,
         ctx: &GpuContext,
         source: &[Primitive],
-    ) -> Result<LbvhBuild, KernelError> {
+    ) -> Result<ResidentBvh, KernelError> {
         let start = Instant::now();
         let n = source.len();
         if let Some(p) = source
@@ -173,15 +219,17 @@ impl LbvhBuilder {
             let nodes = ctx
                 .storage_buffer("BVH nodes", &tree.nodes, copy)
                 .map_err(KernelError::from_upload)?;
-            let bvh = GpuBvh::from_lbvh(tree, source, start)?;
             let primitives = ctx
-                .storage_buffer("BVH primitives", &bvh.primitives, copy)
+                .storage_buffer("BVH primitives", source, copy)
                 .map_err(KernelError::from_upload)?;
-            return Ok(LbvhBuild {
-                bvh,
+            return Ok(ResidentBvh {
+                leaves: GpuBvh::lbvh_leaves(&tree.order, source)?,
                 nodes,
                 primitives,
+                node_count: 1,
+                max_depth: tree.max_depth,
                 gpu_seconds: start.elapsed().as_secs_f64(),
+                seconds: start.elapsed().as_secs_f64(),
             });
         }
         if self.sorter.as_ref().is_none_or(|s| s.max_len() < count) {
@@ -304,17 +352,15 @@ impl LbvhBuilder {
                 max: MAX_STACK_DEPTH,
             }));
         }
-        let tree = LbvhTree {
-            nodes: ctx.read_buffer::<BvhNode>(&nodes, n - 1)?,
-            order: ctx.read_buffer::<u32>(&values, n)?,
-            max_depth: depth,
-        };
-        let bvh = GpuBvh::from_lbvh(tree, source, start)?;
-        Ok(LbvhBuild {
-            bvh,
+        let order = ctx.read_buffer::<u32>(&values, n)?;
+        Ok(ResidentBvh {
+            leaves: GpuBvh::lbvh_leaves(&order, source)?,
             nodes,
             primitives,
+            node_count: n - 1,
+            max_depth: depth,
             gpu_seconds,
+            seconds: start.elapsed().as_secs_f64(),
         })
     }
 }

@@ -16,7 +16,7 @@ mod work;
 
 pub use capture::SortCapture;
 pub use guide::{GUIDE_WORKGROUP_SIZE, GuideLearner, PendingGuide, guide_source};
-pub use lbvh::{LBVH_WORKGROUP_SIZE, LbvhBuild, LbvhBuilder, lbvh_source};
+pub use lbvh::{LBVH_WORKGROUP_SIZE, LbvhBuilder, ResidentBvh, lbvh_source};
 pub use pipelines::TracerPipelines;
 pub use policy::{BatchPlan, BatchPolicy, BatchTiming, DepthTiming, StageTime};
 pub use shader::{Specialisation, compose, pipeline_constants, tracer_source, tracer_source_for};
@@ -218,6 +218,41 @@ impl GpuScene {
     ) -> Result<Self, KernelError> {
         let start = Instant::now();
         let tree = upload_tree(ctx, bvh)?;
+        Self::upload_over(ctx, scene, bvh, tree, options, learner, start)
+    }
+
+    /// [`GpuScene::upload_with_learner`] over a tree built on the GPU ([`LbvhBuilder`]): its
+    /// nodes and primitives are used where they are, the scene's other data prepared and
+    /// uploaded beside them. The environment guide's walks run on the GPU (the CPU has no
+    /// nodes to walk): by `learner` (binary layout), or one made for the purpose.
+    pub fn upload_resident(
+        ctx: &GpuContext,
+        scene: &Scene,
+        bvh: &ResidentBvh,
+        options: &SceneOptions,
+        learner: Option<&GuideLearner>,
+    ) -> Result<Self, KernelError> {
+        let start = Instant::now();
+        let made = match (learner, options.environment_guide) {
+            (None, true) => Some(GuideLearner::new(ctx, BvhLayout::Binary)?),
+            _ => None,
+        };
+        let learner = learner.or(made.as_ref());
+        let tree = (bvh.nodes.clone(), bvh.primitives.clone());
+        Self::upload_over(ctx, scene, &bvh.leaves, tree, options, learner, start)
+    }
+
+    /// The preparation and upload of `scene` over `tree` (the nodes and primitives of `bvh`,
+    /// on the GPU already; of `bvh` only its primitives and layout are read here).
+    fn upload_over(
+        ctx: &GpuContext,
+        scene: &Scene,
+        bvh: &GpuBvh,
+        tree: (wgpu::Buffer, wgpu::Buffer),
+        options: &SceneOptions,
+        learner: Option<&GuideLearner>,
+        start: Instant,
+    ) -> Result<Self, KernelError> {
         let learner = match learner {
             Some(l) if options.environment_guide => {
                 if l.layout() != bvh.layout {
@@ -321,6 +356,11 @@ impl GpuScene {
             texel_words,
             upload_seconds: start.elapsed().as_secs_f64(),
         })
+    }
+
+    /// The storage buffers `bvh_nodes` and `bvh_primitives` the tracer reads.
+    pub fn tree_buffers(&self) -> (&wgpu::Buffer, &wgpu::Buffer) {
+        (&self.buffers.nodes, &self.buffers.primitives)
     }
 
     /// Seconds [`GpuScene::upload`] took (preparing and uploading).
