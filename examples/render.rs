@@ -81,6 +81,11 @@ struct Args {
     /// or quality.
     #[arg(long, default_value = "auto", value_parser = parse_preset)]
     bvh_preset: Preset,
+    /// Where the BVH is built: auto (the default: on the GPU for a large scene rendered
+    /// briefly, where the CPU's build would take longer than its better tree saves), cpu, or
+    /// gpu (a binary linear BVH built in WGSL; triangles only).
+    #[arg(long, default_value = "auto")]
+    bvh_builder: raylume::BvhBuilder,
     /// Estimator: nee (the default: next-event estimation with multiple importance sampling,
     /// a shadow ray to an emitter at every reflecting hit; far less noise per sample under
     /// small lights) or plain (the paper's).
@@ -288,6 +293,7 @@ fn run(args: Args) -> Result<(), String> {
         tracer.bvh_layout = l;
     }
     tracer.bvh_quality = args.bvh_preset.0;
+    tracer.bvh_builder = args.bvh_builder;
     // A bar on a terminal; plain lines (no escape codes) when stderr is piped or redirected.
     let terminal = std::io::stderr().is_terminal();
     let bar = if args.quiet || !terminal {
@@ -383,7 +389,7 @@ fn run(args: Args) -> Result<(), String> {
     );
     eprintln!(
         "raylume: trace {:.3} s, {:.1} Mrays/s, total {:.3} s from the file to the image (load {:.3} \
-         and device {:.3} together, bvh {:.3} {} {}{} and pipelines {:.3}{} together, upload \
+         and device {:.3} together, bvh {:.3} {} {}{} ({}) and pipelines {:.3}{} together, upload \
          {:.3} (guide {:.3}), prepare {:.3}, post {:.3}, save {:.3})",
         s.seconds.trace,
         s.mrays_per_s,
@@ -394,6 +400,7 @@ fn run(args: Args) -> Result<(), String> {
         s.bvh_preset,
         s.bvh_layout,
         if s.bvh_cached { " cached" } else { "" },
+        s.bvh_builder,
         s.seconds.pipelines,
         if s.pipelines_cached { " cached" } else { "" },
         s.seconds.upload,

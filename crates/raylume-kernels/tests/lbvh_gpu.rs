@@ -57,11 +57,19 @@ fn check(builder: &mut LbvhBuilder, ctx: &raylume_gpu::GpuContext, name: &str, t
     let source = GpuBvh::lbvh_input(t).unwrap();
     let reference = lbvh_binary(&source);
     let resident = builder.build(ctx, &source).unwrap();
-    assert_eq!(resident.node_count(), reference.nodes.len(), "{name}: nodes");
+    assert_eq!(
+        resident.node_count(),
+        reference.nodes.len(),
+        "{name}: nodes"
+    );
     assert_eq!(resident.max_depth(), reference.max_depth, "{name}: depth");
-    let expected = GpuBvh::from_lbvh(reference.clone(), &source, std::time::Instant::now())
-        .unwrap();
-    assert_eq!(resident.primitives(), expected.primitives, "{name}: sorted order");
+    let expected =
+        GpuBvh::from_lbvh(reference.clone(), &source, std::time::Instant::now()).unwrap();
+    assert_eq!(
+        resident.primitives(),
+        expected.primitives,
+        "{name}: sorted order"
+    );
     let built = resident.read_back(ctx).unwrap();
     if let Some(i) = (0..reference.nodes.len()).find(|&i| built.nodes[i] != reference.nodes[i]) {
         panic!(
@@ -77,10 +85,12 @@ fn check(builder: &mut LbvhBuilder, ctx: &raylume_gpu::GpuContext, name: &str, t
         materials: vec![raylume_scene::Material::diffuse("grey", Vec3::splat(0.5))],
         ..Default::default()
     };
-    let uploaded = GpuScene::upload_resident(ctx, &scene, &resident, &Default::default(), None)
-        .unwrap();
+    let uploaded =
+        GpuScene::upload_resident(ctx, &scene, &resident, &Default::default(), None).unwrap();
     let (nodes, primitives) = uploaded.tree_buffers();
-    let on_gpu = ctx.read_buffer::<Primitive>(primitives, source.len()).unwrap();
+    let on_gpu = ctx
+        .read_buffer::<Primitive>(primitives, source.len())
+        .unwrap();
     assert_eq!(on_gpu, built.primitives, "{name}: the GPU's primitives");
     let on_gpu = ctx
         .read_buffer::<raylume_bvh::BvhNode>(nodes, built.nodes.len())

@@ -8,7 +8,7 @@ use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext};
 use raylume_scene::Scene;
 use serde::Serialize;
 
-use crate::tracer::{BvhCacheEntry, GeometryKey};
+use crate::tracer::{BuiltBvh, BvhCacheEntry, GeometryKey};
 use crate::{Backend, Error, GPU_RAYS_PER_SECOND, Render, SampleRange, Tracer};
 
 /// What one device of a [`Backend::Gpus`] render did.
@@ -118,7 +118,11 @@ impl Tracer {
         let bvh = match self.bvh_cache.iter().find(|c| c.key == key) {
             Some(c) => c.bvh.clone(),
             None => {
-                let bvh = GpuBvh::from_scene_with_layout(scene, quality, self.bvh_layout)?;
+                let bvh = BuiltBvh::Cpu(GpuBvh::from_scene_with_layout(
+                    scene,
+                    quality,
+                    self.bvh_layout,
+                )?);
                 self.bvh_cache.insert(
                     0,
                     BvhCacheEntry {
@@ -138,6 +142,8 @@ impl Tracer {
         for w in &mut workers {
             self.settings_into(w);
             w.bvh_quality = Some(quality);
+            // The one tree built here (on the CPU), shared: no worker builds its own.
+            w.bvh_builder = crate::BvhBuilder::Cpu;
             if !w.bvh_cache.iter().any(|c| c.key == key) {
                 w.bvh_cache.insert(
                     0,

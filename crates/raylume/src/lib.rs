@@ -85,8 +85,10 @@ pub use output::{ImageFormat, save_exr, save_png};
 pub use parts::{Part, PartHeader, SampleRange, join, merge, merge_bound};
 pub use stats::{DepthSeconds, LightStats, NO_LIGHT_WARNING, RenderStats, StageSeconds};
 pub use tracer::{
-    BVH_BUILD_THREADS, Backend, CPU_RAYS_PER_SECOND_PER_THREAD, GPU_RAYS_PER_SECOND, Progress,
-    ROULETTE_TAIL_SEGMENTS, Render, ReorderPolicy, Tracer,
+    BVH_BUILD_THREADS, Backend, BvhBuilder, CPU_FASTEST_BUILD_SECONDS,
+    CPU_RAYS_PER_SECOND_PER_THREAD, GPU_BUILD_FIXED_SECONDS, GPU_BUILD_SECONDS,
+    GPU_BUILD_TRACE_FACTOR, GPU_RAYS_PER_SECOND, Progress, ROULETTE_TAIL_SEGMENTS, Render,
+    ReorderPolicy, Tracer,
 };
 
 pub use raylume_bvh::{BvhLayout, BvhQuality};

@@ -12,7 +12,8 @@ use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, GpuError};
 use raylume_kernels::batches::{RoundHook, RoundSums};
 use raylume_kernels::{
     BatchPlan, CpuTracer, Estimator, GpuScene, GpuTracer, GpuWorkspace, Reorder, ReorderMode,
-    Sampler, Schedule, Specialisation, TraceSettings, TraceStats, gpu::TracerPipelines,
+    Sampler, Schedule, Specialisation, TraceSettings, TraceStats,
+    gpu::{LbvhBuilder, ResidentBvh, TracerPipelines},
     scene_data::SceneData,
 };
 use raylume_scene::Scene;
@@ -123,6 +124,92 @@ pub const ROULETTE_TAIL_SEGMENTS: u32 = 5;
 /// (`raylume_bvh::PRESET_BUILD_SECONDS`, measured on 2 cores) predicts for 4 threads, not 16.
 pub const BVH_BUILD_THREADS: usize = 4;
 
+/// Where a render's BVH is built ([`Tracer::bvh_builder`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum BvhBuilder {
+    /// On the GPU when the render runs on a hardware GPU, the scene has no spheres, no preset
+    /// other than `Fastest` was asked for, and the estimate says so
+    /// ([`BvhBuilder::gpu_repays`]: a large scene and few rays); on the CPU otherwise.
+    #[default]
+    Auto,
+    /// On the CPU ([`GpuBvh::from_scene_with_layout`]: obvhs' PLOC, or the LBVH on every core
+    /// for `Fastest`), in [`Tracer::bvh_layout`].
+    Cpu,
+    /// On the GPU whenever the render runs on one (a software adapter too) and the scene has
+    /// no spheres: Karras' linear BVH in WGSL ([`raylume_kernels::gpu::LbvhBuilder`]), binary
+    /// layout, one triangle a leaf, kept on the GPU. Its tree traces slower than the CPU's
+    /// trees; it is built in a fraction of their time.
+    Gpu,
+}
+
+impl BvhBuilder {
+    /// Lower-case name for flags and stats ("auto", "cpu", "gpu").
+    pub const fn name(self) -> &'static str {
+        match self {
+            BvhBuilder::Auto => "auto",
+            BvhBuilder::Cpu => "cpu",
+            BvhBuilder::Gpu => "gpu",
+        }
+    }
+
+    /// Whether building on the GPU finishes a render of `rays` ray segments over
+    /// `primitives` triangles sooner than the CPU's build of `preset` (on `build_threads`
+    /// threads, [`BVH_BUILD_THREADS`] at most) would: the least of
+    /// `(CPU_FASTEST_BUILD_SECONDS + PRESET_BUILD_SECONDS[preset]) * primitives / threads +
+    /// PRESET_TRACE_FACTOR[preset] * trace` and `GPU_BUILD_FIXED_SECONDS + GPU_BUILD_SECONDS * primitives +
+    /// GPU_BUILD_TRACE_FACTOR * trace`, `trace` being `rays / rays_per_second` (the GPU's
+    /// rate with a `Fastest` tree). An estimate from measured constants.
+    pub fn gpu_repays(
+        primitives: usize,
+        rays: f64,
+        rays_per_second: f64,
+        build_threads: usize,
+        preset: BvhQuality,
+    ) -> bool {
+        let i = BvhQuality::ALL
+            .iter()
+            .position(|&q| q == preset)
+            .expect("every preset is in ALL");
+        let n = primitives as f64;
+        let trace = rays / rays_per_second.max(1.0);
+        let cpu = (CPU_FASTEST_BUILD_SECONDS + raylume_bvh::PRESET_BUILD_SECONDS[i]) * n
+            / build_threads.max(1) as f64
+            + raylume_bvh::PRESET_TRACE_FACTOR[i] * trace;
+        let gpu = GPU_BUILD_FIXED_SECONDS + GPU_BUILD_SECONDS * n + GPU_BUILD_TRACE_FACTOR * trace;
+        gpu < cpu
+    }
+}
+
+impl std::str::FromStr for BvhBuilder {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(BvhBuilder::Auto),
+            "cpu" => Ok(BvhBuilder::Cpu),
+            "gpu" => Ok(BvhBuilder::Gpu),
+            _ => Err(format!("unknown BVH builder `{s}`: use auto, cpu or gpu")),
+        }
+    }
+}
+
+/// The CPU's `Fastest` build (the LBVH, reinsertion and the eight-wide conversion), seconds
+/// per triangle on one thread, for [`BvhBuilder::gpu_repays`]: issue 19's grids on the
+/// 2-core machine, 3M triangles in 1.01-1.26 s on 2 threads (`benches/build.rs`, 2026-12-02);
+/// on the H200's 16-core host 0.50-0.53 s, what 4 threads at this rate give.
+pub const CPU_FASTEST_BUILD_SECONDS: f64 = 0.75e-6;
+
+/// The GPU's build's fixed cost ([`BvhBuilder::Gpu`]): its dispatches, one submission and
+/// two read-backs, 2.2 ms for 100k triangles on the H200 (2026-12-02).
+pub const GPU_BUILD_FIXED_SECONDS: f64 = 2e-3;
+
+/// The GPU's build ([`BvhBuilder::Gpu`]), seconds per triangle, the triangles' upload
+/// included: 3M in 0.072-0.089 s, 1M in 0.017-0.027 s on the H200 (2026-12-02).
+pub const GPU_BUILD_SECONDS: f64 = 0.03e-6;
+
+/// The trace time over the GPU-built tree (binary, one triangle a leaf, Morton splits)
+/// relative to the CPU's `Fastest` tree's (eight-wide), for [`BvhBuilder::gpu_repays`].
+pub const GPU_BUILD_TRACE_FACTOR: f64 = 2.0;
+
 /// `width x height x spp x (bounces + 1)`: the path segments of a render of `r` whose every
 /// path reaches its maximum depth (what the guide's and the texture decoding's rules count).
 fn deepest_segments(r: &raylume_scene::RenderSettings) -> f64 {
@@ -152,6 +239,38 @@ pub const CPU_RAYS_PER_SECOND_PER_THREAD: f64 = 2e6;
 /// H200's measured 1.6 G on the living room and 8.7 G on the Cornell box (`docs/RESULTS.md`).
 /// Software adapters are counted as CPUs.
 pub const GPU_RAYS_PER_SECOND: f64 = 2e9;
+
+/// `scene`'s BVH built on the GPU of `ctx` ([`BvhBuilder::Gpu`]), with `lbvh`'s kernels (made
+/// at their first use); a tree deeper than the traversal's stack is built on the CPU instead
+/// (binary layout, as the pipelines compiled beside it), and the note says so.
+fn build_on_gpu(
+    ctx: &GpuContext,
+    lbvh: &mut Option<LbvhBuilder>,
+    scene: &Scene,
+) -> Result<(BuiltBvh, Option<String>), Error> {
+    let source = GpuBvh::lbvh_input(&scene.triangles)?;
+    let builder = match lbvh {
+        Some(b) => b,
+        None => lbvh.insert(LbvhBuilder::new(ctx)?),
+    };
+    match builder.build(ctx, &source) {
+        Ok(r) => Ok((BuiltBvh::Gpu(Arc::new(r)), None)),
+        Err(raylume_kernels::KernelError::Bvh(e @ raylume_bvh::BvhError::TooDeep { .. })) => {
+            let bvh = GpuBvh::build_with_layout(
+                &scene.triangles,
+                &[],
+                BvhQuality::Fastest,
+                BvhLayout::Binary,
+            )?;
+            let note = format!(
+                "LBVH on the CPU, {} threads (the GPU's LBVH: {e})",
+                rayon::current_num_threads()
+            );
+            Ok((BuiltBvh::Cpu(bvh), Some(note)))
+        }
+        Err(e) => Err(e.into()),
+    }
+}
 
 /// A finished render: linear HDR radiance per pixel (after bloom, before tone mapping).
 #[derive(Clone, Debug)]
@@ -313,6 +432,10 @@ pub struct Tracer {
     /// compressed eight-wide one. The two find the same hits; which is faster depends on the
     /// scene and the device (`docs/RESULTS.md`).
     pub bvh_layout: BvhLayout,
+    /// Where the BVH is built (default [`BvhBuilder::Auto`]). A tree built on the GPU is
+    /// binary, whatever [`Tracer::bvh_layout`] says; [`RenderStats::bvh_builder`] says which
+    /// ran and [`RenderStats::bvh_layout`] the layout.
+    pub bvh_builder: BvhBuilder,
     /// How the GPU pipelines are specialised on the scene's features
     /// ([`Specialisation::Composed`] by default: the code of an effect the scene does not call
     /// for is not in the shader at all; [`Specialisation::Overrides`]: it is, behind WGSL
@@ -359,6 +482,8 @@ pub struct Tracer {
     /// spp, size, seed, or a benchmark's repeats, also alternating the two layouts) skips the
     /// build.
     pub(crate) bvh_cache: Vec<BvhCacheEntry>,
+    /// The GPU BVH builder's kernels and sorter (made at its first use on the context).
+    lbvh: Option<LbvhBuilder>,
 }
 
 /// BVHs the tracer keeps: two, so that a benchmark alternating layouts or presets on one
@@ -373,8 +498,24 @@ const PIPELINE_CACHE_ENTRIES: usize = 4;
 /// tracing over it ([`crate::prepared`]).
 pub(crate) struct BvhCacheEntry {
     pub(crate) key: GeometryKey,
-    pub(crate) bvh: GpuBvh,
+    pub(crate) bvh: BuiltBvh,
     pub(crate) prepared: Prepared,
+}
+
+/// A tree built on the CPU, or on the GPU and kept there ([`BvhBuilder::Gpu`]).
+#[derive(Clone, Debug)]
+pub(crate) enum BuiltBvh {
+    Cpu(GpuBvh),
+    Gpu(Arc<ResidentBvh>),
+}
+
+impl BuiltBvh {
+    fn node_count(&self) -> usize {
+        match self {
+            BuiltBvh::Cpu(b) => b.stats.node_count,
+            BuiltBvh::Gpu(r) => r.node_count(),
+        }
+    }
 }
 
 /// What a BVH depends on: every triangle vertex and sphere, bit for bit (a 64-bit hash plus
@@ -388,6 +529,8 @@ pub(crate) struct GeometryKey {
     bounds: [u32; 6],
     quality: BvhQuality,
     layout: BvhLayout,
+    /// Built on the GPU (and kept there): never handed to a CPU render.
+    on_gpu: bool,
 }
 
 impl GeometryKey {
@@ -429,6 +572,7 @@ impl GeometryKey {
             bounds,
             quality,
             layout,
+            on_gpu: false,
         }
     }
 }
@@ -552,6 +696,8 @@ impl Tracer {
             gpu_pipelines: Vec::new(),
             device_seconds: None,
             bvh_cache: Vec::new(),
+            bvh_builder: BvhBuilder::default(),
+            lbvh: None,
         }
     }
 
@@ -656,10 +802,42 @@ impl Tracer {
         for entry in &mut self.bvh_cache {
             entry.prepared.forget_gpu();
         }
+        // Trees kept on the lost device are gone with it.
+        self.bvh_cache.retain(|e| !e.key.on_gpu);
+        self.lbvh = None;
         self.gpu = None;
         self.gpu_bloom = None;
         self.gpu_workspace = None;
         self.gpu_pipelines.clear();
+    }
+
+    /// Whether this render's BVH is built on the GPU ([`Tracer::bvh_builder`]).
+    fn builds_on_gpu(
+        &self,
+        use_gpu: bool,
+        scene: &Scene,
+        preset: BvhQuality,
+        rays: f64,
+        rate: f64,
+    ) -> bool {
+        let possible = use_gpu && scene.spheres.is_empty() && scene.triangles.len() >= 2;
+        match self.bvh_builder {
+            BvhBuilder::Cpu => false,
+            _ if !possible => false,
+            BvhBuilder::Gpu => true,
+            BvhBuilder::Auto => {
+                let hardware = self.gpu.as_ref().is_some_and(|c| !c.info.is_software);
+                hardware
+                    && self.bvh_quality.is_none_or(|q| q == BvhQuality::Fastest)
+                    && BvhBuilder::gpu_repays(
+                        scene.triangles.len(),
+                        rays,
+                        rate,
+                        bvh_build_threads(),
+                        preset,
+                    )
+            }
+        }
     }
 
     /// The header of a part of `scene` rendered with this tracer's settings (its range: the
@@ -957,28 +1135,40 @@ impl Tracer {
             (true, Some(ctx)) if !ctx.info.is_software => GPU_RAYS_PER_SECOND,
             _ => CPU_RAYS_PER_SECOND_PER_THREAD * rayon::current_num_threads() as f64,
         };
-        let quality = self.bvh_quality.unwrap_or_else(|| {
+        let rays = self.estimated_rays(&r, r.spp);
+        let mut quality = self.bvh_quality.unwrap_or_else(|| {
             BvhQuality::for_work(
                 scene.triangles.len() + scene.spheres.len(),
-                self.estimated_rays(&r, r.spp),
+                rays,
                 rate,
                 bvh_build_threads(),
             )
         });
+        let gpu_build = self.builds_on_gpu(use_gpu, scene, quality, rays, rate);
+        let layout = match gpu_build {
+            true => {
+                quality = BvhQuality::Fastest;
+                BvhLayout::Binary
+            }
+            false => self.bvh_layout,
+        };
         stats.bvh_preset = quality.name().into();
         stats.bvh_preset_chosen = self.bvh_quality.is_none();
-        stats.bvh_layout = self.bvh_layout.name().into();
+        stats.bvh_layout = layout.name().into();
         if let Some(f) = self.on_start.as_mut() {
             f(&stats);
         }
 
         let t = Instant::now();
-        let mut key = GeometryKey::of(scene, quality, self.bvh_layout);
+        let mut key = GeometryKey {
+            on_gpu: gpu_build,
+            ..GeometryKey::of(scene, quality, layout)
+        };
         // The tree this render would build, or, when the preset was chosen (not set), the same
         // geometry's Quality tree if that is cached: it traces at least as fast, for nothing.
         // (A cached Fast tree is not taken for a Fastest choice: the two are close.)
-        let better =
-            (self.bvh_quality.is_none() && quality != BvhQuality::Quality).then_some(GeometryKey {
+        let better = (self.bvh_quality.is_none() && quality != BvhQuality::Quality && !gpu_build)
+            .then_some(GeometryKey {
                 quality: BvhQuality::Quality,
                 ..key
             });
@@ -1004,7 +1194,7 @@ impl Tracer {
             stats.pipeline_features = pipeline_features.names();
             stats.specialisation = self.specialisation.name().into();
         }
-        let pipeline_key = (pipeline_features, self.bvh_layout, self.specialisation);
+        let pipeline_key = (pipeline_features, layout, self.specialisation);
         let first_schedule = if settings.reorder.sorts_any(settings.max_bounces) {
             Schedule::Wavefront
         } else {
@@ -1044,12 +1234,15 @@ impl Tracer {
             let tables = cached.is_none().then(|| {
                 threads.spawn(|| raylume_kernels::scene_data::prepare_plastic_tables(scene))
             });
-            let bvh = match cached {
-                Some(c) => {
+            let bvh = match (cached, gpu) {
+                (Some(c), _) => {
                     prepared = c.prepared;
-                    Ok(c.bvh)
+                    Ok((c.bvh, None))
                 }
-                None => GpuBvh::from_scene_with_layout(scene, quality, self.bvh_layout),
+                (None, Some(ctx)) if gpu_build => build_on_gpu(ctx, &mut self.lbvh, scene),
+                (None, _) => GpuBvh::from_scene_with_layout(scene, quality, layout)
+                    .map(|b| (BuiltBvh::Cpu(b), None))
+                    .map_err(Error::from),
             };
             if let Some(handle) = tables {
                 handle
@@ -1067,7 +1260,15 @@ impl Tracer {
             };
             (bvh, pipelines)
         });
-        let bvh = bvh?;
+        let (bvh, builder_note) = match bvh {
+            Ok(b) => b,
+            Err(e) => {
+                if e.is_device_lost() {
+                    self.forget_device();
+                }
+                return Err(e);
+            }
+        };
         let pipelines = match pipelines.transpose() {
             Ok(p) => p,
             Err(e) => {
@@ -1085,11 +1286,23 @@ impl Tracer {
             self.gpu_pipelines.insert(0, p.clone());
             self.gpu_pipelines.truncate(PIPELINE_CACHE_ENTRIES);
         }
-        stats.bvh_nodes = bvh.stats.node_count;
-        stats.bvh_builder = format!(
-            "obvhs PLOC on the CPU, {} threads",
-            rayon::current_num_threads()
-        );
+        stats.bvh_nodes = bvh.node_count();
+        stats.bvh_builder = match (&bvh, builder_note) {
+            (_, Some(note)) => note,
+            (BuiltBvh::Gpu(r), None) => format!(
+                "LBVH on the GPU ({:.3} s there), {} levels",
+                r.gpu_seconds(),
+                r.max_depth()
+            ),
+            (BuiltBvh::Cpu(_), None) => format!(
+                "{} on the CPU, {} threads",
+                match quality {
+                    BvhQuality::Fastest => "LBVH",
+                    _ => "obvhs PLOC",
+                },
+                rayon::current_num_threads()
+            ),
+        };
 
         let mut progress = self.progress.take();
         let t_trace = Instant::now();
@@ -1128,9 +1341,14 @@ impl Tracer {
                 &mut report,
             )
         } else {
+            let BuiltBvh::Cpu(cpu_bvh) = &bvh else {
+                return Err(Error::Settings(
+                    "internal: a tree kept on the GPU was handed to a CPU render".into(),
+                ));
+            };
             self.trace_cpu(
                 scene,
-                &bvh,
+                cpu_bvh,
                 &mut prepared,
                 &settings,
                 bloom,
@@ -1191,7 +1409,7 @@ impl Tracer {
     fn trace_gpu(
         &mut self,
         scene: &Scene,
-        bvh: &GpuBvh,
+        bvh: &BuiltBvh,
         prepared: &mut Prepared,
         pipelines: Arc<TracerPipelines>,
         settings: &TraceSettings,
@@ -1208,13 +1426,13 @@ impl Tracer {
         let prepared = prepared.of(SceneKey::of(scene, options));
         // Whether the scene was prepared (and its guide learned) by this render.
         let mut fresh = false;
-        let uploaded = match (&prepared.gpu, &prepared.cpu) {
-            (Some(g), _) => {
+        let uploaded = match (&prepared.gpu, &prepared.cpu, bvh) {
+            (Some(g), _, _) => {
                 stats.scene_cached = true;
                 g.clone()
             }
             // The CPU's preparation of the same scene (an earlier CPU render), uploaded.
-            (None, Some(data)) => Arc::new(GpuScene::upload_data(
+            (None, Some(data), BuiltBvh::Cpu(bvh)) => Arc::new(GpuScene::upload_data(
                 ctx,
                 raylume_kernels::tracer_features(scene),
                 bvh,
@@ -1222,19 +1440,24 @@ impl Tracer {
             )?),
             // The environment guide's walks on the GPU, by the pipelines' learner (compiled
             // beside the BVH when the render guides).
-            (None, None) => {
+            (None, _, bvh) => {
                 fresh = true;
                 let learner = match options.environment_guide {
                     true => Some(pipelines.guide_learner(ctx)?),
                     false => None,
                 };
-                Arc::new(GpuScene::upload_with_learner(
-                    ctx,
-                    scene,
-                    bvh,
-                    &options,
-                    learner.as_deref(),
-                )?)
+                Arc::new(match bvh {
+                    BuiltBvh::Cpu(bvh) => GpuScene::upload_with_learner(
+                        ctx,
+                        scene,
+                        bvh,
+                        &options,
+                        learner.as_deref(),
+                    )?,
+                    BuiltBvh::Gpu(bvh) => {
+                        GpuScene::upload_resident(ctx, scene, bvh, &options, learner.as_deref())?
+                    }
+                })
             }
         };
         if fresh {

@@ -566,3 +566,108 @@ fn textures_are_decoded_only_when_the_render_repays_it_and_the_image_is_the_same
     r.width -= 1;
     assert!(!Tracer::decoding_repays(&r, texels));
 }
+
+/// `BvhBuilder::Gpu` builds the tree on the GPU (the stats say so: binary layout, `fastest`),
+/// keeps it for the next render of the same geometry, and renders the image the CPU's tree
+/// gives; a scene with spheres is built on the CPU whatever was asked; `Auto` builds a small
+/// scene on the CPU.
+#[test]
+fn the_bvh_is_built_on_the_gpu_when_asked_and_the_image_is_the_same() {
+    let Some(_) = raylume_gpu::testing::context_or_skip(
+        "the_bvh_is_built_on_the_gpu_when_asked_and_the_image_is_the_same",
+    ) else {
+        return;
+    };
+    let scene = cornell(16, 16, 2);
+    let mut on_gpu = Tracer::new(Backend::Gpu);
+    on_gpu.bvh_builder = raylume::BvhBuilder::Gpu;
+    let first = on_gpu.render(&scene).unwrap();
+    let s = &first.stats;
+    assert!(
+        s.bvh_builder.starts_with("LBVH on the GPU"),
+        "{}",
+        s.bvh_builder
+    );
+    assert_eq!(
+        (s.bvh_layout.as_str(), s.bvh_preset.as_str()),
+        ("binary", "fastest")
+    );
+    assert_eq!(
+        s.bvh_nodes,
+        scene.triangles.len() - 1,
+        "one triangle a leaf"
+    );
+    let again = on_gpu.render(&scene).unwrap();
+    assert!(again.stats.bvh_cached && again.stats.scene_cached);
+    assert_eq!(again.pixels, first.pixels);
+
+    let mut on_cpu = Tracer::new(Backend::Gpu);
+    on_cpu.bvh_builder = raylume::BvhBuilder::Cpu;
+    let cpu_tree = on_cpu.render(&scene).unwrap();
+    assert!(
+        cpu_tree.stats.bvh_builder.contains("on the CPU"),
+        "{}",
+        cpu_tree.stats.bvh_builder
+    );
+    // Two trees of the same triangles find the same hits (ties between triangles at one
+    // distance aside, which these random paths do not meet): the same paths, ray for ray.
+    assert_eq!(cpu_tree.stats.rays_traced, first.stats.rays_traced);
+    let rel = raylume_post::relative_mse(&first.pixels, &cpu_tree.pixels).unwrap();
+    assert!(rel < 1e-6, "relative MSE {rel}");
+
+    // Spheres: the GPU build takes triangles only.
+    let mut spheres = scene.clone();
+    spheres.spheres.push(raylume::scene::Sphere {
+        center: raylume::glam::Vec3::new(0.0, 0.3, 0.0),
+        radius: 0.2,
+        material: scene.triangles[0].material,
+    });
+    let mixed = on_gpu.render(&spheres).unwrap();
+    assert!(
+        mixed.stats.bvh_builder.contains("on the CPU"),
+        "{}",
+        mixed.stats.bvh_builder
+    );
+
+    let auto = Tracer::new(Backend::Gpu).render(&scene).unwrap();
+    assert!(
+        auto.stats.bvh_builder.contains("on the CPU"),
+        "{}",
+        auto.stats.bvh_builder
+    );
+}
+
+/// `BvhBuilder::gpu_repays`: a brief look at millions of triangles is built on the GPU, a
+/// long render of a room on the CPU (its better tree repays the build).
+#[test]
+fn the_gpu_build_is_chosen_for_large_scenes_and_few_rays() {
+    use raylume::{BvhBuilder, BvhQuality, GPU_RAYS_PER_SECOND};
+    let rays = |w: f64, h: f64, spp: f64, segments: f64| w * h * spp * segments * 2.0;
+    // The 3M grid at 1000x1000, 10 spp: the CPU's Fastest build ~0.56 s on 4 threads.
+    assert!(BvhBuilder::gpu_repays(
+        3_000_000,
+        rays(1000.0, 1000.0, 10.0, 10.0),
+        GPU_RAYS_PER_SECOND,
+        4,
+        BvhQuality::Fastest
+    ));
+    // The living room (143k triangles) at 1000x1000, 100 spp: the trace dominates.
+    assert!(!BvhBuilder::gpu_repays(
+        143_000,
+        rays(1000.0, 1000.0, 100.0, 10.0),
+        GPU_RAYS_PER_SECOND,
+        4,
+        BvhQuality::Quality
+    ));
+    // A tiny scene: nothing to save.
+    assert!(!BvhBuilder::gpu_repays(
+        36,
+        1e3,
+        GPU_RAYS_PER_SECOND,
+        4,
+        BvhQuality::Fastest
+    ));
+    for b in [BvhBuilder::Auto, BvhBuilder::Cpu, BvhBuilder::Gpu] {
+        assert_eq!(b.name().parse::<BvhBuilder>(), Ok(b));
+    }
+}
