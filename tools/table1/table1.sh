@@ -20,7 +20,9 @@
 # T1_WORKGROUPS (default "32 64 128 256");
 # `large` is issue 19's: the 3M-triangle
 # grid of tools/large made there and rendered from file to a 10-spp PNG by raylume and by
-# Mitsuba, T1_GRID quads a side, default 1224). Results: $OUT/table1.tgz.
+# Mitsuba, T1_GRID quads a side, default 1224, T1_ROUNDS rounds of a process per BVH builder in
+# T1_BUILDERS (default "auto") and Mitsuba's; `builders` renders the living room at 10 and 100 spp
+# per builder). Results: $OUT/table1.tgz.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 mode=${1:-}
@@ -158,18 +160,33 @@ device() {
   fi
   if [[ $parts == *" large "* ]]; then
   echo "== issue 19: the ${T1_GRID:-1224}^2-quad grid from file to a 10-spp PNG (at $(el) s)"
-  local g=/tmp/grid n=${T1_GRID:-1224}
+  # T1_ROUNDS rounds (default 2); in each a process per BVH builder in T1_BUILDERS (default
+  # "auto"; `render --bvh-builder`), then Mitsuba's. The first round compiles.
+  local g=/tmp/grid n=${T1_GRID:-1224} b k
   SIZES=$n MAKE_GRID=/tmp/make_grid bash .gpu/large.sh make $g > /dev/null
   ls -la $g | tail -2
-  for k in 1 2; do
-    TIMEFORMAT="raylume grid, process $k: %R s"
-    time (timeout 60 /tmp/render $g/grid-$n.toml -o /tmp/grid.png --backend gpu --spp 10 \
-      --stats $R/render-grid-$k.json -q 2>&1 | grep -E '^raylume: trace')
-  done
-  for k in 1 2; do
+  for k in $(seq 1 ${T1_ROUNDS:-2}); do
+    for b in ${T1_BUILDERS:-auto}; do
+      TIMEFORMAT="raylume grid, builder $b, process $k: %R s"
+      time (timeout 60 /tmp/render $g/grid-$n.toml -o /tmp/grid.png --backend gpu --spp 10 \
+        --bvh-builder $b --stats $R/render-grid-$b-$k.json -q 2>&1 | grep -E '^raylume: trace')
+    done
     TIMEFORMAT="mitsuba grid, process $k: %R s"
     time (PYTHONPATH=$m timeout 100 python3 .gpu/mitsuba_grid.py $g/grid-$n.obj $R/mitsuba-grid-$k.json \
       --variant cuda_ad_rgb --size 1000x1000 --spp 10 --png /tmp/grid-mi.png 2>&1 | tail -1)
+  done
+  fi
+  if [[ $parts == *" builders "* ]]; then
+  # The living room from file to a 10-spp PNG and at 100 spp, per BVH builder, T1_ROUNDS rounds.
+  echo "== the living room per BVH builder (at $(el) s)"
+  for k in $(seq 1 ${T1_ROUNDS:-2}); do
+    for b in ${T1_BUILDERS:-auto}; do
+      for spp in 10 100; do
+        timeout 60 /tmp/render scenes/living-room/scene.json -o /tmp/lr-$b.png --backend gpu \
+          --spp $spp --bvh-builder $b --stats $R/render-lr-$b-$spp-$k.json -q 2>&1 \
+          | grep -E '^raylume: trace' | sed "s/^/$b $spp spp, round $k: /"
+      done
+    done
   done
   fi
 }
