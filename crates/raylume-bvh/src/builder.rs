@@ -396,7 +396,7 @@ impl GpuBvh {
     /// The input of a build on the GPU ([`crate::lbvh`]; `raylume_kernels::gpu::LbvhBuilder`):
     /// `triangles` checked as [`GpuBvh::build`] checks them, as [`Primitive`]s in scene order.
     pub fn lbvh_input(triangles: &[Triangle]) -> Result<Vec<Primitive>, BvhError> {
-        check_input(triangles, &[])?;
+        Self::check_triangles(triangles)?;
         let mut source = Vec::with_capacity(triangles.len());
         source.par_extend(
             triangles
@@ -405,6 +405,12 @@ impl GpuBvh {
                 .map(|(i, t)| Primitive::triangle(t.positions.map(|p| p.to_array()), i as u32)),
         );
         Ok(source)
+    }
+
+    /// The checks [`GpuBvh::build`] runs on `triangles` (a scene of no spheres): at most
+    /// `u32::MAX - 1`, every vertex finite.
+    pub fn check_triangles(triangles: &[Triangle]) -> Result<(), BvhError> {
+        check_input(triangles, &[])
     }
 
     /// The binary tree of an LBVH ([`crate::lbvh::lbvh_binary`], or the GPU build's read
@@ -426,9 +432,8 @@ impl GpuBvh {
     }
 
     /// `source` (scene-order triangles) in an LBVH's leaf `order`, as a binary-layout
-    /// [`GpuBvh`] **without nodes** (what a tree kept on the GPU leaves on the CPU: the
-    /// leaves' primitives, for the scene's preparation). Not a tree to traverse or validate.
-    pub fn lbvh_leaves(order: &[u32], source: &[Primitive]) -> Result<GpuBvh, BvhError> {
+    /// [`GpuBvh`] without nodes yet.
+    fn lbvh_leaves(order: &[u32], source: &[Primitive]) -> Result<GpuBvh, BvhError> {
         if order.len() != source.len() {
             return Err(BvhError::Inconsistent(format!(
                 "an LBVH order of {} primitives over {}",

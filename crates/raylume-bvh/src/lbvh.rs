@@ -64,11 +64,17 @@ impl LbvhParams {
                 || (Vec3A::INFINITY, Vec3A::NEG_INFINITY),
                 |a, b| (a.0.min(b.0), a.1.max(b.1)),
             );
+        Self::of_centre_bounds(lo, hi, boxes.len())
+    }
+
+    /// The grid over box centres from `lo` to `hi` (each the least or greatest over all
+    /// `count` centres, finite).
+    pub fn of_centre_bounds(lo: Vec3A, hi: Vec3A, count: usize) -> Self {
         let scale =
             (hi - lo).max(Vec3A::splat(1e-30)).recip() * ((1u64 << LBVH_AXIS_BITS) - 1) as f32;
         Self {
             centre_min: lo.to_array(),
-            count: boxes.len() as u32,
+            count: count as u32,
             scale: scale.to_array(),
             pass: 0,
         }
@@ -76,9 +82,25 @@ impl LbvhParams {
 
     /// The grid of `primitives`' box centres (finite), as the GPU build uses it.
     pub fn of_primitives(primitives: &[Primitive]) -> Self {
-        let boxes: Vec<Aabb> = primitives.par_iter().map(primitive_aabb).collect();
-        Self::of_boxes(&boxes)
+        let (lo, hi) = primitives
+            .par_iter()
+            .map(primitive_centre)
+            .fold(
+                || (Vec3A::INFINITY, Vec3A::NEG_INFINITY),
+                |(lo, hi), c| (lo.min(c), hi.max(c)),
+            )
+            .reduce(
+                || (Vec3A::INFINITY, Vec3A::NEG_INFINITY),
+                |a, b| (a.0.min(b.0), a.1.max(b.1)),
+            );
+        Self::of_centre_bounds(lo, hi, primitives.len())
     }
+}
+
+/// The centre of `p`'s box (WGSL: `(lbvh_box_max(p) + lbvh_box_min(p)) * 0.5`), the point
+/// its Morton code quantises.
+pub fn primitive_centre(p: &Primitive) -> Vec3A {
+    primitive_aabb(p).center()
 }
 
 /// 21 bits spread to every third bit.

@@ -360,6 +360,39 @@ fn append_texture(
     ))
 }
 
+/// The leaves a preparation looks up, in leaf order: each one's kind and scene index.
+#[derive(Clone, Copy, Debug)]
+pub enum Leaves<'a> {
+    /// A tree's primitive records ([`GpuBvh::primitives`]).
+    Primitives(&'a [Primitive]),
+    /// A tree over the scene's triangles only, leaf `k` holding triangle `order[k]` (a tree
+    /// built on the GPU: `crate::gpu::ResidentBvh`).
+    Triangles(&'a [u32]),
+}
+
+impl Leaves<'_> {
+    /// How many leaves.
+    pub fn len(&self) -> usize {
+        match self {
+            Leaves::Primitives(p) => p.len(),
+            Leaves::Triangles(o) => o.len(),
+        }
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Leaf `k`'s kind ([`PRIM_TRIANGLE`], [`PRIM_SPHERE`]) and index in the scene's list.
+    pub fn get(&self, k: usize) -> (u32, u32) {
+        match self {
+            Leaves::Primitives(p) => (p[k].kind(), p[k].scene_index()),
+            Leaves::Triangles(o) => (PRIM_TRIANGLE, o[k]),
+        }
+    }
+}
+
 impl SceneData {
     /// Whether this data was prepared over a tree of `bvh`'s primitive count (data kept from
     /// an earlier render handed to a tracer: `CpuTracer::with_data`, `GpuScene::upload_data`).
@@ -410,6 +443,26 @@ impl SceneData {
                 bvh.sphere_count,
                 scene.triangles.len(),
                 scene.spheres.len()
+            )));
+        }
+        Self::with_leaves(scene, Leaves::Primitives(&bvh.primitives), options, walk)
+    }
+
+    /// [`SceneData::with_guide_walks`] for the leaves `leaves` of a tree built over `scene`
+    /// (the guide's walks, if any, by `walk`: there may be no tree on the CPU to walk).
+    pub fn with_leaves(
+        scene: &Scene,
+        leaves: Leaves<'_>,
+        options: &SceneOptions,
+        walk: &mut dyn FnMut(&GuideParams) -> Result<EnvironmentGuide, KernelError>,
+    ) -> Result<Self, KernelError> {
+        if let Leaves::Triangles(order) = leaves
+            && order.len() != scene.triangles.len()
+        {
+            return Err(KernelError::InvalidScene(format!(
+                "a tree of {} triangles, but the scene has {}",
+                order.len(),
+                scene.triangles.len()
             )));
         }
         let mut texels = Vec::new();
@@ -479,9 +532,11 @@ impl SceneData {
             .par_iter()
             .any(|t| t.normals.is_some() || t.uvs.is_some());
         // Each leaf primitive's material and shading data, on every core.
-        let lookup = |leaf: usize, p: &Primitive| -> Result<(u32, TriangleShading), KernelError> {
-            let index = p.scene_index() as usize;
-            let (material, shading) = match p.kind() {
+        let lookup = |leaf: usize,
+                      (kind, index): (u32, u32)|
+         -> Result<(u32, TriangleShading), KernelError> {
+            let index = index as usize;
+            let (material, shading) = match kind {
                 PRIM_TRIANGLE => {
                     let t = scene.triangles.get(index).ok_or_else(|| {
                         KernelError::InvalidScene(format!(
@@ -530,8 +585,8 @@ impl SceneData {
         // One pass on every core; only when a primitive failed, a second for the first bad
         // one's error, as a loop would report it.
         let failed = std::sync::atomic::AtomicBool::new(false);
-        let looked_up = |(leaf, p): (usize, &Primitive)| {
-            lookup(leaf, p).unwrap_or_else(|_| {
+        let looked_up = |leaf: usize| {
+            lookup(leaf, leaves.get(leaf)).unwrap_or_else(|_| {
                 failed.store(true, std::sync::atomic::Ordering::Relaxed);
                 Default::default()
             })
@@ -539,24 +594,20 @@ impl SceneData {
         let mut prim_materials: Vec<u32> = Vec::new();
         let mut triangle_shading: Vec<TriangleShading> = Vec::new();
         if has_shading {
-            bvh.primitives
-                .par_iter()
-                .enumerate()
+            (0..leaves.len())
+                .into_par_iter()
                 .map(looked_up)
                 .unzip_into_vecs(&mut prim_materials, &mut triangle_shading);
         } else {
-            bvh.primitives
-                .par_iter()
-                .enumerate()
-                .map(|lp| looked_up(lp).0)
+            (0..leaves.len())
+                .into_par_iter()
+                .map(|leaf| looked_up(leaf).0)
                 .collect_into_vec(&mut prim_materials);
         }
         if failed.into_inner()
-            && let Some(e) = bvh
-                .primitives
-                .par_iter()
-                .enumerate()
-                .find_map_first(|(leaf, p)| lookup(leaf, p).err())
+            && let Some(e) = (0..leaves.len())
+                .into_par_iter()
+                .find_map_first(|leaf| lookup(leaf, leaves.get(leaf)).err())
         {
             return Err(e);
         }
@@ -637,7 +688,7 @@ impl SceneData {
             data.scene_min = bounds.min;
             data.scene_extent = bounds.extent();
         }
-        if options.environment_guide && environment_luminance > 0.0 && !bvh.primitives.is_empty() {
+        if options.environment_guide && environment_luminance > 0.0 && !leaves.is_empty() {
             data.environment_guide = true;
             let start = std::time::Instant::now();
             let guide = walk(&GuideParams::new(

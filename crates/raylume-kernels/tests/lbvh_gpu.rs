@@ -56,27 +56,33 @@ fn grid(k: usize) -> Vec<Triangle> {
 fn check(builder: &mut LbvhBuilder, ctx: &raylume_gpu::GpuContext, name: &str, t: &[Triangle]) {
     let source = GpuBvh::lbvh_input(t).unwrap();
     let reference = lbvh_binary(&source);
-    let resident = builder.build(ctx, &source).unwrap();
-    assert_eq!(
-        resident.node_count(),
-        reference.nodes.len(),
-        "{name}: nodes"
-    );
-    assert_eq!(resident.max_depth(), reference.max_depth, "{name}: depth");
     let expected =
         GpuBvh::from_lbvh(reference.clone(), &source, std::time::Instant::now()).unwrap();
-    assert_eq!(
-        resident.primitives(),
-        expected.primitives,
-        "{name}: sorted order"
-    );
-    let built = resident.read_back(ctx).unwrap();
-    if let Some(i) = (0..reference.nodes.len()).find(|&i| built.nodes[i] != reference.nodes[i]) {
-        panic!(
-            "{name}: node {i} differs:\nGPU {:?}\nCPU {:?}",
-            built.nodes[i], reference.nodes[i]
+    // From primitives, and from the scene's triangles written straight into the upload.
+    let resident = builder.build(ctx, &source).unwrap();
+    let from_triangles = builder.build_triangles(ctx, t).unwrap();
+    for (how, r) in [("primitives", &resident), ("triangles", &from_triangles)] {
+        assert_eq!(
+            r.node_count(),
+            reference.nodes.len(),
+            "{name} ({how}): nodes"
         );
+        assert_eq!(r.max_depth(), reference.max_depth, "{name} ({how}): depth");
+        assert_eq!(r.order(), reference.order, "{name} ({how}): sorted order");
+        let built = r.read_back(ctx).unwrap();
+        assert_eq!(
+            built.primitives, expected.primitives,
+            "{name} ({how}): leaves"
+        );
+        if let Some(i) = (0..reference.nodes.len()).find(|&i| built.nodes[i] != reference.nodes[i])
+        {
+            panic!(
+                "{name} ({how}): node {i} differs:\nGPU {:?}\nCPU {:?}",
+                built.nodes[i], reference.nodes[i]
+            );
+        }
     }
+    let built = resident.read_back(ctx).unwrap();
     assert_eq!(built.stats.max_depth, reference.max_depth, "{name}: depth");
     built.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
     // What the tracer reads is what was read back.

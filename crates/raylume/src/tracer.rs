@@ -202,13 +202,16 @@ pub const CPU_FASTEST_BUILD_SECONDS: f64 = 0.75e-6;
 /// two read-backs, 2.2 ms for 100k triangles on the H200 (2026-12-02).
 pub const GPU_BUILD_FIXED_SECONDS: f64 = 2e-3;
 
-/// The GPU's build ([`BvhBuilder::Gpu`]), seconds per triangle, the triangles' upload
-/// included: 3M in 0.072-0.089 s, 1M in 0.017-0.027 s on the H200 (2026-12-02).
-pub const GPU_BUILD_SECONDS: f64 = 0.03e-6;
+/// The GPU's build ([`BvhBuilder::Gpu`]), seconds per triangle, everything the render's
+/// `bvh` stage does for it (the triangles' upload, the order read back): 3M triangles in
+/// 0.16-0.19 s on the H200 (commit c95c2ec, 2026-12-02, `docs/study/h200-c95c2ec-gpu-bvh.md`).
+pub const GPU_BUILD_SECONDS: f64 = 0.06e-6;
 
 /// The trace time over the GPU-built tree (binary, one triangle a leaf, Morton splits)
-/// relative to the CPU's `Fastest` tree's (eight-wide), for [`BvhBuilder::gpu_repays`].
-pub const GPU_BUILD_TRACE_FACTOR: f64 = 2.0;
+/// relative to the CPU's `Fastest` tree's (eight-wide), for [`BvhBuilder::gpu_repays`]:
+/// on the H200 the 3M grid traced 1.57x as long (0.036 s against 0.023 s), the living room
+/// 1.41x as long as over its `Fast` tree (commit c95c2ec).
+pub const GPU_BUILD_TRACE_FACTOR: f64 = 1.6;
 
 /// `width x height x spp x (bounces + 1)`: the path segments of a render of `r` whose every
 /// path reaches its maximum depth (what the guide's and the texture decoding's rules count).
@@ -248,12 +251,11 @@ fn build_on_gpu(
     lbvh: &mut Option<LbvhBuilder>,
     scene: &Scene,
 ) -> Result<(BuiltBvh, Option<String>), Error> {
-    let source = GpuBvh::lbvh_input(&scene.triangles)?;
     let builder = match lbvh {
         Some(b) => b,
         None => lbvh.insert(LbvhBuilder::new(ctx)?),
     };
-    match builder.build(ctx, &source) {
+    match builder.build_triangles(ctx, &scene.triangles) {
         Ok(r) => Ok((BuiltBvh::Gpu(Arc::new(r)), None)),
         Err(raylume_kernels::KernelError::Bvh(e @ raylume_bvh::BvhError::TooDeep { .. })) => {
             let bvh = GpuBvh::build_with_layout(
@@ -268,6 +270,7 @@ fn build_on_gpu(
             );
             Ok((BuiltBvh::Cpu(bvh), Some(note)))
         }
+        Err(raylume_kernels::KernelError::Bvh(e)) => Err(e.into()),
         Err(e) => Err(e.into()),
     }
 }

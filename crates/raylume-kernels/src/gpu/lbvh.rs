@@ -19,6 +19,7 @@ use raylume_bvh::lbvh::{LBVH_AXIS_BITS, LbvhParams};
 use raylume_bvh::{BvhNode, GpuBvh, MAX_STACK_DEPTH, Primitive};
 use raylume_gpu::{GpuContext, wgpu};
 use raylume_sort::{RadixSorter, SortLen, SortOptions};
+use rayon::prelude::*;
 use wgpu::util::DeviceExt;
 
 use super::layout::{storage_entry, uniform_entry};
@@ -54,6 +55,23 @@ pub fn lbvh_source() -> String {
     s
 }
 
+/// The base of a mapped range, shared by the tasks writing disjoint parts of it.
+#[derive(Clone, Copy)]
+struct SendPtr(std::ptr::NonNull<u8>);
+
+// SAFETY: only used for writes to disjoint parts of one mapping, within its lifetime
+// (`LbvhBuilder::build_triangles`).
+unsafe impl Send for SendPtr {}
+unsafe impl Sync for SendPtr {}
+
+impl SendPtr {
+    /// The address `offset` bytes in.
+    fn at(self, offset: usize) -> *mut u8 {
+        // SAFETY: callers stay within the mapping (see `build_triangles`).
+        unsafe { self.0.as_ptr().add(offset) }
+    }
+}
+
 /// The compiled LBVH kernels and a radix sorter, made once per context
 /// ([`LbvhBuilder::build`] grows the sorter when a scene needs more).
 pub struct LbvhBuilder {
@@ -76,9 +94,8 @@ impl std::fmt::Debug for LbvhBuilder {
 /// build); the CPU keeps the primitives' leaf order, which the scene's preparation needs
 /// ([`GpuScene::upload_resident`](super::GpuScene::upload_resident)).
 pub struct ResidentBvh {
-    /// The leaf-order primitives and the scene's counts, as a [`GpuBvh`] without nodes (never
-    /// handed out: [`ResidentBvh::read_back`] makes a whole one).
-    pub(crate) leaves: GpuBvh,
+    /// Leaf `k` holds scene triangle `order[k]`.
+    order: Vec<u32>,
     /// `bvh_nodes` ([`BvhLayout::Binary`](raylume_bvh::BvhLayout::Binary), `COPY_SRC`).
     pub(crate) nodes: wgpu::Buffer,
     /// `bvh_primitives` (`COPY_SRC`).
@@ -110,12 +127,13 @@ impl ResidentBvh {
         self.max_depth
     }
 
-    /// The primitives in leaf order (as `bvh_primitives` holds them).
-    pub fn primitives(&self) -> &[Primitive] {
-        &self.leaves.primitives
+    /// The leaves' order: leaf `k` (`bvh_primitives[k]`) is the scene's triangle `order[k]`.
+    pub fn order(&self) -> &[u32] {
+        &self.order
     }
 
-    /// Seconds from the upload of the triangles to the finished tree on the GPU.
+    /// Seconds from the build's call (the triangles' preparation and upload included) to the
+    /// finished tree on the GPU, before the order's read-back.
     pub fn gpu_seconds(&self) -> f64 {
         self.gpu_seconds
     }
@@ -129,10 +147,14 @@ impl ResidentBvh {
     /// The whole tree on the CPU: the nodes read back (for the CPU's traversal, checks, tests).
     pub fn read_back(&self, ctx: &GpuContext) -> Result<GpuBvh, KernelError> {
         let start = Instant::now();
-        let nodes = ctx.read_buffer::<BvhNode>(&self.nodes, self.node_count)?;
         let mut bvh = GpuBvh {
-            nodes,
-            ..self.leaves.clone()
+            layout: raylume_bvh::BvhLayout::Binary,
+            nodes: ctx.read_buffer::<BvhNode>(&self.nodes, self.node_count)?,
+            wide_nodes: Vec::new(),
+            primitives: ctx.read_buffer::<Primitive>(&self.primitives, self.order.len())?,
+            triangle_count: self.order.len() as u32,
+            sphere_count: 0,
+            stats: Default::default(),
         };
         bvh.stats = raylume_bvh::BvhStats::of_lbvh(&bvh, self.max_depth, start);
         Ok(bvh)
@@ -186,48 +208,138 @@ impl LbvhBuilder {
     }
 
     /// Builds the tree over `source` (scene-order triangles: [`GpuBvh::lbvh_input`]) on the
-    /// GPU and reads it back. A tree deeper than [`MAX_STACK_DEPTH`] is
-    /// [`raylume_bvh::BvhError::TooDeep`] (as [`KernelError::Bvh`]), for the caller to build
-    /// on the CPU instead.
+    /// GPU. A tree deeper than [`MAX_STACK_DEPTH`] is [`raylume_bvh::BvhError::TooDeep`] (as
+    /// [`KernelError::Bvh`]), for the caller to build on the CPU instead.
     pub fn build(
         &mut self,
         ctx: &GpuContext,
         source: &[Primitive],
     ) -> Result<ResidentBvh, KernelError> {
         let start = Instant::now();
-        let n = source.len();
         if let Some(p) = source
-            .iter()
-            .position(|p| !raylume_bvh::lbvh::lbvh_takes(p))
+            .par_iter()
+            .position_first(|p| !raylume_bvh::lbvh::lbvh_takes(p))
         {
             return Err(KernelError::InvalidScene(format!(
                 "the GPU BVH build takes triangles only; primitive {p} is not one"
             )));
         }
-        let count = u32::try_from(n).map_err(|_| {
-            KernelError::Bvh(raylume_bvh::BvhError::TooManyPrimitives {
-                what: "primitives",
-                count: n,
-                limit: u32::MAX as usize,
+        let params = LbvhParams::of_primitives(source);
+        let buffer = ctx
+            .storage_buffer("BVH build triangles", source, wgpu::BufferUsages::COPY_SRC)
+            .map_err(KernelError::from_upload)?;
+        self.build_over(ctx, buffer, params, start)
+    }
+
+    /// [`LbvhBuilder::build`] over a scene's `triangles` (checked as
+    /// [`GpuBvh::lbvh_input`] checks them), written as [`Primitive`]s straight into the GPU's
+    /// upload buffer on every core, their centres' bounds found in the same pass: no copy of
+    /// them on the CPU (3M triangles are 144 MB of primitives).
+    pub fn build_triangles(
+        &mut self,
+        ctx: &GpuContext,
+        triangles: &[raylume_scene::Triangle],
+    ) -> Result<ResidentBvh, KernelError> {
+        let start = Instant::now();
+        GpuBvh::check_triangles(triangles)?;
+        let bytes = (triangles.len().max(1) * std::mem::size_of::<Primitive>()) as u64;
+        ctx.check_fits("BVH build triangles", bytes)
+            .map_err(KernelError::from_upload)?;
+        let buffer = ctx.scoped("BVH build triangles", || {
+            ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("BVH build triangles"),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: true,
             })
         })?;
+        let bounds = {
+            let mut view = buffer.slice(..).get_mapped_range_mut().map_err(|e| {
+                raylume_gpu::GpuError::Map {
+                    during: "writing the BVH build's triangles".into(),
+                    detail: e.to_string(),
+                }
+            })?;
+            // Each task writes its chunk's bytes once, from a copy made in the cache (mapped
+            // memory may be write-combining: never read). wgpu's `WriteOnly` slices are not
+            // `Send`, so the tasks share the range's base pointer.
+            const CHUNK: usize = 1 << 14;
+            let size = std::mem::size_of::<Primitive>();
+            let mut range = view.slice(..triangles.len() * size);
+            let base = SendPtr(range.as_raw_element_ptr());
+            triangles
+                .par_chunks(CHUNK)
+                .enumerate()
+                .map(|(c, tris)| {
+                    let mut b = (glam::Vec3A::INFINITY, glam::Vec3A::NEG_INFINITY);
+                    let prims: Vec<Primitive> = tris
+                        .iter()
+                        .enumerate()
+                        .map(|(k, t)| {
+                            let i = (c * CHUNK + k) as u32;
+                            let p = Primitive::triangle(t.positions.map(|p| p.to_array()), i);
+                            let centre = raylume_bvh::lbvh::primitive_centre(&p);
+                            b = (b.0.min(centre), b.1.max(centre));
+                            p
+                        })
+                        .collect();
+                    let bytes: &[u8] = bytemuck::cast_slice(&prims);
+                    // SAFETY: chunk `c` covers bytes `c * CHUNK * size ..` of the
+                    // `triangles.len() * size` the range holds, disjoint from every other
+                    // chunk's; the mapping outlives this parallel loop (`view` is dropped
+                    // after it) and nothing else reads or writes it meanwhile.
+                    unsafe {
+                        std::ptr::copy_nonoverlapping(
+                            bytes.as_ptr(),
+                            base.at(c * CHUNK * size),
+                            bytes.len(),
+                        );
+                    }
+                    b
+                })
+                .reduce(
+                    || (glam::Vec3A::INFINITY, glam::Vec3A::NEG_INFINITY),
+                    |a, b| (a.0.min(b.0), a.1.max(b.1)),
+                )
+        };
+        buffer.unmap();
+        let params = LbvhParams::of_centre_bounds(bounds.0, bounds.1, triangles.len());
+        self.build_over(ctx, buffer, params, start)
+    }
+
+    /// The build over `source_buffer` (the triangles as [`Primitive`]s, scene order) whose
+    /// centres `params` grids.
+    fn build_over(
+        &mut self,
+        ctx: &GpuContext,
+        source_buffer: wgpu::Buffer,
+        params: LbvhParams,
+        start: Instant,
+    ) -> Result<ResidentBvh, KernelError> {
+        let n = params.count as usize;
+        let count = params.count;
         let none = wgpu::BufferUsages::empty();
         let copy = wgpu::BufferUsages::COPY_SRC;
         if n < 2 {
-            // No inner node to find: the reference's one-node tree, uploaded.
-            let tree = raylume_bvh::lbvh::lbvh_binary(source);
+            // No inner node to find: the reference's one-node tree; the source is the leaves.
+            let mut root = BvhNode {
+                left_index: raylume_bvh::INVALID_INDEX,
+                right_index: raylume_bvh::INVALID_INDEX,
+                ..Default::default()
+            };
+            if n == 1 {
+                let p = ctx.read_buffer::<Primitive>(&source_buffer, 1)?;
+                root = raylume_bvh::lbvh::lbvh_binary(&p).nodes[0];
+            }
             let nodes = ctx
-                .storage_buffer("BVH nodes", &tree.nodes, copy)
-                .map_err(KernelError::from_upload)?;
-            let primitives = ctx
-                .storage_buffer("BVH primitives", source, copy)
+                .storage_buffer("BVH nodes", &[root], copy)
                 .map_err(KernelError::from_upload)?;
             return Ok(ResidentBvh {
-                leaves: GpuBvh::lbvh_leaves(&tree.order, source)?,
+                order: (0..count).collect(),
                 nodes,
-                primitives,
+                primitives: source_buffer,
                 node_count: 1,
-                max_depth: tree.max_depth,
+                max_depth: 1,
                 gpu_seconds: start.elapsed().as_secs_f64(),
                 seconds: start.elapsed().as_secs_f64(),
             });
@@ -237,16 +349,11 @@ impl LbvhBuilder {
             self.sorter = Some(RadixSorter::new(ctx, count, SortOptions::full_keys())?);
         }
         let sorter = self.sorter.as_ref().expect("made above");
-        let params = LbvhParams::of_primitives(source);
         let words = |k: u64| k * n as u64 * 4;
         let zeroed = |label: &str, bytes: u64, usage| {
             ctx.storage_buffer_zeroed(label, bytes, usage)
                 .map_err(KernelError::from_upload)
         };
-        let gpu_start = Instant::now();
-        let source_buffer = ctx
-            .storage_buffer("BVH build triangles", source, none)
-            .map_err(KernelError::from_upload)?;
         let unsorted = zeroed("BVH build codes", words(2), none)?;
         let keys = zeroed("BVH build sort keys", words(1), none)?;
         let values = zeroed("BVH build order", words(1), copy)?;
@@ -345,7 +452,7 @@ impl LbvhBuilder {
             },
         )??;
         let depth = ctx.read_buffer::<u32>(&state, 1)?[0] as usize;
-        let gpu_seconds = gpu_start.elapsed().as_secs_f64();
+        let gpu_seconds = start.elapsed().as_secs_f64();
         if depth == 0 {
             return Err(KernelError::Bvh(raylume_bvh::BvhError::TooDeep {
                 depth: MAX_STACK_DEPTH + 1,
@@ -354,7 +461,7 @@ impl LbvhBuilder {
         }
         let order = ctx.read_buffer::<u32>(&values, n)?;
         Ok(ResidentBvh {
-            leaves: GpuBvh::lbvh_leaves(&order, source)?,
+            order,
             nodes,
             primitives,
             node_count: n - 1,

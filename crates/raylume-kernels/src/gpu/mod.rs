@@ -33,7 +33,7 @@ use crate::batches::Batch;
 use crate::bsdf::RoughPlasticTable;
 use crate::env_guide::GuideParams;
 use crate::gpu_types::{GpuLight, GpuMaterial, SceneUniforms, TextureHeader, TriangleShading};
-use crate::scene_data::{SceneData, SceneOptions};
+use crate::scene_data::{Leaves, SceneData, SceneOptions};
 use crate::{KernelError, TraceOutput, TraceSettings};
 use layout::upload;
 use policy::Fixed;
@@ -187,6 +187,30 @@ fn upload_tree(
     ))
 }
 
+/// What the CPU has of the tree a scene is prepared over: the whole tree, or the leaf order
+/// of one built on the GPU over the scene's triangles.
+#[derive(Clone, Copy)]
+enum OnCpu<'a> {
+    Tree(&'a GpuBvh),
+    Order(&'a [u32]),
+}
+
+impl OnCpu<'_> {
+    fn layout(&self) -> BvhLayout {
+        match self {
+            OnCpu::Tree(b) => b.layout,
+            OnCpu::Order(_) => BvhLayout::Binary,
+        }
+    }
+
+    fn leaves(&self) -> Leaves<'_> {
+        match self {
+            OnCpu::Tree(b) => Leaves::Primitives(&b.primitives),
+            OnCpu::Order(o) => Leaves::Triangles(o),
+        }
+    }
+}
+
 impl GpuScene {
     /// Prepares `scene` with its BVH `bvh` ([`SceneData::with_options`]) and uploads it; the
     /// environment guide, when `options` asks for it, learned on the GPU (a
@@ -218,7 +242,7 @@ impl GpuScene {
     ) -> Result<Self, KernelError> {
         let start = Instant::now();
         let tree = upload_tree(ctx, bvh)?;
-        Self::upload_over(ctx, scene, bvh, tree, options, learner, start)
+        Self::upload_over(ctx, scene, OnCpu::Tree(bvh), tree, options, learner, start)
     }
 
     /// [`GpuScene::upload_with_learner`] over a tree built on the GPU ([`LbvhBuilder`]): its
@@ -239,15 +263,16 @@ impl GpuScene {
         };
         let learner = learner.or(made.as_ref());
         let tree = (bvh.nodes.clone(), bvh.primitives.clone());
-        Self::upload_over(ctx, scene, &bvh.leaves, tree, options, learner, start)
+        let on_cpu = OnCpu::Order(bvh.order());
+        Self::upload_over(ctx, scene, on_cpu, tree, options, learner, start)
     }
 
-    /// The preparation and upload of `scene` over `tree` (the nodes and primitives of `bvh`,
-    /// on the GPU already; of `bvh` only its primitives and layout are read here).
+    /// The preparation and upload of `scene` over `tree` (the nodes and primitives of the
+    /// tree `on_cpu` describes, on the GPU already).
     fn upload_over(
         ctx: &GpuContext,
         scene: &Scene,
-        bvh: &GpuBvh,
+        on_cpu: OnCpu<'_>,
         tree: (wgpu::Buffer, wgpu::Buffer),
         options: &SceneOptions,
         learner: Option<&GuideLearner>,
@@ -255,11 +280,11 @@ impl GpuScene {
     ) -> Result<Self, KernelError> {
         let learner = match learner {
             Some(l) if options.environment_guide => {
-                if l.layout() != bvh.layout {
+                if l.layout() != on_cpu.layout() {
                     return Err(KernelError::InvalidSettings(format!(
                         "a guide learner for the {} BVH layout given a {} tree",
                         l.layout().name(),
-                        bvh.layout.name()
+                        on_cpu.layout().name()
                     )));
                 }
                 Some(l)
@@ -271,7 +296,7 @@ impl GpuScene {
         // the preparation may learn a guide; unread if it does not, e.g. a black sky.)
         let mut pending = match learner {
             Some(l)
-                if !bvh.primitives.is_empty()
+                if !on_cpu.leaves().is_empty()
                     && !matches!(scene.environment, raylume_scene::Environment::Black) =>
             {
                 let bounds = scene.bounds();
@@ -284,16 +309,29 @@ impl GpuScene {
             }
             _ => None,
         };
-        let data = match learner {
-            Some(l) => {
-                SceneData::with_guide_walks(scene, bvh, options, &mut |g| match pending.take() {
-                    Some(p) if p.params() == g => p.finish(ctx),
-                    _ => l.learn(ctx, &tree.0, &tree.1, g),
+        let mut walk_on_gpu = |l: &GuideLearner, g: &GuideParams| match pending.take() {
+            Some(p) if p.params() == g => p.finish(ctx),
+            _ => l.learn(ctx, &tree.0, &tree.1, g),
+        };
+        let data = match (learner, on_cpu) {
+            (Some(l), OnCpu::Tree(bvh)) => {
+                SceneData::with_guide_walks(scene, bvh, options, &mut |g| walk_on_gpu(l, g))?
+            }
+            (Some(l), OnCpu::Order(_)) => {
+                SceneData::with_leaves(scene, on_cpu.leaves(), options, &mut |g| walk_on_gpu(l, g))?
+            }
+            (None, OnCpu::Tree(bvh)) => SceneData::with_options(scene, bvh, options)?,
+            (None, OnCpu::Order(_)) => {
+                SceneData::with_leaves(scene, on_cpu.leaves(), options, &mut |_| {
+                    Err(KernelError::InvalidSettings(
+                        "the environment guide over a tree on the GPU needs a GuideLearner".into(),
+                    ))
                 })?
             }
-            None => SceneData::with_options(scene, bvh, options)?,
         };
-        let mut uploaded = Self::upload_data_over(ctx, tracer_features(scene), bvh, data, tree)?;
+        let features = tracer_features(scene);
+        let (layout, count) = (on_cpu.layout(), on_cpu.leaves().len());
+        let mut uploaded = Self::upload_data_over(ctx, features, layout, count, data, tree)?;
         uploaded.upload_seconds = start.elapsed().as_secs_f64();
         Ok(uploaded)
     }
@@ -308,15 +346,17 @@ impl GpuScene {
     ) -> Result<Self, KernelError> {
         data.check_bvh(bvh)?;
         let tree = upload_tree(ctx, bvh)?;
-        Self::upload_data_over(ctx, features, bvh, data, tree)
+        let count = bvh.primitives.len();
+        Self::upload_data_over(ctx, features, bvh.layout, count, data, tree)
     }
 
-    /// [`GpuScene::upload_data`] with `bvh`'s nodes and primitives uploaded already (`tree`),
-    /// `data` checked against `bvh` (or prepared from it).
+    /// [`GpuScene::upload_data`] with a tree of `layout` over `leaf_count` leaf primitives
+    /// uploaded already (`tree`), `data` checked against it (or prepared from it).
     fn upload_data_over(
         ctx: &GpuContext,
         features: Features,
-        bvh: &GpuBvh,
+        layout: BvhLayout,
+        leaf_count: usize,
         mut data: SceneData,
         (nodes, primitives): (wgpu::Buffer, wgpu::Buffer),
     ) -> Result<Self, KernelError> {
@@ -349,8 +389,8 @@ impl GpuScene {
         Ok(Self {
             data,
             features,
-            layout: bvh.layout,
-            primitives: bvh.primitives.len() as u32,
+            layout,
+            primitives: leaf_count as u32,
             full_shading,
             buffers,
             texel_words,
