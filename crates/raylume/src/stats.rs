@@ -2,6 +2,7 @@
 
 use glam::Vec3;
 use raylume_scene::{Environment, Scene};
+use rayon::prelude::*;
 use serde::Serialize;
 
 /// Seconds per phase. `trace` is the paper's "ray tracing phase": ray generation,
@@ -222,7 +223,7 @@ impl LightStats {
         Self {
             triangles: scene
                 .triangles
-                .iter()
+                .par_iter()
                 .filter(|t| emits(t.material) && t.double_area() > 0.0)
                 .count(),
             spheres: scene
