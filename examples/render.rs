@@ -248,7 +248,14 @@ fn run(args: Args) -> Result<(), String> {
         let load = threads.spawn(|| {
             let t = Instant::now();
             let scene = Scene::load(&args.scene);
-            (scene, t.elapsed().as_secs_f64())
+            let seconds = t.elapsed().as_secs_f64();
+            // What depends on the materials alone starts now, beside the device's opening
+            // and the BVH build (the render waits for it only if it is not done by then).
+            if let Ok(s) = &scene {
+                let materials = s.materials.clone();
+                std::thread::spawn(move || raylume::prepare_materials(&materials));
+            }
+            (scene, seconds)
         });
         let device = tracer.prepare_backend();
         let loaded = load

@@ -278,7 +278,42 @@ fn table_key(m: &raylume_scene::Material) -> Option<(u32, u32)> {
 /// preparing the scene later ([`SceneData::with_options`]) finds them: they depend on the
 /// materials alone, so a caller can compute them while it builds the BVH (the facade does).
 pub fn prepare_plastic_tables(scene: &Scene) {
-    plastic_tables(scene);
+    prepare_plastic_tables_for(&scene.materials);
+}
+
+/// [`prepare_plastic_tables`] for these materials (e.g. a scene's, on a thread of their own
+/// as soon as it is loaded). A table being computed by another thread is waited for, not
+/// computed twice.
+pub fn prepare_plastic_tables_for(materials: &[raylume_scene::Material]) {
+    tables_of(materials);
+}
+
+/// The coat tables of the rough plastics among `materials`, by key, in key order.
+fn tables_of(materials: &[raylume_scene::Material]) -> (Vec<(u32, u32)>, Vec<RoughPlasticTable>) {
+    use rayon::prelude::*;
+    use std::sync::{Arc, Mutex, OnceLock};
+    type Slot = Arc<OnceLock<RoughPlasticTable>>;
+    static CACHE: OnceLock<Mutex<HashMap<(u32, u32), Slot>>> = OnceLock::new();
+    let mut keys: Vec<(u32, u32)> = materials.iter().filter_map(table_key).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    let cache = CACHE.get_or_init(Default::default);
+    // Each key's slot, made by whoever asks first; the table in it is computed once, by the
+    // first thread to reach it, the others waiting (`OnceLock::get_or_init`).
+    let slots: Vec<Slot> = {
+        let mut c = cache.lock().unwrap_or_else(|e| e.into_inner());
+        keys.iter()
+            .map(|k| c.entry(*k).or_default().clone())
+            .collect()
+    };
+    let tables: Vec<RoughPlasticTable> = keys
+        .par_iter()
+        .zip(slots)
+        .map(|(k, slot)| {
+            *slot.get_or_init(|| RoughPlasticTable::new(f32::from_bits(k.0), f32::from_bits(k.1)))
+        })
+        .collect();
+    (keys, tables)
 }
 
 /// One coat table per distinct (alpha, ior) of the scene's rough plastics, and the index of
@@ -286,28 +321,7 @@ pub fn prepare_plastic_tables(scene: &Scene) {
 /// computed in parallel, and kept for the life of the process, so that repeated renders of a
 /// scene (benches, `--reorder auto`'s trials, an interactive tool) pay for them once.
 fn plastic_tables(scene: &Scene) -> (Vec<RoughPlasticTable>, TableIndex) {
-    use rayon::prelude::*;
-    use std::sync::{Mutex, OnceLock};
-    static CACHE: OnceLock<Mutex<HashMap<(u32, u32), RoughPlasticTable>>> = OnceLock::new();
-    let mut keys: Vec<(u32, u32)> = scene.materials.iter().filter_map(table_key).collect();
-    keys.sort_unstable();
-    keys.dedup();
-    let cache = CACHE.get_or_init(Default::default);
-    let cached = |k: &(u32, u32)| {
-        let c = cache.lock().unwrap_or_else(|e| e.into_inner());
-        c.get(k).copied()
-    };
-    let tables: Vec<RoughPlasticTable> = keys
-        .par_iter()
-        .map(|k| {
-            cached(k).unwrap_or_else(|| {
-                let t = RoughPlasticTable::new(f32::from_bits(k.0), f32::from_bits(k.1));
-                let mut c = cache.lock().unwrap_or_else(|e| e.into_inner());
-                c.insert(*k, t);
-                t
-            })
-        })
-        .collect();
+    let (keys, tables) = tables_of(&scene.materials);
     let index = keys
         .iter()
         .enumerate()

@@ -88,7 +88,7 @@ pub use tracer::{
     BVH_BUILD_THREADS, Backend, BvhBuilder, CPU_FASTEST_BUILD_SECONDS,
     CPU_RAYS_PER_SECOND_PER_THREAD, GPU_BUILD_FIXED_SECONDS, GPU_BUILD_SECONDS,
     GPU_BUILD_TRACE_FACTOR, GPU_RAYS_PER_SECOND, Progress, ROULETTE_TAIL_SEGMENTS, Render,
-    ReorderPolicy, Tracer,
+    ReorderPolicy, Tracer, prepare_materials,
 };
 
 pub use raylume_bvh::{BvhLayout, BvhQuality};

@@ -243,6 +243,16 @@ pub const CPU_RAYS_PER_SECOND_PER_THREAD: f64 = 2e6;
 /// Software adapters are counted as CPUs.
 pub const GPU_RAYS_PER_SECOND: f64 = 2e9;
 
+/// Computes what renders of these materials need that depends on them alone (the rough
+/// plastics' coat tables: a numerical integration per distinct roughness and index, ~0.05 s of
+/// the living room's first image on the H200's 16-core host), kept for the process: call it on
+/// a thread of its own as soon as a scene is loaded (the `render` example does, while the GPU
+/// device opens). A render finds the tables ready, or waits for those still being computed
+/// instead of computing them again.
+pub fn prepare_materials(materials: &[raylume_scene::Material]) {
+    raylume_kernels::scene_data::prepare_plastic_tables_for(materials);
+}
+
 /// `scene`'s BVH built on the GPU of `ctx` ([`BvhBuilder::Gpu`]), with `lbvh`'s kernels (made
 /// at their first use); a tree deeper than the traversal's stack is built on the CPU instead
 /// (binary layout, as the pipelines compiled beside it), and the note says so.
