@@ -204,8 +204,9 @@ pub const GPU_BUILD_FIXED_SECONDS: f64 = 2e-3;
 
 /// The GPU's build ([`BvhBuilder::Gpu`]), seconds per triangle, everything the render's
 /// `bvh` stage does for it (the triangles' upload, the order read back): 3M triangles in
-/// 0.16-0.19 s on the H200 (commit c95c2ec, 2026-12-02, `docs/study/h200-c95c2ec-gpu-bvh.md`).
-pub const GPU_BUILD_SECONDS: f64 = 0.06e-6;
+/// 0.103-0.106 s on the H200 (commit 0bbbea9, 2026-12-02,
+/// `docs/study/h200-0bbbea9-first-image.md`; the build alone 75 ms in criterion).
+pub const GPU_BUILD_SECONDS: f64 = 0.035e-6;
 
 /// The trace time over the GPU-built tree (binary, one triangle a leaf, Morton splits)
 /// relative to the CPU's `Fastest` tree's (eight-wide), for [`BvhBuilder::gpu_repays`]:
