@@ -671,3 +671,58 @@ fn the_gpu_build_is_chosen_for_large_scenes_and_few_rays() {
         assert_eq!(b.name().parse::<BvhBuilder>(), Ok(b));
     }
 }
+
+/// A scene whose GPU-built tree would be deeper than the traversal's stack (Morton codes that
+/// make the radix tree a chain) is built on the CPU instead, in the binary layout the
+/// pipelines were compiled for, and the stats say why; the image is the CPU tree's.
+#[test]
+fn a_gpu_tree_too_deep_falls_back_to_the_cpu_build() {
+    let Some(_) =
+        raylume_gpu::testing::context_or_skip("a_gpu_tree_too_deep_falls_back_to_the_cpu_build")
+    else {
+        return;
+    };
+    use raylume::glam::Vec3;
+    let mut scene = cornell(8, 8, 1);
+    let m = scene.triangles[0].material;
+    // One small triangle per leading-bit position of the 63-bit code (a centre at 1.5 x 2^k
+    // grid cells along one axis, the grid 2^21 cells over the extent), and copies at 0.
+    let tri = |c: Vec3| {
+        let e = 1e-6;
+        raylume::scene::Triangle::flat(
+            [c, c + Vec3::new(e, 0.0, 0.0), c + Vec3::new(0.0, e, 0.0)],
+            m,
+        )
+    };
+    let mut chain = vec![tri(Vec3::ZERO); 8];
+    for axis in 0..3 {
+        for k in 0..21 {
+            let mut c = Vec3::ZERO;
+            c[axis] = 1.5 * (1u32 << k) as f32 / (1u32 << 21) as f32;
+            chain.push(tri(c));
+        }
+    }
+    let source = raylume_bvh::GpuBvh::lbvh_input(&chain).unwrap();
+    let depth = raylume_bvh::lbvh::lbvh_binary(&source).max_depth;
+    assert!(
+        depth > raylume_bvh::MAX_STACK_DEPTH,
+        "the chain is only {depth} deep"
+    );
+    scene.triangles = chain;
+
+    let mut t = Tracer::new(Backend::Gpu);
+    t.bvh_builder = raylume::BvhBuilder::Gpu;
+    let fell_back = t.render(&scene).unwrap();
+    let s = &fell_back.stats;
+    assert!(
+        s.bvh_builder.starts_with("LBVH on the CPU") && s.bvh_builder.contains("deep"),
+        "{}",
+        s.bvh_builder
+    );
+    assert_eq!(s.bvh_layout, "binary");
+    let mut cpu = Tracer::new(Backend::Gpu);
+    cpu.bvh_builder = raylume::BvhBuilder::Cpu;
+    cpu.bvh_layout = raylume::BvhLayout::Binary;
+    cpu.bvh_quality = Some(raylume::BvhQuality::Fastest);
+    assert_eq!(cpu.render(&scene).unwrap().pixels, fell_back.pixels);
+}
