@@ -1,7 +1,7 @@
 //! Writes the height-field grid of issue 19 as a Wavefront OBJ: `n` x `n` quads over the unit
-//! square, two triangles each (`2 n^2` triangles, `(n + 1)^2` shared vertices), heights the same
-//! smooth deterministic function as `crates/raylume-bvh/benches/build.rs`'s grids. The sizes the
-//! issue measures: 224 (100,352 triangles), 707 (999,698), 1224 (2,996,352).
+//! square, two triangles each (`2 n^2` triangles, `(n + 1)^2` shared vertices): the vertices of
+//! `raylume::scene::grid` (the benches' grids). The sizes the issue measures: 224 (100,352
+//! triangles), 707 (999,698), 1224 (2,996,352).
 //!
 //! ```text
 //! cargo run --release --example make_grid -- 1224 grid-3m.obj
@@ -15,10 +15,7 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::process::ExitCode;
 
-fn height(n: usize, i: usize, j: usize) -> f32 {
-    let (x, z) = (i as f32 / n as f32, j as f32 / n as f32);
-    0.05 * (12.0 * x).sin() * (9.0 * z).cos() + 0.02 * (31.0 * x + 17.0 * z).sin()
-}
+use raylume::scene::grid;
 
 fn write_grid(n: usize, out: &mut impl Write) -> std::io::Result<()> {
     writeln!(
@@ -28,8 +25,8 @@ fn write_grid(n: usize, out: &mut impl Write) -> std::io::Result<()> {
     )?;
     for j in 0..=n {
         for i in 0..=n {
-            let (x, y, z) = (i as f32 / n as f32, height(n, i, j), j as f32 / n as f32);
-            writeln!(out, "v {x:.6} {y:.6} {z:.6}")?;
+            let p = grid::vertex(n, i, j);
+            writeln!(out, "v {:.6} {:.6} {:.6}", p.x, p.y, p.z)?;
         }
     }
     // Vertex (i, j) is number j (n + 1) + i + 1 (OBJ counts from 1). The quad's triangles are

@@ -53,17 +53,7 @@ pub struct LbvhParams {
 impl LbvhParams {
     /// The grid of the centres of `boxes` (finite).
     pub(crate) fn of_boxes(boxes: &[Aabb]) -> Self {
-        let (lo, hi) = boxes
-            .par_iter()
-            .map(|b| b.center())
-            .fold(
-                || (Vec3A::INFINITY, Vec3A::NEG_INFINITY),
-                |(lo, hi), c| (lo.min(c), hi.max(c)),
-            )
-            .reduce(
-                || (Vec3A::INFINITY, Vec3A::NEG_INFINITY),
-                |a, b| (a.0.min(b.0), a.1.max(b.1)),
-            );
+        let (lo, hi) = centre_bounds(boxes.par_iter().map(|b| b.center()));
         Self::of_centre_bounds(lo, hi, boxes.len())
     }
 
@@ -82,19 +72,22 @@ impl LbvhParams {
 
     /// The grid of `primitives`' box centres (finite), as the GPU build uses it.
     pub fn of_primitives(primitives: &[Primitive]) -> Self {
-        let (lo, hi) = primitives
-            .par_iter()
-            .map(primitive_centre)
-            .fold(
-                || (Vec3A::INFINITY, Vec3A::NEG_INFINITY),
-                |(lo, hi), c| (lo.min(c), hi.max(c)),
-            )
-            .reduce(
-                || (Vec3A::INFINITY, Vec3A::NEG_INFINITY),
-                |a, b| (a.0.min(b.0), a.1.max(b.1)),
-            );
+        let (lo, hi) = centre_bounds(primitives.par_iter().map(primitive_centre));
         Self::of_centre_bounds(lo, hi, primitives.len())
     }
+}
+
+/// The least and greatest of `centres`, per axis (`(inf, -inf)` for none), on every core.
+pub fn centre_bounds(centres: impl ParallelIterator<Item = Vec3A>) -> (Vec3A, Vec3A) {
+    centres
+        .fold(
+            || (Vec3A::INFINITY, Vec3A::NEG_INFINITY),
+            |(lo, hi), c| (lo.min(c), hi.max(c)),
+        )
+        .reduce(
+            || (Vec3A::INFINITY, Vec3A::NEG_INFINITY),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        )
 }
 
 /// The centre of `p`'s box (WGSL: `(lbvh_box_max(p) + lbvh_box_min(p)) * 0.5`), the point

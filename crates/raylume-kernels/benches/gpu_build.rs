@@ -10,29 +10,14 @@
 use std::time::Duration;
 
 use criterion::{Criterion, SamplingMode, Throughput, criterion_group, criterion_main};
-use glam::Vec3;
 use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh};
 use raylume_gpu::{ContextOptions, GpuContext};
 use raylume_kernels::gpu::LbvhBuilder;
 use raylume_scene::Triangle;
 
-/// An `n` x `n` grid of quads over the unit square, two triangles each (the heights of
-/// raylume-bvh's `benches/build.rs`).
+/// Issue 19's height field of `n` x `n` quads (`raylume_scene::grid`).
 fn grid(n: usize) -> Vec<Triangle> {
-    let height = |i: usize, j: usize| {
-        let (x, z) = (i as f32 / n as f32, j as f32 / n as f32);
-        0.05 * (12.0 * x).sin() * (9.0 * z).cos() + 0.02 * (31.0 * x + 17.0 * z).sin()
-    };
-    let p = |i: usize, j: usize| Vec3::new(i as f32 / n as f32, height(i, j), j as f32 / n as f32);
-    let mut out = Vec::with_capacity(2 * n * n);
-    for j in 0..n {
-        for i in 0..n {
-            let (a, b, c, d) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
-            out.push(Triangle::flat([a, b, c], 0));
-            out.push(Triangle::flat([a, c, d], 0));
-        }
-    }
-    out
+    raylume_scene::grid::height_field(n)
 }
 
 fn grids(software: bool) -> Vec<usize> {

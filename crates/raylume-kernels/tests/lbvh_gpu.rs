@@ -39,18 +39,9 @@ fn soup(n: usize, seed: u64) -> Vec<Triangle> {
     out
 }
 
-/// A height field of `k` x `k` quads (two triangles each): issue 19's grids in small.
+/// Issue 19's height field, `k` x `k` quads (`raylume_scene::grid`).
 fn grid(k: usize) -> Vec<Triangle> {
-    let h = |x: usize, z: usize| ((x * 7 + z * 13) % 5) as f32 * 0.1;
-    let p = |x: usize, z: usize| Vec3::new(x as f32, h(x, z), z as f32);
-    let mut out = Vec::new();
-    for z in 0..k {
-        for x in 0..k {
-            out.push(Triangle::flat([p(x, z), p(x + 1, z), p(x + 1, z + 1)], 0));
-            out.push(Triangle::flat([p(x, z), p(x + 1, z + 1), p(x, z + 1)], 0));
-        }
-    }
-    out
+    raylume_scene::grid::height_field(k)
 }
 
 fn check(builder: &mut LbvhBuilder, ctx: &raylume_gpu::GpuContext, name: &str, t: &[Triangle]) {

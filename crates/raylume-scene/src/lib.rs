@@ -77,6 +77,7 @@
 pub mod conductors;
 pub mod error;
 pub mod features;
+pub mod grid;
 pub mod limits;
 pub mod model;
 
