@@ -27,6 +27,11 @@
 //!   scene's scale or distance from the origin ([`surface::hit_offset`]).
 //! - Pipelines specialised on the scene's [`raylume_scene::Features`] through WGSL `override`
 //!   constants ([`gpu::pipeline_constants`]).
+//! - The BVH built on the GPU, the paper's future work ([`gpu::LbvhBuilder`]): Karras' linear
+//!   BVH in WGSL over raylume-sort's radix sort, node for node the CPU reference
+//!   `raylume_bvh::lbvh::lbvh_binary`, kept on the GPU ([`gpu::ResidentBvh`],
+//!   [`gpu::GpuScene::upload_resident`]); `benches/gpu_build.rs` times it against the CPU's
+//!   build (on the H200, 75 ms against ~380 ms for 3M triangles).
 //!
 //! # Measured
 //! `benches/trace.rs`, Cornell box (36 triangles, BVH from raylume-bvh), 1000x1000, 100 spp,

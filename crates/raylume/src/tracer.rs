@@ -810,8 +810,10 @@ impl Tracer {
         self.bvh_cache.clear();
     }
 
-    /// Drops the GPU context and everything made on it: a lost device stays lost, so the
-    /// next render starts over on a new one.
+    /// Drops the GPU context and everything made on it (the pipelines, work buffers, scenes
+    /// uploaded and trees built there, the BVH builder's kernels): a lost device stays lost,
+    /// so the next render starts over on a new one; a context handed in
+    /// ([`Tracer::with_gpu_context`]) replaces it the same way.
     fn forget_device(&mut self) {
         for entry in &mut self.bvh_cache {
             entry.prepared.forget_gpu();
@@ -901,10 +903,8 @@ impl Tracer {
 
     /// Uses an existing GPU context (and its adapter) for GPU renders.
     pub fn with_gpu_context(mut self, ctx: GpuContext) -> Self {
+        self.forget_device();
         self.gpu = Some(ctx);
-        self.gpu_bloom = None;
-        self.gpu_workspace = None;
-        self.gpu_pipelines.clear();
         // Measurements belong to an adapter.
         self.auto.clear();
         self

@@ -726,3 +726,36 @@ fn a_gpu_tree_too_deep_falls_back_to_the_cpu_build() {
     cpu.bvh_quality = Some(raylume::BvhQuality::Fastest);
     assert_eq!(cpu.render(&scene).unwrap().pixels, fell_back.pixels);
 }
+
+/// A tracer handed another device (`with_gpu_context`) forgets what lived on the one before:
+/// a tree built there (`BvhBuilder::Gpu`), the scene uploaded there, the builder's kernels;
+/// its next render runs wholly on the new device, with the same image.
+#[test]
+fn a_new_device_forgets_the_trees_and_scenes_of_the_old_one() {
+    let Some(_) = raylume_gpu::testing::context_or_skip(
+        "a_new_device_forgets_the_trees_and_scenes_of_the_old_one",
+    ) else {
+        return;
+    };
+    let any = || {
+        GpuContext::new(&ContextOptions {
+            choice: AdapterChoice::Any,
+            adapter_name: None,
+        })
+        .unwrap()
+    };
+    let scene = cornell(16, 16, 2);
+    let mut t = Tracer::new(Backend::Gpu).with_gpu_context(any());
+    t.bvh_builder = raylume::BvhBuilder::Gpu;
+    let first = t.render(&scene).unwrap();
+    assert!(first.stats.bvh_builder.starts_with("LBVH on the GPU"));
+    let mut t = t.with_gpu_context(any());
+    let second = t.render(&scene).unwrap();
+    assert!(
+        !second.stats.bvh_cached,
+        "the tree lived on the other device"
+    );
+    assert!(!second.stats.scene_cached, "so did the scene's upload");
+    assert!(second.stats.bvh_builder.starts_with("LBVH on the GPU"));
+    assert_eq!(second.pixels, first.pixels);
+}
