@@ -47,7 +47,7 @@ pub struct LbvhParams {
     /// `(centre - centre_min) * scale`, truncated.
     pub scale: [f32; 3],
     /// The refit pass this dispatch runs (1, 2, ...; the GPU build's `lbvh_refit`).
-    pub pass: u32,
+    pub pass_index: u32,
 }
 
 impl LbvhParams {
@@ -66,7 +66,7 @@ impl LbvhParams {
             centre_min: lo.to_array(),
             count: count as u32,
             scale: scale.to_array(),
-            pass: 0,
+            pass_index: 0,
         }
     }
 

@@ -167,3 +167,42 @@ fn a_tree_deeper_than_the_stack_is_an_error_not_a_wrong_tree() {
         Err(KernelError::InvalidScene(_))
     ));
 }
+
+/// The builder's shader validates, `LbvhParams` has the same members at the same offsets on
+/// both sides, and the constants come from Rust.
+#[test]
+fn the_build_shader_and_its_rust_mirror_share_their_layout() {
+    use raylume_bvh::lbvh::{LBVH_AXIS_BITS, LbvhParams};
+    use raylume_gpu::wgpu::naga;
+    use std::mem::{offset_of, size_of};
+    let src = raylume_kernels::gpu::lbvh_source();
+    let module =
+        naga::front::wgsl::parse_str(&src).unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{}", e.emit_to_string(&src)));
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).expect("layout");
+    let fields = [
+        ("centre_min", offset_of!(LbvhParams, centre_min)),
+        ("count", offset_of!(LbvhParams, count)),
+        ("scale", offset_of!(LbvhParams, scale)),
+        ("pass_index", offset_of!(LbvhParams, pass_index)),
+    ];
+    raylume_gpu::testing::check_wgsl_struct(
+        &module,
+        &layouter,
+        "LbvhParams",
+        size_of::<LbvhParams>(),
+        &fields,
+    );
+    assert_eq!(size_of::<LbvhParams>(), 32);
+    assert!(src.contains(&format!("const LBVH_AXIS_BITS: u32 = {LBVH_AXIS_BITS}u;")));
+    assert!(src.contains(&format!(
+        "const LBVH_WORKGROUP_SIZE: u32 = {}u;",
+        raylume_kernels::gpu::LBVH_WORKGROUP_SIZE
+    )));
+}

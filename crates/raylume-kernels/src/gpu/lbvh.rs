@@ -368,7 +368,10 @@ impl LbvhBuilder {
         let mut blocks = vec![0u8; (stride * u64::from(passes + 1)) as usize];
         for p in 0..=passes {
             let at = (u64::from(p) * stride) as usize;
-            let block = LbvhParams { pass: p, ..params };
+            let block = LbvhParams {
+                pass_index: p,
+                ..params
+            };
             blocks[at..at + 32].copy_from_slice(bytemuck::bytes_of(&block));
         }
         ctx.scoped(
