@@ -96,6 +96,18 @@ pub struct SceneData {
     pub sample_range: Option<std::ops::Range<u32>>,
 }
 
+/// What a render chooses that [`SceneData`] carries besides the scene: the estimator, Russian
+/// roulette, the sampler, the environment guide's use and the sample range (the fields of the
+/// same names; [`SceneData::uniforms_with`] reads them from here instead).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RenderChoices {
+    pub estimator: Estimator,
+    pub russian_roulette: Option<u32>,
+    pub sampler: Sampler,
+    pub environment_guide: bool,
+    pub sample_range: Option<std::ops::Range<u32>>,
+}
+
 /// What a tracer prepares for a scene beyond its own data (`CpuTracer::with_options`,
 /// `GpuTracer::with_options`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -772,14 +784,36 @@ impl SceneData {
         Ok(data)
     }
 
+    /// The choices of the next renders this data holds (its estimator, roulette, sampler,
+    /// guide use and sample range).
+    pub fn choices(&self) -> RenderChoices {
+        RenderChoices {
+            estimator: self.estimator,
+            russian_roulette: self.russian_roulette,
+            sampler: self.sampler,
+            environment_guide: self.environment_guide,
+            sample_range: self.sample_range.clone(),
+        }
+    }
+
     /// The uniforms of a render with `settings`; the batch fields are left for the caller.
     pub fn uniforms(&self, settings: &TraceSettings) -> SceneUniforms {
+        self.uniforms_with(settings, &self.choices())
+    }
+
+    /// [`SceneData::uniforms`] with `choices` in place of the data's own (a tracer sharing
+    /// the data with others: `CpuTracer::with_shared`).
+    pub fn uniforms_with(
+        &self,
+        settings: &TraceSettings,
+        choices: &RenderChoices,
+    ) -> SceneUniforms {
         let [origin, forward, right, up] =
             camera_basis(&self.camera, settings.width, settings.height);
         // The distribution NEE samples the environment by: the guided ones when asked for and
         // learned, else a map's by radiance, else uniform over the sphere (no grid).
         let cdf = match self.environment_guided_cdf {
-            Some(guided) if self.environment_guide => guided,
+            Some(guided) if choices.environment_guide => guided,
             _ if self.environment_kind == ENVIRONMENT_MAP => GuidedCdf {
                 offset: self.environment_cdf,
                 width: self.environment_width,
@@ -816,14 +850,14 @@ impl SceneData {
             primitive_count: self.prim_materials.len() as u32,
             material_count: self.materials.len() as u32,
             texture_count: self.texture_headers.len() as u32,
-            light_count: match self.estimator {
+            light_count: match choices.estimator {
                 Estimator::Plain => 0,
                 Estimator::Nee => self.lights.len() as u32,
             },
             light_power: self.light_power,
-            rr_depth: self.russian_roulette.unwrap_or(NO_ROULETTE),
-            sampler: self.sampler.uniform(),
-            environment_select: match self.estimator {
+            rr_depth: choices.russian_roulette.unwrap_or(NO_ROULETTE),
+            sampler: choices.sampler.uniform(),
+            environment_select: match choices.estimator {
                 Estimator::Plain => 0.0,
                 Estimator::Nee => self.environment_select,
             },

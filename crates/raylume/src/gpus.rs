@@ -118,11 +118,11 @@ impl Tracer {
         let bvh = match self.bvh_cache.iter().find(|c| c.key == key) {
             Some(c) => c.bvh.clone(),
             None => {
-                let bvh = BuiltBvh::Cpu(GpuBvh::from_scene_with_layout(
+                let bvh = BuiltBvh::Cpu(std::sync::Arc::new(GpuBvh::from_scene_with_layout(
                     scene,
                     quality,
                     self.bvh_layout,
-                )?);
+                )?));
                 self.bvh_cache.insert(
                     0,
                     BvhCacheEntry {

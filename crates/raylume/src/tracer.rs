@@ -279,7 +279,7 @@ fn build_on_gpu(
                 "LBVH on the CPU, {} threads (the GPU's LBVH: {e})",
                 rayon::current_num_threads()
             );
-            Ok((BuiltBvh::Cpu(bvh), Some(note)))
+            Ok((BuiltBvh::Cpu(Arc::new(bvh)), Some(note)))
         }
         Err(raylume_kernels::KernelError::Bvh(e)) => Err(e.into()),
         Err(e) => Err(e.into()),
@@ -519,7 +519,7 @@ pub(crate) struct BvhCacheEntry {
 /// A tree built on the CPU, or on the GPU and kept there ([`BvhBuilder::Gpu`]).
 #[derive(Clone, Debug)]
 pub(crate) enum BuiltBvh {
-    Cpu(GpuBvh),
+    Cpu(Arc<GpuBvh>),
     Gpu(Arc<ResidentBvh>),
 }
 
@@ -1255,7 +1255,7 @@ impl Tracer {
                 }
                 (None, Some(ctx)) if gpu_build => build_on_gpu(ctx, &mut self.lbvh, scene),
                 (None, _) => GpuBvh::from_scene_with_layout(scene, quality, layout)
-                    .map(|b| (BuiltBvh::Cpu(b), None))
+                    .map(|b| (BuiltBvh::Cpu(Arc::new(b)), None))
                     .map_err(Error::from),
             };
             if let Some(handle) = tables {
@@ -1573,7 +1573,7 @@ impl Tracer {
     fn trace_cpu(
         &self,
         scene: &Scene,
-        bvh: &GpuBvh,
+        bvh: &Arc<GpuBvh>,
         prepared: &mut Prepared,
         settings: &TraceSettings,
         bloom: Option<raylume_post::BloomParams>,
@@ -1595,7 +1595,8 @@ impl Tracer {
             stats.seconds.guide = data.environment_guide_seconds;
         }
         prepared.cpu = Some(data.clone());
-        let mut tracer = CpuTracer::with_data(bvh, SceneData::clone(&data))?;
+        // The tree and the data are shared, not copied (hundreds of MB for a large scene).
+        let mut tracer = CpuTracer::with_shared(bvh.clone(), data.clone())?;
         stats.seconds.upload = t.elapsed().as_secs_f64();
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);

@@ -5,6 +5,7 @@
 
 pub mod stages;
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use raylume_bvh::GpuBvh;
@@ -13,7 +14,7 @@ use rayon::prelude::*;
 
 use crate::batches::{RoundFlow, RoundHook, RoundSums, ends_round, into_rounds};
 use crate::gpu_types::{RayState, SceneUniforms};
-use crate::scene_data::{SceneData, SceneOptions};
+use crate::scene_data::{RenderChoices, SceneData, SceneOptions};
 use crate::surface::Globals;
 use crate::{KernelError, Schedule, TraceOutput, TraceSettings};
 
@@ -22,15 +23,19 @@ pub const CPU_MAX_RAYS_PER_BATCH: u64 = 1 << 22;
 
 /// Renders a scene on the CPU with rayon, through the same stage functions as the GPU.
 pub struct CpuTracer {
-    bvh: GpuBvh,
-    data: SceneData,
+    /// Shared with whoever made the tracer (`CpuTracer::with_shared`): never copied.
+    bvh: Arc<GpuBvh>,
+    data: Arc<SceneData>,
+    /// This tracer's estimator, roulette, sampler, guide use and sample range (the data's
+    /// own at first).
+    choices: RenderChoices,
     prepare_seconds: f64,
 }
 
 impl CpuTracer {
     /// The estimator of the next renders (default: the paper's plain one).
     pub fn set_estimator(&mut self, estimator: crate::Estimator) {
-        self.data.estimator = estimator;
+        self.choices.estimator = estimator;
     }
 
     /// Russian roulette from segment `start` on (`None`, the default: off): after each hit of a
@@ -38,12 +43,12 @@ impl CpuTracer {
     /// its throughput is divided by it (Mitsuba's `path` starts at 5). Unbiased; fewer rays
     /// spent on paths that carry little.
     pub fn set_russian_roulette(&mut self, start: Option<u32>) {
-        self.data.russian_roulette = start;
+        self.choices.russian_roulette = start;
     }
 
     /// Where the paths' random numbers come from (default [`crate::Sampler::Independent`]).
     pub fn set_sampler(&mut self, sampler: crate::Sampler) {
-        self.data.sampler = sampler;
+        self.choices.sampler = sampler;
     }
 
     /// Whether next-event estimation samples the environment by where the scene leaves it
@@ -52,7 +57,7 @@ impl CpuTracer {
     /// learned guide (not asked for, no environment, no geometry, too few escapes) the
     /// environment is sampled by radiance whatever this says.
     pub fn set_environment_guide(&mut self, on: bool) {
-        self.data.environment_guide = on;
+        self.choices.environment_guide = on;
     }
 
     /// The guide's walks and escapes, if one was learned for this scene.
@@ -67,7 +72,7 @@ impl CpuTracer {
     /// the samples of the whole render. A range must lie within `0..spp` (checked when
     /// rendering); round hooks (target error) see the part's sums.
     pub fn set_sample_range(&mut self, range: Option<std::ops::Range<u32>>) {
-        self.data.sample_range = range;
+        self.choices.sample_range = range;
     }
 
     /// Flattens `scene` for the primitives of `bvh` (built from this scene).
@@ -84,8 +89,9 @@ impl CpuTracer {
         let t = Instant::now();
         let data = SceneData::with_options(scene, bvh, options)?;
         Ok(Self {
-            bvh: bvh.clone(),
-            data,
+            bvh: Arc::new(bvh.clone()),
+            choices: data.choices(),
+            data: Arc::new(data),
             prepare_seconds: t.elapsed().as_secs_f64(),
         })
     }
@@ -93,9 +99,17 @@ impl CpuTracer {
     /// A tracer of `data`, prepared beforehand for the scene `bvh` was built from
     /// ([`SceneData::with_options`], e.g. by an earlier tracer): nothing is prepared again.
     pub fn with_data(bvh: &GpuBvh, data: SceneData) -> Result<Self, KernelError> {
-        data.check_bvh(bvh)?;
+        Self::with_shared(Arc::new(bvh.clone()), Arc::new(data))
+    }
+
+    /// [`CpuTracer::with_data`] without copying the tree or the data (a large scene's tree and
+    /// texels are hundreds of megabytes): both are shared with the caller, and this tracer's
+    /// settings (`set_estimator`, ...) start from the data's and stay its own.
+    pub fn with_shared(bvh: Arc<GpuBvh>, data: Arc<SceneData>) -> Result<Self, KernelError> {
+        data.check_bvh(&bvh)?;
         Ok(Self {
-            bvh: bvh.clone(),
+            bvh,
+            choices: data.choices(),
             data,
             prepare_seconds: 0.0,
         })
@@ -118,7 +132,7 @@ impl CpuTracer {
     /// The radiance of one pixel sample of a render with `settings` (what the GPU writes to
     /// that sample's slot, before the non-finite check): for tests and debugging.
     pub fn sample_radiance(&self, settings: &TraceSettings, pixel: u32, sample: u32) -> [f32; 3] {
-        let scene = self.data.uniforms(settings);
+        let scene = self.data.uniforms_with(settings, &self.choices);
         stages::trace_path(&self.globals(&scene), &self.bvh, pixel, sample)
             .0
             .into()
@@ -160,14 +174,14 @@ impl CpuTracer {
         let mut batches = crate::batches::plan_render(
             pixels,
             settings,
-            self.data.sample_range.as_ref(),
+            self.choices.sample_range.as_ref(),
             CPU_MAX_RAYS_PER_BATCH,
         )?;
         if hook.is_some() {
             into_rounds(&mut batches);
         }
         let (mut round, mut spp_done) = (0u32, settings.spp);
-        let base = self.data.uniforms(settings);
+        let base = self.data.uniforms_with(settings, &self.choices);
         let mut image = vec![[0.0f32; 3]; pixels as usize];
         let mut slots: Vec<[f32; 3]> = Vec::new();
         let mut states: Vec<RayState> = Vec::new();
