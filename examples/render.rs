@@ -240,42 +240,8 @@ fn run(args: Args) -> Result<(), String> {
         check_output_path(s, "stats file", &["json"])?;
     }
 
-    // The GPU device opens while the scene loads (each takes a fraction of a second on the
-    // H200: docs/RESULTS.md, time to the first image).
     let t_start = Instant::now();
     let mut tracer = Tracer::new(args.backend);
-    let ((loaded, load_s), device) = std::thread::scope(|threads| {
-        let load = threads.spawn(|| {
-            let t = Instant::now();
-            let scene = Scene::load(&args.scene);
-            let seconds = t.elapsed().as_secs_f64();
-            // What depends on the materials alone starts now, beside the device's opening
-            // and the BVH build (the render waits for it only if it is not done by then).
-            if let Ok(s) = &scene {
-                let materials = s.materials.clone();
-                std::thread::spawn(move || raylume::prepare_materials(&materials));
-            }
-            (scene, seconds)
-        });
-        let device = tracer.prepare_backend();
-        let loaded = load
-            .join()
-            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-        (loaded, device)
-    });
-    let mut scene = loaded.map_err(|e| e.to_string())?;
-    device.map_err(|e| e.to_string())?;
-    if let Some((w, h)) = args.size {
-        scene.render.width = w;
-        scene.render.height = h;
-    }
-    if let Some(spp) = args.spp {
-        scene.render.spp = spp;
-    }
-    if let Some(b) = args.bounces {
-        scene.render.max_bounces = b;
-    }
-
     tracer.seed = args.seed;
     tracer.reorder = args.reorder;
     tracer.bloom = !args.no_bloom;
@@ -288,11 +254,6 @@ fn run(args: Args) -> Result<(), String> {
     tracer.russian_roulette = args.rr_depth.0;
     tracer.environment_guide = args.environment_guide.0;
     tracer.target_error = args.target_error;
-    if let Some((i, n)) = args.part {
-        let range =
-            raylume::SampleRange::part(i, n, scene.render.spp).map_err(|e| e.to_string())?;
-        tracer.samples = Some(range);
-    }
     if let Some(s) = args.schedule {
         tracer.schedule = s;
     }
@@ -301,6 +262,32 @@ fn run(args: Args) -> Result<(), String> {
     }
     tracer.bvh_quality = args.bvh_preset.0;
     tracer.bvh_builder = args.bvh_builder;
+
+    // The GPU device opens on a thread of its own (0.14-0.16 s on the H200) while the scene
+    // loads and its BVH is built (docs/RESULTS.md, time to the first image).
+    tracer.start_backend();
+    let t_load = Instant::now();
+    let mut scene = Scene::load(&args.scene).map_err(|e| e.to_string())?;
+    let load_s = t_load.elapsed().as_secs_f64();
+    // What depends on the materials alone starts now, beside the BVH build.
+    let materials = scene.materials.clone();
+    std::thread::spawn(move || raylume::prepare_materials(&materials));
+    if let Some((w, h)) = args.size {
+        scene.render.width = w;
+        scene.render.height = h;
+    }
+    if let Some(spp) = args.spp {
+        scene.render.spp = spp;
+    }
+    if let Some(b) = args.bounces {
+        scene.render.max_bounces = b;
+    }
+    if let Some((i, n)) = args.part {
+        let range =
+            raylume::SampleRange::part(i, n, scene.render.spp).map_err(|e| e.to_string())?;
+        tracer.samples = Some(range);
+    }
+    tracer.prepare_scene(&scene).map_err(|e| e.to_string())?;
     // A bar on a terminal; plain lines (no escape codes) when stderr is piped or redirected.
     let terminal = std::io::stderr().is_terminal();
     let bar = if args.quiet || !terminal {
@@ -406,7 +393,11 @@ fn run(args: Args) -> Result<(), String> {
         s.seconds.bvh,
         s.bvh_preset,
         s.bvh_layout,
-        if s.bvh_cached { " cached" } else { "" },
+        match (s.bvh_cached, s.prepared_ahead) {
+            (true, _) => " cached",
+            (false, true) => " ahead",
+            _ => "",
+        },
         s.bvh_builder,
         s.seconds.pipelines,
         if s.pipelines_cached { " cached" } else { "" },

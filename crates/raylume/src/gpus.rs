@@ -129,6 +129,7 @@ impl Tracer {
                         key,
                         bvh: bvh.clone(),
                         prepared: Default::default(),
+                        ahead: None,
                     },
                 );
                 self.bvh_cache.truncate(2);
@@ -151,6 +152,7 @@ impl Tracer {
                         key,
                         bvh: bvh.clone(),
                         prepared: Default::default(),
+                        ahead: None,
                     },
                 );
                 w.bvh_cache.truncate(2);

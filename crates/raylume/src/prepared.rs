@@ -40,6 +40,9 @@ pub(crate) struct PreparedScene {
     pub(crate) cpu: Option<Arc<SceneData>>,
     /// The GPU backend's upload (to the tracer's one context; dropped with it).
     pub(crate) gpu: Option<Arc<GpuScene>>,
+    /// Data `Tracer::prepare_scene` prepared for a GPU render still to come (before the
+    /// device was open), and the seconds it took: the render uploads it (moved, not copied).
+    pub(crate) ahead: Option<(SceneData, f64)>,
 }
 
 impl Prepared {
@@ -52,6 +55,7 @@ impl Prepared {
                 key,
                 cpu: None,
                 gpu: None,
+                ahead: None,
             },
         };
         self.scenes.insert(0, entry);

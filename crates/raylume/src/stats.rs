@@ -151,6 +151,10 @@ pub struct RenderStats {
     /// render of the same scene over the same BVH (`seconds.upload` is then the time to
     /// recognise it and bind it).
     pub scene_cached: bool,
+    /// True when [`crate::Tracer::prepare_scene`] built this render's BVH (and, where it
+    /// could, prepared its scene data) before the render, e.g. while the GPU device opened:
+    /// `seconds.bvh` and `seconds.upload` then include that work, done ahead.
+    pub prepared_ahead: bool,
     /// The BVH preset the tree was built with (`"fastest"`, `"fast"` or `"quality"`:
     /// `Tracer::bvh_quality`;
     /// for a cached tree, the preset it was built with).

@@ -491,6 +491,8 @@ pub struct Tracer {
     gpu_pipelines: Vec<Arc<TracerPipelines>>,
     /// Seconds the GPU context took to create, until a render reports them.
     device_seconds: Option<f64>,
+    /// A GPU context being created on a thread of its own ([`Tracer::start_backend`]).
+    opening: Option<Opening>,
     /// The last BVHs built (at most [`BVH_CACHE_ENTRIES`], the latest first), each for the
     /// geometry, preset and layout it was built from: rendering the same scene again (another
     /// spp, size, seed, or a benchmark's repeats, also alternating the two layouts) skips the
@@ -514,6 +516,9 @@ pub(crate) struct BvhCacheEntry {
     pub(crate) key: GeometryKey,
     pub(crate) bvh: BuiltBvh,
     pub(crate) prepared: Prepared,
+    /// Built by [`Tracer::prepare_scene`] and not yet rendered with: the seconds it took,
+    /// which the first render over it reports as its own `bvh` stage.
+    pub(crate) ahead: Option<f64>,
 }
 
 /// A tree built on the CPU, or on the GPU and kept there ([`BvhBuilder::Gpu`]).
@@ -529,6 +534,29 @@ impl BuiltBvh {
             BuiltBvh::Cpu(b) => b.stats.node_count,
             BuiltBvh::Gpu(r) => r.node_count(),
         }
+    }
+}
+
+/// A GPU context in the making ([`Tracer::start_backend`]): the adapters it may pick, and
+/// the thread creating it (its result and the seconds it took).
+struct Opening {
+    choice: AdapterChoice,
+    thread: std::thread::JoinHandle<(Result<GpuContext, GpuError>, f64)>,
+    /// The adapter's kind, announced before its device is created: `Some(software)`, or
+    /// `None` when no adapter qualified (the channel closes without a word when the opening
+    /// failed before choosing).
+    adapter: std::sync::mpsc::Receiver<Option<bool>>,
+    /// What `adapter` said, once read (`Some(None)`: no adapter).
+    known: Option<Option<bool>>,
+}
+
+impl Opening {
+    /// Whether the adapter being opened is a software one (`None`: there is none), waiting
+    /// for the choice (a fraction of the opening) if it is not made yet.
+    fn adapter_is_software(&mut self) -> Option<bool> {
+        *self
+            .known
+            .get_or_insert_with(|| self.adapter.recv().ok().flatten())
     }
 }
 
@@ -709,6 +737,7 @@ impl Tracer {
             auto: HashMap::new(),
             gpu_pipelines: Vec::new(),
             device_seconds: None,
+            opening: None,
             bvh_cache: Vec::new(),
             bvh_builder: BvhBuilder::default(),
             lbvh: None,
@@ -821,29 +850,53 @@ impl Tracer {
         // Trees kept on the lost device are gone with it.
         self.bvh_cache.retain(|e| !e.key.on_gpu);
         self.lbvh = None;
+        self.opening = None;
         self.gpu = None;
         self.gpu_bloom = None;
         self.gpu_workspace = None;
         self.gpu_pipelines.clear();
     }
 
-    /// Whether this render's BVH is built on the GPU ([`Tracer::bvh_builder`]).
+    /// The BVH a render of `scene` builds (preset, layout, and whether on the GPU): on the
+    /// CPU (`gpu` None) or on a GPU (`Some(hardware)`: whether a hardware adapter, which
+    /// sets the rays' rate and may build on the GPU, [`Tracer::bvh_builder`]).
+    fn bvh_plan(&self, scene: &Scene, gpu: Option<bool>) -> (BvhQuality, BvhLayout, bool) {
+        let rate = match gpu {
+            Some(true) => GPU_RAYS_PER_SECOND,
+            _ => CPU_RAYS_PER_SECOND_PER_THREAD * rayon::current_num_threads() as f64,
+        };
+        let rays = self.estimated_rays(&scene.render, scene.render.spp);
+        let quality = self.bvh_quality.unwrap_or_else(|| {
+            BvhQuality::for_work(
+                scene.triangles.len() + scene.spheres.len(),
+                rays,
+                rate,
+                bvh_build_threads(),
+            )
+        });
+        match self.builds_on_gpu(gpu, scene, quality, rays, rate) {
+            true => (BvhQuality::Fastest, BvhLayout::Binary, true),
+            false => (quality, self.bvh_layout, false),
+        }
+    }
+
+    /// Whether a render's BVH is built on the GPU ([`Tracer::bvh_builder`]), the render on
+    /// the CPU (`gpu` None) or on a GPU (`Some(hardware)`).
     fn builds_on_gpu(
         &self,
-        use_gpu: bool,
+        gpu: Option<bool>,
         scene: &Scene,
         preset: BvhQuality,
         rays: f64,
         rate: f64,
     ) -> bool {
-        let possible = use_gpu && scene.spheres.is_empty() && scene.triangles.len() >= 2;
+        let possible = gpu.is_some() && scene.spheres.is_empty() && scene.triangles.len() >= 2;
         match self.bvh_builder {
             BvhBuilder::Cpu => false,
             _ if !possible => false,
             BvhBuilder::Gpu => true,
             BvhBuilder::Auto => {
-                let hardware = self.gpu.as_ref().is_some_and(|c| !c.info.is_software);
-                hardware
+                gpu == Some(true)
                     && self.bvh_quality.is_none_or(|q| q == BvhQuality::Fastest)
                     && BvhBuilder::gpu_repays(
                         scene.triangles.len(),
@@ -984,27 +1037,186 @@ impl Tracer {
     }
 
     /// Opens the GPU device the backend will render on (for [`Backend::Auto`], a hardware
-    /// adapter if there is one), so that its cost (0.16 s on the H200) overlaps other work,
-    /// e.g. loading the scene on another thread; [`Tracer::render`] does it otherwise. Its
-    /// time is reported in the next render's `seconds.device`. Errors as `render` would
-    /// (e.g. [`Backend::Gpu`] without an adapter).
+    /// adapter if there is one), so that its cost (0.14-0.16 s on the H200) overlaps other
+    /// work, e.g. loading the scene on another thread; [`Tracer::render`] does it otherwise.
+    /// Its time is reported in the next render's `seconds.device`. Errors as `render` would
+    /// (e.g. [`Backend::Gpu`] without an adapter). [`Tracer::start_backend`] does the same
+    /// without waiting.
     pub fn prepare_backend(&mut self) -> Result<(), Error> {
         self.choose_backend().map(|_| ())
     }
 
-    /// Picks the backend; returns the GPU context to use (None: CPU) and why. Records the
-    /// time a new context took in `device_seconds`.
-    fn choose_backend(&mut self) -> Result<(bool, String), Error> {
-        let t = Instant::now();
-        let had = self.gpu.is_some();
-        let r = self.choose_backend_inner();
-        if !had && self.gpu.is_some() {
-            self.device_seconds = Some(t.elapsed().as_secs_f64());
+    /// Starts opening the GPU device the backend will render on ([`Backend::Gpu`], or
+    /// [`Backend::Auto`]'s search for a hardware adapter) on a thread of its own, and returns
+    /// at once: the caller loads the scene and builds its BVH meanwhile
+    /// ([`Tracer::prepare_scene`]). The first call that needs the device
+    /// ([`Tracer::render`], [`Tracer::prepare_backend`]) waits for it and reports what
+    /// `prepare_backend` would have: its errors, and its time in `seconds.device`. Does
+    /// nothing when a device is open or being opened, or for [`Backend::Cpu`] and
+    /// [`Backend::Gpus`] (whose devices open in the render).
+    pub fn start_backend(&mut self) {
+        let choice = match self.backend {
+            Backend::Gpu => AdapterChoice::Any,
+            Backend::Auto => AdapterChoice::HardwareOnly,
+            Backend::Cpu | Backend::Gpus => return,
+        };
+        if self.gpu.is_some() || self.opening.is_some() {
+            return;
         }
-        r
+        let (announce, adapter) = std::sync::mpsc::channel();
+        let thread = std::thread::spawn(move || {
+            let t = Instant::now();
+            let options = ContextOptions {
+                choice,
+                adapter_name: None,
+            };
+            let ctx = GpuContext::new_announcing(&options, |info| {
+                let software = info.map(|i| i.device_type == wgpu::DeviceType::Cpu);
+                let _ = announce.send(software);
+            });
+            (ctx, t.elapsed().as_secs_f64())
+        });
+        self.opening = Some(Opening {
+            choice,
+            thread,
+            adapter,
+            known: None,
+        });
     }
 
-    fn choose_backend_inner(&mut self) -> Result<(bool, String), Error> {
+    /// Builds the BVH a render of `scene` with this tracer's current settings will use, and
+    /// prepares the scene's data for tracing, before [`Tracer::render`]: while the GPU device
+    /// opens ([`Tracer::start_backend`], started here if no device is open or opening), which
+    /// the build does not need. On the H200 the device takes 0.14-0.16 s; the living room's
+    /// load, build and preparation fit beside it where they used to follow it. The render
+    /// finds both ready and reports their seconds as its own (`seconds.bvh`,
+    /// `seconds.upload`; [`RenderStats::prepared_ahead`] says they were done ahead).
+    ///
+    /// Waits for the device only until its adapter is chosen (a hardware GPU's rate chooses
+    /// another preset than a software adapter's or the CPU's). Builds nothing for a tree the
+    /// render will build on the GPU ([`BvhBuilder`]) or for [`Backend::Gpus`], and leaves a
+    /// GPU render's environment guide to the GPU. Settings changed before the render (size,
+    /// spp, preset, estimator, ...) may make it choose another tree or preparation: it makes
+    /// its own then, and this was work for nothing, never a wrong image. Errors as `render`
+    /// would on the scene (its settings, [`Scene::validate`], the build).
+    pub fn prepare_scene(&mut self, scene: &Scene) -> Result<(), Error> {
+        Self::check_settings(scene)?;
+        scene.validate()?;
+        let Some(gpu) = self.expected_gpu() else {
+            return Ok(());
+        };
+        let (quality, layout, on_gpu) = self.bvh_plan(scene, gpu);
+        if on_gpu {
+            return Ok(());
+        }
+        let key = GeometryKey::of(scene, quality, layout);
+        // As the render looks: a cached Quality tree of the same geometry serves a chosen preset.
+        let better =
+            (self.bvh_quality.is_none() && quality != BvhQuality::Quality).then_some(GeometryKey {
+                quality: BvhQuality::Quality,
+                ..key
+            });
+        let found = self
+            .bvh_cache
+            .iter()
+            .position(|c| c.key == key || Some(c.key) == better);
+        let i = match found {
+            Some(i) => i,
+            None => {
+                let t = Instant::now();
+                let bvh = std::thread::scope(|threads| {
+                    let tables = threads
+                        .spawn(|| raylume_kernels::scene_data::prepare_plastic_tables(scene));
+                    let bvh = GpuBvh::from_scene_with_layout(scene, quality, layout);
+                    tables
+                        .join()
+                        .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+                    bvh
+                })?;
+                self.bvh_cache.insert(
+                    0,
+                    BvhCacheEntry {
+                        key,
+                        bvh: BuiltBvh::Cpu(Arc::new(bvh)),
+                        prepared: Prepared::default(),
+                        ahead: Some(t.elapsed().as_secs_f64()),
+                    },
+                );
+                self.bvh_cache.truncate(BVH_CACHE_ENTRIES);
+                0
+            }
+        };
+        let options = self.scene_options(scene);
+        let entry = &mut self.bvh_cache[i];
+        let BuiltBvh::Cpu(bvh) = &entry.bvh else {
+            return Ok(());
+        };
+        let prepared = entry.prepared.of(SceneKey::of(scene, options));
+        // Nothing to do when the data is there, and a GPU render learns its environment
+        // guide on the GPU, after the upload.
+        let skip = prepared.ahead.is_some()
+            || prepared.cpu.is_some()
+            || (gpu.is_some() && (prepared.gpu.is_some() || options.environment_guide));
+        if !skip {
+            let t = Instant::now();
+            let data = SceneData::with_options(scene, bvh, &options)?;
+            prepared.ahead = Some((data, t.elapsed().as_secs_f64()));
+        }
+        Ok(())
+    }
+
+    /// What the next render's backend will be, as far as [`Tracer::prepare_scene`] can tell
+    /// without the device: `Some(None)` the CPU, `Some(Some(hardware))` a GPU (a hardware
+    /// adapter or not), `None` when it cannot tell (or the render will fail). Starts opening
+    /// the device if it is neither open nor opening, and waits until its adapter is chosen.
+    fn expected_gpu(&mut self) -> Option<Option<bool>> {
+        match self.backend {
+            Backend::Cpu => return Some(None),
+            Backend::Gpus => return None,
+            Backend::Gpu | Backend::Auto => {}
+        }
+        if let Some(ctx) = &self.gpu {
+            let hardware = !ctx.info.is_software;
+            // `Auto` holding a software context searches for a hardware one again.
+            return (self.backend == Backend::Gpu || hardware).then_some(Some(hardware));
+        }
+        self.start_backend();
+        let software = self.opening.as_mut()?.adapter_is_software();
+        match (self.backend, software) {
+            (_, Some(software)) => Some(Some(!software)),
+            // No adapter: `Auto` renders on the CPU, `Gpu` fails.
+            (Backend::Auto, None) => Some(None),
+            _ => None,
+        }
+    }
+
+    /// A new GPU context of adapters `choice`: the one [`Tracer::start_backend`] is opening
+    /// (waited for), or one opened now. Its time goes to `device_seconds`.
+    fn new_context(&mut self, choice: AdapterChoice) -> Result<GpuContext, GpuError> {
+        let (ctx, seconds) = match self.opening.take() {
+            Some(o) if o.choice == choice => o
+                .thread
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
+            // Opened for another backend (changed since): not this one's device.
+            _ => {
+                let t = Instant::now();
+                let ctx = GpuContext::new(&ContextOptions {
+                    choice,
+                    adapter_name: None,
+                });
+                (ctx, t.elapsed().as_secs_f64())
+            }
+        };
+        if ctx.is_ok() {
+            self.device_seconds = Some(seconds);
+        }
+        ctx
+    }
+
+    /// Picks the backend; returns whether it is the GPU's and why (a new context's time goes
+    /// to `device_seconds`).
+    fn choose_backend(&mut self) -> Result<(bool, String), Error> {
         match self.backend {
             Backend::Cpu => Ok((false, "requested".into())),
             Backend::Gpus => {
@@ -1013,10 +1225,7 @@ impl Tracer {
             }
             Backend::Gpu => {
                 if self.gpu.is_none() {
-                    self.gpu = Some(GpuContext::new(&ContextOptions {
-                        choice: AdapterChoice::Any,
-                        adapter_name: None,
-                    })?);
+                    self.gpu = Some(self.new_context(AdapterChoice::Any)?);
                 }
                 Ok((true, "requested".into()))
             }
@@ -1024,10 +1233,7 @@ impl Tracer {
                 if self.gpu.as_ref().is_some_and(|g| !g.info.is_software) {
                     return Ok((true, "a hardware GPU adapter was found".into()));
                 }
-                match GpuContext::new(&ContextOptions {
-                    choice: AdapterChoice::HardwareOnly,
-                    adapter_name: None,
-                }) {
+                match self.new_context(AdapterChoice::HardwareOnly) {
                     Ok(ctx) => {
                         self.gpu = Some(ctx);
                         Ok((true, "a hardware GPU adapter was found".into()))
@@ -1145,27 +1351,8 @@ impl Tracer {
                 .push(crate::stats::NO_LIGHT_WARNING.to_string());
         }
         stats.seconds.device = device_seconds;
-        let rate = match (use_gpu, self.gpu.as_ref()) {
-            (true, Some(ctx)) if !ctx.info.is_software => GPU_RAYS_PER_SECOND,
-            _ => CPU_RAYS_PER_SECOND_PER_THREAD * rayon::current_num_threads() as f64,
-        };
-        let rays = self.estimated_rays(&r, r.spp);
-        let mut quality = self.bvh_quality.unwrap_or_else(|| {
-            BvhQuality::for_work(
-                scene.triangles.len() + scene.spheres.len(),
-                rays,
-                rate,
-                bvh_build_threads(),
-            )
-        });
-        let gpu_build = self.builds_on_gpu(use_gpu, scene, quality, rays, rate);
-        let layout = match gpu_build {
-            true => {
-                quality = BvhQuality::Fastest;
-                BvhLayout::Binary
-            }
-            false => self.bvh_layout,
-        };
+        let hardware = self.gpu.as_ref().is_some_and(|c| !c.info.is_software);
+        let (quality, layout, gpu_build) = self.bvh_plan(scene, use_gpu.then_some(hardware));
         stats.bvh_preset = quality.name().into();
         stats.bvh_preset_chosen = self.bvh_quality.is_none();
         stats.bvh_layout = layout.name().into();
@@ -1195,7 +1382,10 @@ impl Tracer {
             key = c.key;
             stats.bvh_preset = c.key.quality.name().into();
         }
-        stats.bvh_cached = cached.is_some();
+        // A tree `prepare_scene` built for this render is this render's build, not a cache hit.
+        let ahead = cached.as_ref().and_then(|c| c.ahead);
+        stats.bvh_cached = cached.is_some() && ahead.is_none();
+        stats.prepared_ahead = ahead.is_some();
         // On the GPU, the pipelines (a second of driver compilation on the H200) do not depend
         // on the BVH: they are compiled on another thread while it is built, or come from the
         // last render of a scene with the same features and layout.
@@ -1263,7 +1453,7 @@ impl Tracer {
                     .join()
                     .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
             }
-            stats.seconds.bvh = t.elapsed().as_secs_f64();
+            stats.seconds.bvh = t.elapsed().as_secs_f64() + ahead.unwrap_or(0.0);
             let pipelines = match compiling {
                 Some(handle) => Some(
                     handle
@@ -1372,8 +1562,15 @@ impl Tracer {
             )
         };
         self.progress = progress;
-        self.bvh_cache
-            .insert(0, BvhCacheEntry { key, bvh, prepared });
+        self.bvh_cache.insert(
+            0,
+            BvhCacheEntry {
+                key,
+                bvh,
+                prepared,
+                ahead: None,
+            },
+        );
         self.bvh_cache.truncate(BVH_CACHE_ENTRIES);
         if result.as_ref().is_err_and(Error::is_device_lost) {
             self.forget_device();
@@ -1440,10 +1637,26 @@ impl Tracer {
         let prepared = prepared.of(SceneKey::of(scene, options));
         // Whether the scene was prepared (and its guide learned) by this render.
         let mut fresh = false;
+        let ahead = match (&prepared.gpu, bvh) {
+            (None, BuiltBvh::Cpu(_)) => prepared.ahead.take(),
+            _ => None,
+        };
         let uploaded = match (&prepared.gpu, &prepared.cpu, bvh) {
             (Some(g), _, _) => {
                 stats.scene_cached = true;
                 g.clone()
+            }
+            // Prepared by `prepare_scene` before the device was open: uploaded now.
+            (None, _, BuiltBvh::Cpu(bvh)) if ahead.is_some() => {
+                let (data, seconds) = ahead.expect("matched");
+                stats.prepared_ahead = true;
+                stats.seconds.upload += seconds;
+                Arc::new(GpuScene::upload_data(
+                    ctx,
+                    raylume_kernels::tracer_features(scene),
+                    bvh,
+                    data,
+                )?)
             }
             // The CPU's preparation of the same scene (an earlier CPU render), uploaded.
             (None, Some(data), BuiltBvh::Cpu(bvh)) => Arc::new(GpuScene::upload_data(
@@ -1492,7 +1705,7 @@ impl Tracer {
         if let Some(workspace) = self.gpu_workspace.take() {
             tracer.use_workspace(workspace);
         }
-        stats.seconds.upload = t.elapsed().as_secs_f64();
+        stats.seconds.upload += t.elapsed().as_secs_f64();
         let mut on_round = target.map(|t| move |r: &RoundSums<'_>| t.on_round(r));
         let hook = on_round.as_mut().map(|f| f as &mut RoundHook<'_>);
         let out = match (auto_key, hook) {
@@ -1584,12 +1797,18 @@ impl Tracer {
         let t = Instant::now();
         let options = self.scene_options(scene);
         let prepared = prepared.of(SceneKey::of(scene, options));
-        let data = match &prepared.cpu {
-            Some(d) => {
+        let data = match (&prepared.cpu, prepared.ahead.take()) {
+            (Some(d), _) => {
                 stats.scene_cached = true;
                 d.clone()
             }
-            None => Arc::new(SceneData::with_options(scene, bvh, &options)?),
+            // Prepared by `prepare_scene` (for a GPU render that became a CPU one).
+            (None, Some((d, seconds))) => {
+                stats.prepared_ahead = true;
+                stats.seconds.upload += seconds;
+                Arc::new(d)
+            }
+            (None, None) => Arc::new(SceneData::with_options(scene, bvh, &options)?),
         };
         if !stats.scene_cached {
             stats.seconds.guide = data.environment_guide_seconds;
@@ -1597,7 +1816,7 @@ impl Tracer {
         prepared.cpu = Some(data.clone());
         // The tree and the data are shared, not copied (hundreds of MB for a large scene).
         let mut tracer = CpuTracer::with_shared(bvh.clone(), data.clone())?;
-        stats.seconds.upload = t.elapsed().as_secs_f64();
+        stats.seconds.upload += t.elapsed().as_secs_f64();
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
         let guides = self.guides(scene);

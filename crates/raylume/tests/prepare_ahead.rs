@@ -1,0 +1,176 @@
+//! `Tracer::start_backend` and `Tracer::prepare_scene`: the GPU device opens on a thread of its
+//! own while the scene's BVH is built and its data prepared; the render finds them ready, says
+//! so, and makes the image a render without them makes.
+
+use std::path::Path;
+
+use raylume::{Backend, BvhQuality, Error, Scene, Tracer};
+use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext};
+
+fn cornell(w: u32, h: u32, spp: u32) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box.toml");
+    let mut s = Scene::load(path).unwrap();
+    s.render.width = w;
+    s.render.height = h;
+    s.render.spp = spp;
+    s.render.max_bounces = 3;
+    s
+}
+
+#[test]
+fn a_scene_prepared_ahead_renders_the_image_of_a_plain_render() {
+    let scene = cornell(16, 16, 2);
+    let plain = Tracer::new(Backend::Cpu).render(&scene).unwrap();
+    let mut t = Tracer::new(Backend::Cpu);
+    t.prepare_scene(&scene).unwrap();
+    let r = t.render(&scene).unwrap();
+    let s = &r.stats;
+    assert!(
+        s.prepared_ahead && !s.bvh_cached && !s.scene_cached,
+        "built and prepared ahead, not found from an earlier render: ahead {}, bvh cached {}, \
+         scene cached {}",
+        s.prepared_ahead,
+        s.bvh_cached,
+        s.scene_cached
+    );
+    // The work done ahead is reported as the render's own.
+    assert!(
+        s.seconds.bvh > 0.0 && s.seconds.upload > 0.0,
+        "{:?}",
+        s.seconds
+    );
+    assert_eq!(s.bvh_preset, plain.stats.bvh_preset);
+    assert_eq!(r.pixels, plain.pixels);
+    // Once rendered with, the tree and the data are the cache's like any others.
+    let again = t.render(&scene).unwrap();
+    assert!(again.stats.bvh_cached && again.stats.scene_cached && !again.stats.prepared_ahead);
+    assert_eq!(again.pixels, plain.pixels);
+}
+
+#[test]
+fn the_device_opens_while_the_scene_is_prepared() {
+    let Some(_) =
+        raylume_gpu::testing::context_or_skip("the_device_opens_while_the_scene_is_prepared")
+    else {
+        return;
+    };
+    let scene = cornell(16, 16, 2);
+    let plain = Tracer::new(Backend::Gpu).render(&scene).unwrap();
+    let mut t = Tracer::new(Backend::Gpu);
+    t.start_backend();
+    t.prepare_scene(&scene).unwrap();
+    let r = t.render(&scene).unwrap();
+    assert_eq!(r.stats.backend, "gpu");
+    assert!(r.stats.prepared_ahead);
+    assert!(
+        r.stats.seconds.device > 0.0,
+        "the device's opening, on its own thread, is still reported"
+    );
+    // The same tree and the same data, uploaded: the same image, bit for bit.
+    assert_eq!(r.pixels, plain.pixels);
+    let again = t.render(&scene).unwrap();
+    assert!(again.stats.scene_cached && !again.stats.prepared_ahead);
+    assert_eq!(again.stats.seconds.device, 0.0, "reported once");
+    assert_eq!(again.pixels, plain.pixels);
+
+    // The device opened without a word from the caller: `prepare_scene` starts it.
+    let mut quiet = Tracer::new(Backend::Gpu);
+    quiet.prepare_scene(&scene).unwrap();
+    let r = quiet.render(&scene).unwrap();
+    assert!(r.stats.prepared_ahead && r.stats.seconds.device > 0.0);
+    assert_eq!(r.pixels, plain.pixels);
+}
+
+/// `Auto` renders on a hardware GPU if there is one, else on the CPU; the two rates choose
+/// different presets for this scene, so a tree built for the wrong guess would not be the
+/// render's. `prepare_scene` waits for the adapter's choice (not the device) and guesses right.
+#[test]
+fn auto_knows_its_backend_before_the_device_is_open() {
+    let mut scene = cornell(32, 32, 160);
+    scene.render.max_bounces = 2;
+    // 20,000 small triangles on the floor.
+    let m = scene.triangles[0].material;
+    for i in 0..10_000 {
+        let (x, z) = ((i % 100) as f32 * 0.01, (i / 100) as f32 * 0.01);
+        let p = |dx: f32, dz: f32| raylume::glam::Vec3::new(x + dx, 1e-3, z + dz);
+        scene.triangles.push(raylume::scene::Triangle::flat(
+            [p(0.0, 0.0), p(0.01, 0.0), p(0.01, 0.01)],
+            m,
+        ));
+        scene.triangles.push(raylume::scene::Triangle::flat(
+            [p(0.0, 0.0), p(0.01, 0.01), p(0.0, 0.01)],
+            m,
+        ));
+    }
+    // 32 x 32 x 160 spp x 3 segments x 2 (NEE's shadow rays): 0.98 M rays.
+    let rays = 32.0 * 32.0 * 160.0 * 3.0 * 2.0;
+    let threads = rayon::current_num_threads();
+    let build_threads = threads.min(raylume::BVH_BUILD_THREADS);
+    let primitives = scene.triangles.len();
+    let on_cpu = BvhQuality::for_work(
+        primitives,
+        rays,
+        raylume::CPU_RAYS_PER_SECOND_PER_THREAD * threads as f64,
+        build_threads,
+    );
+    let on_gpu = BvhQuality::for_work(
+        primitives,
+        rays,
+        raylume::GPU_RAYS_PER_SECOND,
+        build_threads,
+    );
+    assert_ne!(on_cpu, on_gpu, "the scene tells the two guesses apart");
+
+    let hardware = GpuContext::new(&ContextOptions {
+        choice: AdapterChoice::HardwareOnly,
+        adapter_name: None,
+    })
+    .is_ok();
+    let mut t = Tracer::new(Backend::Auto);
+    t.start_backend();
+    t.prepare_scene(&scene).unwrap();
+    let r = t.render(&scene).unwrap().stats;
+    let expected = if hardware { on_gpu } else { on_cpu };
+    assert_eq!(r.backend, if hardware { "gpu" } else { "cpu" });
+    assert_eq!(r.bvh_preset, expected.name());
+    assert!(
+        r.prepared_ahead,
+        "the tree built ahead ({}) is the render's",
+        r.bvh_preset
+    );
+}
+
+#[test]
+fn settings_changed_after_preparing_make_the_render_build_its_own() {
+    let scene = cornell(16, 16, 2);
+    let mut t = Tracer::new(Backend::Cpu);
+    t.bvh_quality = Some(BvhQuality::Fast);
+    t.prepare_scene(&scene).unwrap();
+    t.bvh_quality = Some(BvhQuality::Quality);
+    let r = t.render(&scene).unwrap();
+    assert!(!r.stats.prepared_ahead && !r.stats.bvh_cached);
+    assert_eq!(r.stats.bvh_preset, "quality");
+    let mut fresh = Tracer::new(Backend::Cpu);
+    fresh.bvh_quality = Some(BvhQuality::Quality);
+    assert_eq!(r.pixels, fresh.render(&scene).unwrap().pixels);
+}
+
+#[test]
+fn prepare_scene_refuses_what_render_refuses() {
+    let mut t = Tracer::new(Backend::Cpu);
+    let mut empty = cornell(16, 16, 2);
+    empty.render.width = 0;
+    assert!(
+        matches!(t.prepare_scene(&empty), Err(Error::Settings(_))),
+        "a zero-width image"
+    );
+    let mut nan = cornell(16, 16, 2);
+    nan.triangles[3].positions[1].x = f32::NAN;
+    let e = t.prepare_scene(&nan).unwrap_err();
+    assert!(matches!(e, Error::Scene(_)), "{e}");
+    assert_eq!(
+        e.to_string(),
+        t.render(&nan).unwrap_err().to_string(),
+        "the render's own error"
+    );
+}
