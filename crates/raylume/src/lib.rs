@@ -8,8 +8,12 @@
 //!
 //! ```no_run
 //! use raylume::{Backend, Tracer};
-//! let scene = raylume::Scene::load("scenes/cornell-box.toml")?;
 //! let mut tracer = Tracer::new(Backend::Auto);
+//! // Optional, for the first image soonest: the GPU device opens on a thread of its own
+//! // while the scene loads and its BVH is built.
+//! tracer.start_backend();
+//! let scene = raylume::Scene::load("scenes/cornell-box.toml")?;
+//! tracer.prepare_scene(&scene)?;
 //! let render = tracer.render(&scene)?;
 //! eprintln!("{} on {}: {:.3} s", render.stats.backend, render.stats.adapter, render.stats.seconds.total);
 //! render.save("cornell.png")?;
