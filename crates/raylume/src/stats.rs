@@ -167,6 +167,10 @@ pub struct RenderStats {
     /// True when the GPU pipelines came from the tracer's last render (same features and BVH
     /// layout): nothing was compiled.
     pub pipelines_cached: bool,
+    /// True when the GPU pipelines were compiled for this render on the device's own thread
+    /// as soon as it opened ([`crate::Tracer::prepare_scene`] asked for them), beside the
+    /// scene's load and BVH build; `seconds.pipelines` is then what that took.
+    pub pipelines_ahead: bool,
     /// Who built it: `"obvhs PLOC on the CPU, N threads"` (a cached tree: who built it then).
     pub bvh_builder: String,
     /// The post-processing passes that ran, in order (`bloom_threshold`, `bloom_h`, ...).

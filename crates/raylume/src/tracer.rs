@@ -493,6 +493,9 @@ pub struct Tracer {
     device_seconds: Option<f64>,
     /// A GPU context being created on a thread of its own ([`Tracer::start_backend`]).
     opening: Option<Opening>,
+    /// Pipelines compiled on the opening's thread for a render still to come
+    /// ([`Tracer::prepare_scene`]): that render reports them as compiled, not cached.
+    pipelines_ahead: Option<Arc<TracerPipelines>>,
     /// The last BVHs built (at most [`BVH_CACHE_ENTRIES`], the latest first), each for the
     /// geometry, preset and layout it was built from: rendering the same scene again (another
     /// spp, size, seed, or a benchmark's repeats, also alternating the two layouts) skips the
@@ -541,13 +544,60 @@ impl BuiltBvh {
 /// the thread creating it (its result and the seconds it took).
 struct Opening {
     choice: AdapterChoice,
-    thread: std::thread::JoinHandle<(Result<GpuContext, GpuError>, f64)>,
+    thread: std::thread::JoinHandle<OpeningResult>,
+    /// Where [`Tracer::prepare_scene`] asks for the pipelines the render will need, to be
+    /// compiled on the opening's thread as soon as the device is open; dropped (the thread
+    /// then compiles nothing) before the thread is joined.
+    request: Option<std::sync::mpsc::Sender<PipelineRequest>>,
     /// The adapter's kind, announced before its device is created: `Some(software)`, or
     /// `None` when no adapter qualified (the channel closes without a word when the opening
     /// failed before choosing).
     adapter: std::sync::mpsc::Receiver<Option<bool>>,
     /// What `adapter` said, once read (`Some(None)`: no adapter).
     known: Option<Option<bool>>,
+}
+
+/// What an opening's thread returns: the context (or why not), the seconds it took, and the
+/// pipelines it compiled afterwards, if asked.
+type OpeningResult = (
+    Result<GpuContext, GpuError>,
+    f64,
+    Option<Result<Arc<TracerPipelines>, raylume_kernels::KernelError>>,
+);
+
+/// The pipelines a render will compile: features, layout and specialisation (the cache's
+/// key), the schedule it starts with, and whether it learns an environment guide.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct PipelineRequest {
+    features: raylume_scene::Features,
+    layout: BvhLayout,
+    specialisation: Specialisation,
+    schedule: Schedule,
+    guides: bool,
+}
+
+impl PipelineRequest {
+    /// Makes the module and compiles the schedule's pipelines (and the guide's walks beside
+    /// them, when the render learns a guide): what a render's compiling thread does.
+    fn compile(
+        &self,
+        ctx: &GpuContext,
+    ) -> Result<Arc<TracerPipelines>, raylume_kernels::KernelError> {
+        let p = TracerPipelines::specialised(ctx, self.features, self.layout, self.specialisation)?;
+        // The guide's walks compile (and warm up) beside the tracer's pipelines: on a first
+        // run the driver spends ~0.2 s on them, ~1 s on the megakernel.
+        std::thread::scope(|inner| {
+            let learner = self.guides.then(|| inner.spawn(|| p.guide_learner(ctx)));
+            p.compile(ctx, self.schedule)?;
+            if let Some(handle) = learner {
+                handle
+                    .join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
+            }
+            Ok::<_, raylume_kernels::KernelError>(())
+        })?;
+        Ok(p)
+    }
 }
 
 impl Opening {
@@ -738,6 +788,7 @@ impl Tracer {
             gpu_pipelines: Vec::new(),
             device_seconds: None,
             opening: None,
+            pipelines_ahead: None,
             bvh_cache: Vec::new(),
             bvh_builder: BvhBuilder::default(),
             lbvh: None,
@@ -851,6 +902,7 @@ impl Tracer {
         self.bvh_cache.retain(|e| !e.key.on_gpu);
         self.lbvh = None;
         self.opening = None;
+        self.pipelines_ahead = None;
         self.gpu = None;
         self.gpu_bloom = None;
         self.gpu_workspace = None;
@@ -877,6 +929,27 @@ impl Tracer {
         match self.builds_on_gpu(gpu, scene, quality, rays, rate) {
             true => (BvhQuality::Fastest, BvhLayout::Binary, true),
             false => (quality, self.bvh_layout, false),
+        }
+    }
+
+    /// The pipelines a GPU render of `scene` over a tree of `layout`, starting with
+    /// `schedule`, compiles.
+    fn pipeline_request(
+        &self,
+        scene: &Scene,
+        layout: BvhLayout,
+        schedule: Schedule,
+    ) -> PipelineRequest {
+        PipelineRequest {
+            features: self
+                .specialisation
+                .features(raylume_scene::Features::from_bits(
+                    scene.features().bits() | self.extra_features.bits(),
+                )),
+            layout,
+            specialisation: self.specialisation,
+            schedule,
+            guides: self.guides(scene),
         }
     }
 
@@ -1064,6 +1137,7 @@ impl Tracer {
             return;
         }
         let (announce, adapter) = std::sync::mpsc::channel();
+        let (request, requests) = std::sync::mpsc::channel::<PipelineRequest>();
         let thread = std::thread::spawn(move || {
             let t = Instant::now();
             let options = ContextOptions {
@@ -1074,11 +1148,18 @@ impl Tracer {
                 let software = info.map(|i| i.device_type == wgpu::DeviceType::Cpu);
                 let _ = announce.send(software);
             });
-            (ctx, t.elapsed().as_secs_f64())
+            let seconds = t.elapsed().as_secs_f64();
+            // The pipelines `prepare_scene` asks for, if it does before the render joins.
+            let pipelines = match &ctx {
+                Ok(c) => requests.recv().ok().map(|r| r.compile(c)),
+                Err(_) => None,
+            };
+            (ctx, seconds, pipelines)
         });
         self.opening = Some(Opening {
             choice,
             thread,
+            request: Some(request),
             adapter,
             known: None,
         });
@@ -1091,6 +1172,9 @@ impl Tracer {
     /// load, build and preparation fit beside it where they used to follow it. The render
     /// finds both ready and reports their seconds as its own (`seconds.bvh`,
     /// `seconds.upload`; [`RenderStats::prepared_ahead`] says they were done ahead).
+    ///
+    /// The render's GPU pipelines are compiled on the device's thread as soon as the device
+    /// is open ([`RenderStats::pipelines_ahead`]), not after the build.
     ///
     /// Waits for the device only until its adapter is chosen (a hardware GPU's rate chooses
     /// another preset than a software adapter's or the CPU's). Builds nothing for a tree the
@@ -1106,6 +1190,17 @@ impl Tracer {
             return Ok(());
         };
         let (quality, layout, on_gpu) = self.bvh_plan(scene, gpu);
+        // The device's thread compiles the render's pipelines as soon as the device is open
+        // (the render's own guess of its first schedule: `On` sorts, so starts wavefront).
+        if gpu.is_some()
+            && let Some(ask) = self.opening.as_ref().and_then(|o| o.request.as_ref())
+        {
+            let schedule = match self.reorder {
+                ReorderPolicy::On => Schedule::Wavefront,
+                _ => self.schedule,
+            };
+            let _ = ask.send(self.pipeline_request(scene, layout, schedule));
+        }
         if on_gpu {
             return Ok(());
         }
@@ -1193,11 +1288,14 @@ impl Tracer {
     /// A new GPU context of adapters `choice`: the one [`Tracer::start_backend`] is opening
     /// (waited for), or one opened now. Its time goes to `device_seconds`.
     fn new_context(&mut self, choice: AdapterChoice) -> Result<GpuContext, GpuError> {
-        let (ctx, seconds) = match self.opening.take() {
-            Some(o) if o.choice == choice => o
-                .thread
-                .join()
-                .unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
+        let (ctx, seconds, pipelines) = match self.opening.take() {
+            Some(mut o) if o.choice == choice => {
+                // No more requests: the thread compiles what it was asked for, if anything.
+                o.request = None;
+                o.thread
+                    .join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+            }
             // Opened for another backend (changed since): not this one's device.
             _ => {
                 let t = Instant::now();
@@ -1205,11 +1303,17 @@ impl Tracer {
                     choice,
                     adapter_name: None,
                 });
-                (ctx, t.elapsed().as_secs_f64())
+                (ctx, t.elapsed().as_secs_f64(), None)
             }
         };
         if ctx.is_ok() {
             self.device_seconds = Some(seconds);
+        }
+        // Pipelines that failed to compile are left to the render, which reports why.
+        if let Some(Ok(p)) = pipelines {
+            self.gpu_pipelines.insert(0, p.clone());
+            self.gpu_pipelines.truncate(PIPELINE_CACHE_ENTRIES);
+            self.pipelines_ahead = Some(p);
         }
         ctx
     }
@@ -1389,48 +1493,28 @@ impl Tracer {
         // On the GPU, the pipelines (a second of driver compilation on the H200) do not depend
         // on the BVH: they are compiled on another thread while it is built, or come from the
         // last render of a scene with the same features and layout.
-        let pipeline_features = self
-            .specialisation
-            .features(raylume_scene::Features::from_bits(
-                scene.features().bits() | self.extra_features.bits(),
-            ));
-        if use_gpu {
-            stats.pipeline_features = pipeline_features.names();
-            stats.specialisation = self.specialisation.name().into();
-        }
-        let pipeline_key = (pipeline_features, layout, self.specialisation);
         let first_schedule = if settings.reorder.sorts_any(settings.max_bounces) {
             Schedule::Wavefront
         } else {
             settings.schedule
         };
+        let request = self.pipeline_request(scene, layout, first_schedule);
+        let pipeline_features = request.features;
+        if use_gpu {
+            stats.pipeline_features = pipeline_features.names();
+            stats.specialisation = self.specialisation.name().into();
+        }
+        let pipeline_key = (pipeline_features, layout, self.specialisation);
         let reuse = self
             .gpu_pipelines
             .iter()
             .find(|p| (p.features(), p.bvh_layout(), p.specialisation()) == pipeline_key)
             .cloned();
         let gpu = self.gpu.as_ref().filter(|_| use_gpu);
-        let guides = self.guides(scene);
         let mut prepared = Prepared::default();
         let (bvh, pipelines) = std::thread::scope(|threads| {
             let compiling = match (gpu, &reuse) {
-                (Some(ctx), None) => Some(threads.spawn(move || {
-                    let (features, layout, specialisation) = pipeline_key;
-                    let p = TracerPipelines::specialised(ctx, features, layout, specialisation)?;
-                    // The guide's walks compile (and warm up) beside the tracer's pipelines: on
-                    // a first run the driver spends ~0.2 s on them, ~1 s on the megakernel.
-                    std::thread::scope(|inner| {
-                        let learner = guides.then(|| inner.spawn(|| p.guide_learner(ctx)));
-                        p.compile(ctx, first_schedule)?;
-                        if let Some(handle) = learner {
-                            handle
-                                .join()
-                                .unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
-                        }
-                        Ok::<_, raylume_kernels::KernelError>(())
-                    })?;
-                    Ok::<_, raylume_kernels::KernelError>(p)
-                })),
+                (Some(ctx), None) => Some(threads.spawn(move || request.compile(ctx))),
                 _ => None,
             };
             // The rough plastics' coat tables need the materials only: integrated beside the
@@ -1485,7 +1569,13 @@ impl Tracer {
         };
         if let Some(p) = &pipelines {
             stats.seconds.pipelines = p.seconds();
-            stats.pipelines_cached = self.gpu_pipelines.iter().any(|q| Arc::ptr_eq(p, q));
+            // Compiled on the device's thread for this render: not a cache hit.
+            let ahead = self
+                .pipelines_ahead
+                .take()
+                .is_some_and(|q| Arc::ptr_eq(p, &q));
+            stats.pipelines_ahead = ahead;
+            stats.pipelines_cached = !ahead && self.gpu_pipelines.iter().any(|q| Arc::ptr_eq(p, q));
             self.gpu_pipelines.retain(|q| !Arc::ptr_eq(p, q));
             self.gpu_pipelines.insert(0, p.clone());
             self.gpu_pipelines.truncate(PIPELINE_CACHE_ENTRIES);

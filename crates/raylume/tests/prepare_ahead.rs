@@ -62,6 +62,9 @@ fn the_device_opens_while_the_scene_is_prepared() {
     let r = t.render(&scene).unwrap();
     assert_eq!(r.stats.backend, "gpu");
     assert!(r.stats.prepared_ahead);
+    // The pipelines were compiled on the device's thread, for this render.
+    assert!(r.stats.pipelines_ahead && !r.stats.pipelines_cached);
+    assert!(r.stats.seconds.pipelines > 0.0);
     assert!(
         r.stats.seconds.device > 0.0,
         "the device's opening, on its own thread, is still reported"
@@ -70,6 +73,7 @@ fn the_device_opens_while_the_scene_is_prepared() {
     assert_eq!(r.pixels, plain.pixels);
     let again = t.render(&scene).unwrap();
     assert!(again.stats.scene_cached && !again.stats.prepared_ahead);
+    assert!(again.stats.pipelines_cached && !again.stats.pipelines_ahead);
     assert_eq!(again.stats.seconds.device, 0.0, "reported once");
     assert_eq!(again.pixels, plain.pixels);
 
@@ -78,6 +82,14 @@ fn the_device_opens_while_the_scene_is_prepared() {
     quiet.prepare_scene(&scene).unwrap();
     let r = quiet.render(&scene).unwrap();
     assert!(r.stats.prepared_ahead && r.stats.seconds.device > 0.0);
+    assert!(r.stats.pipelines_ahead);
+    assert_eq!(r.pixels, plain.pixels);
+
+    // A device opened but never asked for pipelines: the render compiles its own.
+    let mut unasked = Tracer::new(Backend::Gpu);
+    unasked.start_backend();
+    let r = unasked.render(&scene).unwrap();
+    assert!(!r.stats.pipelines_ahead && !r.stats.pipelines_cached && !r.stats.prepared_ahead);
     assert_eq!(r.pixels, plain.pixels);
 }
 
