@@ -2,20 +2,11 @@
 //! own while the scene's BVH is built and its data prepared; the render finds them ready, says
 //! so, and makes the image a render without them makes.
 
-use std::path::Path;
-
-use raylume::{Backend, BvhQuality, Error, Scene, Tracer};
+use raylume::{Backend, BvhQuality, Error, Tracer};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext};
 
-fn cornell(w: u32, h: u32, spp: u32) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box.toml");
-    let mut s = Scene::load(path).unwrap();
-    s.render.width = w;
-    s.render.height = h;
-    s.render.spp = spp;
-    s.render.max_bounces = 3;
-    s
-}
+mod common;
+use common::cornell;
 
 #[test]
 fn a_scene_prepared_ahead_renders_the_image_of_a_plain_render() {
@@ -100,20 +91,7 @@ fn the_device_opens_while_the_scene_is_prepared() {
 fn auto_knows_its_backend_before_the_device_is_open() {
     let mut scene = cornell(32, 32, 160);
     scene.render.max_bounces = 2;
-    // 20,000 small triangles on the floor.
-    let m = scene.triangles[0].material;
-    for i in 0..10_000 {
-        let (x, z) = ((i % 100) as f32 * 0.01, (i / 100) as f32 * 0.01);
-        let p = |dx: f32, dz: f32| raylume::glam::Vec3::new(x + dx, 1e-3, z + dz);
-        scene.triangles.push(raylume::scene::Triangle::flat(
-            [p(0.0, 0.0), p(0.01, 0.0), p(0.01, 0.01)],
-            m,
-        ));
-        scene.triangles.push(raylume::scene::Triangle::flat(
-            [p(0.0, 0.0), p(0.01, 0.01), p(0.0, 0.01)],
-            m,
-        ));
-    }
+    common::add_floor_grid(&mut scene);
     // 32 x 32 x 160 spp x 3 segments x 2 (NEE's shadow rays): 0.98 M rays.
     let rays = 32.0 * 32.0 * 160.0 * 3.0 * 2.0;
     let threads = rayon::current_num_threads();

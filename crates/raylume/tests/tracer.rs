@@ -6,15 +6,8 @@ use std::sync::{Arc, Mutex};
 use raylume::{Backend, Progress, Scene, Tracer};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext};
 
-fn cornell(w: u32, h: u32, spp: u32) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/cornell-box.toml");
-    let mut s = Scene::load(path).unwrap();
-    s.render.width = w;
-    s.render.height = h;
-    s.render.spp = spp;
-    s.render.max_bounces = 3;
-    s
-}
+mod common;
+use common::cornell;
 
 #[test]
 fn auto_picks_a_hardware_gpu_or_says_why_it_did_not() {
@@ -296,19 +289,7 @@ fn bvh_is_cached_per_geometry() {
 fn bvh_preset_follows_the_work() {
     let mut scene = cornell(4, 4, 1);
     // 20,000 small triangles on the floor: a scene large for the rays of a 4x4, 1-spp image.
-    let m = scene.triangles[0].material;
-    for i in 0..10_000 {
-        let (x, z) = ((i % 100) as f32 * 0.01, (i / 100) as f32 * 0.01);
-        let p = |dx: f32, dz: f32| raylume::glam::Vec3::new(x + dx, 1e-3, z + dz);
-        scene.triangles.push(raylume::scene::Triangle::flat(
-            [p(0.0, 0.0), p(0.01, 0.0), p(0.01, 0.01)],
-            m,
-        ));
-        scene.triangles.push(raylume::scene::Triangle::flat(
-            [p(0.0, 0.0), p(0.01, 0.01), p(0.0, 0.01)],
-            m,
-        ));
-    }
+    common::add_floor_grid(&mut scene);
     let mut t = Tracer::new(Backend::Cpu);
     assert_eq!(t.bvh_quality, None, "chosen by default");
     let quick = t.render(&scene).unwrap();

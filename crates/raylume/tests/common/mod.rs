@@ -73,6 +73,33 @@ pub fn small_cornell(spp: u32) -> raylume::Scene {
     s
 }
 
+/// The project's Cornell box at `w` x `h`, `spp` samples per pixel, 3 bounces.
+pub fn cornell(w: u32, h: u32, spp: u32) -> raylume::Scene {
+    let mut s = small_cornell(spp);
+    s.render.width = w;
+    s.render.height = h;
+    s
+}
+
+/// Adds 20,000 small triangles (a 100 x 100 grid of quads, 1 cm each) on the floor of
+/// `scene`, in the material of its first triangle: a scene large for the rays of a small,
+/// brief render, whose BVH preset the work ahead decides.
+pub fn add_floor_grid(scene: &mut raylume::Scene) {
+    let m = scene.triangles[0].material;
+    for i in 0..10_000 {
+        let (x, z) = ((i % 100) as f32 * 0.01, (i / 100) as f32 * 0.01);
+        let p = |dx: f32, dz: f32| raylume::glam::Vec3::new(x + dx, 1e-3, z + dz);
+        scene.triangles.push(raylume::scene::Triangle::flat(
+            [p(0.0, 0.0), p(0.01, 0.0), p(0.01, 0.01)],
+            m,
+        ));
+        scene.triangles.push(raylume::scene::Triangle::flat(
+            [p(0.0, 0.0), p(0.01, 0.01), p(0.0, 0.01)],
+            m,
+        ));
+    }
+}
+
 /// The largest per-channel difference of `a` from `b`, relative to `b` (floored at 1e-30).
 pub fn worst_relative(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
     a.iter()
