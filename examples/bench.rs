@@ -77,7 +77,8 @@ struct Args {
     /// Comma-separated ways the GPU pipelines are specialised on the scene's features:
     /// composed (the library's default: absent features' code left out of the source),
     /// overrides (the full source, WGSL override constants), generic (every feature compiled
-    /// in: the baseline). On the CPU all run the same code.
+    /// in: the baseline). On the CPU, generic runs the mirror's variant with every feature,
+    /// the others the smallest variant holding the scene's (`raylume_kernels::cpu::variant`).
     #[arg(long, default_value = "composed", value_delimiter = ',')]
     specialise: Vec<raylume::Specialisation>,
     /// Comma-separated features (diffuse, glass, spheres, ...): besides each configuration,

@@ -7,7 +7,9 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 use raylume_bvh::{GpuBvh, PRIM_SPHERE, PRIM_TRIANGLE, Primitive};
-use raylume_scene::{Camera, Environment, MaterialKind, Scene, Texels, Texture, srgb8_table};
+use raylume_scene::{
+    Camera, Environment, Features, MaterialKind, Scene, Texels, Texture, srgb8_table,
+};
 use rayon::prelude::*;
 
 use crate::KernelError;
@@ -38,6 +40,9 @@ impl Default for RoughPlasticTable {
 /// The scene's data in the tracer's layout.
 #[derive(Clone, Debug, Default)]
 pub struct SceneData {
+    /// The tracer's features of the scene ([`crate::tracer_features`]): the CPU mirror's
+    /// variant is chosen by them (`cpu::variant`).
+    pub features: Features,
     pub camera: Camera,
     /// The material table (at least one entry, so bindings are never empty).
     pub materials: Vec<GpuMaterial>,
@@ -650,6 +655,7 @@ impl SceneData {
         }
 
         let mut data = SceneData {
+            features: crate::tracer_features(scene),
             camera: scene.camera,
             materials,
             prim_materials,

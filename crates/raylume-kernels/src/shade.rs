@@ -29,7 +29,9 @@
 
 use glam::{Vec2, Vec3, Vec4};
 use raylume_bvh::{GpuBvh, PRIM_SPHERE, PRIM_TRIANGLE, Ray};
+use raylume_scene::Feature;
 
+use crate::cpu::variant::has;
 use crate::bsdf::{
     BsdfEval, BsdfSample, bsdf_absorbed, bsdf_eval_zero, eval_conductor, eval_plastic,
     eval_rough_dielectric, eval_rough_plastic, sample_conductor, sample_plastic,
@@ -113,7 +115,7 @@ impl PathState {
 /// solid-angle pdf of the scattered direction (0 for a delta lobe: a smooth mirror, glass or
 /// coat).
 #[inline]
-pub fn shade_hit(
+pub fn shade_hit<const F: u32>(
     g: &Globals,
     path: &mut PathState,
     hit: &SurfaceHit,
@@ -124,7 +126,7 @@ pub fn shade_hit(
 ) -> f32 {
     let ng = hit.geometric_normal;
     let front = path.dir.dot(ng) < 0.0;
-    if front || mat.flags & MATERIAL_TWO_SIDED != 0 {
+    if has(F, Feature::Emission) && (front || mat.flags & MATERIAL_TWO_SIDED != 0) {
         path.radiance += path.throughput * Vec3::from(mat.emission) * emission_weight;
     }
     if last {
@@ -139,7 +141,9 @@ pub fn shade_hit(
     };
     let color = Vec3::from(mat.color);
     let mut s = bsdf_absorbed(path.dir);
-    if mat.kind == MATERIAL_DIFFUSE {
+    // One branch per material kind, each compiled only into the variants that hold it
+    // (`cpu::variant`; the WGSL's `HAS_*`).
+    if has(F, Feature::Diffuse) && mat.kind == MATERIAL_DIFFUSE {
         let wi = sample_diffuse(ns_facing, Vec2::new(rnd.x, rnd.y));
         s = BsdfSample {
             dir: wi,
@@ -147,21 +151,35 @@ pub fn shade_hit(
             pdf: wi.dot(ns_facing).max(0.0) * INV_PI,
             transmitted: false,
         };
-    } else if mat.kind == MATERIAL_METAL {
+    } else if (has(F, Feature::Metal) || has(F, Feature::RoughMetal))
+        && mat.kind == MATERIAL_METAL
+    {
         let (eta, k) = (Vec3::from(mat.eta), Vec3::from(mat.k));
+        let alpha = if has(F, Feature::RoughMetal) {
+            mat.alpha
+        } else {
+            0.0
+        };
         s = sample_conductor(
             path.dir,
             ns_facing,
-            mat.alpha,
+            alpha,
             color,
             eta,
             k,
             Vec2::new(rnd.x, rnd.y),
         );
-    } else if mat.kind == MATERIAL_GLASS {
+    } else if (has(F, Feature::Glass) || has(F, Feature::RoughGlass))
+        && mat.kind == MATERIAL_GLASS
+    {
         let eta = if front { 1.0 / mat.ior } else { mat.ior };
-        s = sample_rough_dielectric(path.dir, ns_facing, mat.alpha, eta, color, lobe_first(rnd));
-    } else if mat.kind == MATERIAL_PLASTIC {
+        let alpha = if has(F, Feature::RoughGlass) {
+            mat.alpha
+        } else {
+            0.0
+        };
+        s = sample_rough_dielectric(path.dir, ns_facing, alpha, eta, color, lobe_first(rnd));
+    } else if has(F, Feature::Plastic) && mat.kind == MATERIAL_PLASTIC {
         s = if mat.alpha > 0.0 {
             let table = &g.plastic_tables[mat.table as usize];
             sample_rough_plastic(
@@ -264,7 +282,7 @@ pub fn path_rand4_at(
 /// Traces the path's current ray (its segment number `depth`, 0 for the camera ray): adds
 /// the environment when it escapes, else shades the hit. Every call traces exactly one ray.
 #[inline]
-pub fn trace_ray(
+pub fn trace_ray<const F: u32>(
     g: &Globals,
     bvh: &GpuBvh,
     path: &mut PathState,
@@ -283,22 +301,32 @@ pub fn trace_ray(
             mis_weight(
                 path.mis_pdf,
                 g.scene.environment_select
-                    * environment_pdf(g, path.dir, environment_cell(g, path.origin)),
+                    * environment_pdf::<F>(g, path.dir, environment_cell(g, path.origin)),
             )
         } else {
             1.0
         };
-        path.radiance += path.throughput * environment_radiance(g, path.dir) * w;
+        path.radiance += path.throughput * environment_radiance::<F>(g, path.dir) * w;
         path.alive = false;
         return;
     };
-    let surface = surface_at(g, &hit, path.origin, path.dir);
-    let mat = material_at(g, &surface);
+    let surface = surface_at::<F>(g, &hit, path.origin, path.dir);
+    let mat = material_at::<F>(g, &surface);
     let last = depth >= g.scene.max_bounces;
     // An emissive triangle hit by a direction sampled where the lights were sampled too: the
     // shadow ray there could have found this point; weigh the two estimates.
+    // Lights to sample (emitters or a sky) and materials that sample them, or neither.
+    let lit = (has(F, Feature::Emission)
+        || has(F, Feature::ConstantEnvironment)
+        || has(F, Feature::EnvironmentMap))
+        && (has(F, Feature::Diffuse)
+            || has(F, Feature::Plastic)
+            || has(F, Feature::RoughMetal)
+            || has(F, Feature::RoughGlass));
     let prim = g.primitives[hit.prim as usize];
-    let emission_weight = if path.mis_pdf > 0.0 && prim.kind() == PRIM_TRIANGLE {
+    let emission_weight = if !lit {
+        1.0
+    } else if path.mis_pdf > 0.0 && prim.kind() == PRIM_TRIANGLE {
         let [a, b, c] = [prim.a, prim.b, prim.c].map(|v| Vec3::new(v[0], v[1], v[2]));
         let n = (b - a).cross(c - a);
         let cos_l = n.dot(path.dir).abs() / n.length();
@@ -306,7 +334,7 @@ pub fn trace_ray(
             path.mis_pdf,
             light_pdf(g, Vec3::from(mat.emission), hit.t * hit.t, cos_l),
         )
-    } else if path.mis_pdf > 0.0 && prim.kind() == PRIM_SPHERE {
+    } else if has(F, Feature::Spheres) && path.mis_pdf > 0.0 && prim.kind() == PRIM_SPHERE {
         let (center, r) = (Vec3::new(prim.a[0], prim.a[1], prim.a[2]), prim.a[3]);
         let cap_pdf = sphere_cap_pdf(center, r, path.origin);
         mis_weight(
@@ -316,14 +344,15 @@ pub fn trace_ray(
     } else {
         1.0
     };
-    let sample_here = g.scene.light_count > 0 && samples_lights(&mat) && !last;
+    let sample_here = lit && g.scene.light_count > 0 && samples_lights::<F>(&mat) && !last;
     let sp = sampler_pixel(g.scene, pixel);
     if sample_here {
         let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT);
-        path.radiance += path.throughput * sample_lights(g, bvh, &surface, &mat, path.dir, rnd);
+        path.radiance +=
+            path.throughput * sample_lights::<F>(g, bvh, &surface, &mat, path.dir, rnd);
     }
     let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_SCATTER);
-    let pdf = shade_hit(g, path, &surface, &mat, rnd, last, emission_weight);
+    let pdf = shade_hit::<F>(g, path, &surface, &mat, rnd, last, emission_weight);
     path.mis_pdf = if sample_here { pdf } else { 0.0 };
     if path.alive && depth >= g.scene.rr_depth {
         russian_roulette(
@@ -352,22 +381,28 @@ pub fn russian_roulette(path: &mut PathState, u: f32) {
 /// shadow ray leaving from behind for transmission: [`light_side`]). Not smooth metal or
 /// smooth glass (deltas).
 #[inline]
-pub fn samples_lights(mat: &GpuMaterial) -> bool {
-    mat.kind == MATERIAL_DIFFUSE
-        || mat.kind == MATERIAL_PLASTIC
-        || ((mat.kind == MATERIAL_METAL || mat.kind == MATERIAL_GLASS) && mat.alpha > 0.0)
+pub fn samples_lights<const F: u32>(mat: &GpuMaterial) -> bool {
+    (has(F, Feature::Diffuse) && mat.kind == MATERIAL_DIFFUSE)
+        || (has(F, Feature::Plastic) && mat.kind == MATERIAL_PLASTIC)
+        || (has(F, Feature::RoughMetal) && mat.kind == MATERIAL_METAL && mat.alpha > 0.0)
+        || (has(F, Feature::RoughGlass) && mat.kind == MATERIAL_GLASS && mat.alpha > 0.0)
 }
 
 /// Where a light direction `wi` lies for a hit on `mat` whose normals face the incoming ray:
 /// 1 in front (both the shading and the geometric normal agree), -1 behind (both agree) for
 /// rough glass, which transmits; 0 where they disagree or the material cannot transmit.
 #[inline]
-pub fn light_side(mat: &GpuMaterial, ns_facing: Vec3, ng_facing: Vec3, wi: Vec3) -> f32 {
+pub fn light_side<const F: u32>(
+    mat: &GpuMaterial,
+    ns_facing: Vec3,
+    ng_facing: Vec3,
+    wi: Vec3,
+) -> f32 {
     let (s, g) = (ns_facing.dot(wi), ng_facing.dot(wi));
     if s > 0.0 && g > 0.0 {
         return 1.0;
     }
-    if mat.kind == MATERIAL_GLASS && s < 0.0 && g < 0.0 {
+    if has(F, Feature::RoughGlass) && mat.kind == MATERIAL_GLASS && s < 0.0 && g < 0.0 {
         return -1.0;
     }
     0.0
@@ -379,7 +414,7 @@ pub fn light_side(mat: &GpuMaterial, ns_facing: Vec3, ng_facing: Vec3, wi: Vec3)
 /// Zero for materials [`samples_lights`] excludes. `front`: the ray meets the geometric
 /// front face (glass: it enters).
 #[inline]
-pub fn eval_material(
+pub fn eval_material<const F: u32>(
     g: &Globals,
     mat: &GpuMaterial,
     dir_in: Vec3,
@@ -388,25 +423,25 @@ pub fn eval_material(
     front: bool,
 ) -> BsdfEval {
     let color = Vec3::from(mat.color);
-    if mat.kind == MATERIAL_DIFFUSE {
+    if has(F, Feature::Diffuse) && mat.kind == MATERIAL_DIFFUSE {
         let pdf = n.dot(wi).max(0.0) * INV_PI;
         return BsdfEval {
             value: color * pdf,
             pdf,
         };
     }
-    if mat.kind == MATERIAL_METAL {
+    if has(F, Feature::RoughMetal) && mat.kind == MATERIAL_METAL {
         let (eta, k) = (Vec3::from(mat.eta), Vec3::from(mat.k));
         return eval_conductor(dir_in, n, wi, mat.alpha, color, eta, k);
     }
-    if mat.kind == MATERIAL_PLASTIC {
+    if has(F, Feature::Plastic) && mat.kind == MATERIAL_PLASTIC {
         if mat.alpha > 0.0 {
             let table = &g.plastic_tables[mat.table as usize];
             return eval_rough_plastic(dir_in, n, wi, mat.alpha, mat.ior, color, table);
         }
         return eval_plastic(dir_in, n, wi, mat.ior, color);
     }
-    if mat.kind == MATERIAL_GLASS {
+    if has(F, Feature::RoughGlass) && mat.kind == MATERIAL_GLASS {
         // Entering when the ray meets the geometric front face (as in shade_hit).
         let eta = if front { 1.0 / mat.ior } else { mat.ior };
         return eval_rough_dielectric(dir_in, n, wi, mat.alpha, eta, color);
@@ -449,7 +484,7 @@ pub fn mis_weight(a: f32, b: f32) -> f32 {
 /// one-sided light, or the shadow ray is occluded; times
 /// its multiple-importance weight against the material's own sampling.
 #[inline]
-pub fn sample_lights(
+pub fn sample_lights<const F: u32>(
     g: &Globals,
     bvh: &GpuBvh,
     hit: &SurfaceHit,
@@ -492,15 +527,16 @@ pub fn sample_lights(
     // The light's direction, the shadow ray's reach and the side it leaves from, per kind;
     // then one shadow ray and one BSDF evaluation whatever the kind (as the WGSL, where that
     // means one inlined traversal and material switch instead of two).
-    let is_env = light.kind == LIGHT_ENVIRONMENT;
-    let is_sphere = light.kind == LIGHT_SPHERE;
+    let is_env = (has(F, Feature::ConstantEnvironment) || has(F, Feature::EnvironmentMap))
+        && light.kind == LIGHT_ENVIRONMENT;
+    let is_sphere = has(F, Feature::Spheres) && light.kind == LIGHT_SPHERE;
     let (wi, t_max, side, env_pdf, dist2, cos_l);
     if is_env {
         // A direction toward the sky; the shadow ray must escape the scene.
-        let (dir, pdf) = sample_environment(g, Vec2::new(rnd.x, rnd.y), cell);
+        let (dir, pdf) = sample_environment::<F>(g, Vec2::new(rnd.x, rnd.y), cell);
         wi = dir;
         env_pdf = pdf;
-        side = light_side(mat, ns_facing, ng_facing, wi);
+        side = light_side::<F>(mat, ns_facing, ng_facing, wi);
         if !(env_pdf > 0.0 && p_select > 0.0 && side != 0.0) {
             return Vec3::ZERO;
         }
@@ -530,7 +566,7 @@ pub fn sample_lights(
         let dist = dist2.sqrt();
         wi = to / dist;
         t_max = dist * SHADOW_T_SCALE;
-        side = light_side(mat, ns_facing, ng_facing, wi);
+        side = light_side::<F>(mat, ns_facing, ng_facing, wi);
         cos_l = if is_sphere {
             1.0
         } else {
@@ -562,13 +598,13 @@ pub fn sample_lights(
     if bvh.trace_any(&shadow, 0.0, t_max) {
         return Vec3::ZERO;
     }
-    let f = eval_material(g, mat, dir_in, ns_facing, wi, front);
+    let f = eval_material::<F>(g, mat, dir_in, ns_facing, wi, front);
     if is_env {
         let w = mis_weight(
-            g.scene.environment_select * environment_pdf(g, wi, cell),
+            g.scene.environment_select * environment_pdf::<F>(g, wi, cell),
             f.pdf,
         );
-        return f.value * environment_radiance(g, wi) * (w / (p_select * env_pdf));
+        return f.value * environment_radiance::<F>(g, wi) * (w / (p_select * env_pdf));
     }
     if is_sphere {
         let r = light.e1[0];

@@ -22,8 +22,10 @@
 
 use glam::{Vec2, Vec3};
 use raylume_bvh::{Hit, PRIM_SPHERE, Primitive};
+use raylume_scene::Feature;
 
 use crate::bsdf::RoughPlasticTable;
+use crate::cpu::variant::has;
 use crate::gpu_types::{
     ENVIRONMENT_CONSTANT, ENVIRONMENT_MAP, GpuLight, GpuMaterial, MATERIAL_GLASS, NO_TEXTURE,
     SHADING_HAS_NORMALS, SHADING_HAS_UVS, SRGB8_TABLE, SceneUniforms, TEXELS_LINEAR, TEXELS_SRGB8,
@@ -73,11 +75,11 @@ pub use crate::math::direction_to_equirect;
 
 /// The surface at `hit` of the ray `(origin, dir)`.
 #[inline]
-pub fn surface_at(g: &Globals, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfaceHit {
+pub fn surface_at<const F: u32>(g: &Globals, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfaceHit {
     let prim = &g.primitives[hit.prim as usize];
     let material = g.prim_materials[hit.prim as usize];
     let a = Vec3::new(prim.a[0], prim.a[1], prim.a[2]);
-    if prim.b[3].to_bits() == PRIM_SPHERE {
+    if has(F, Feature::Spheres) && prim.b[3].to_bits() == PRIM_SPHERE {
         let radius = prim.a[3];
         let p = origin + dir * hit.t;
         let from_center = p - a;
@@ -104,15 +106,17 @@ pub fn surface_at(g: &Globals, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfaceHit
     let offset = hit_offset(ng, magnitude, extent, extent * extent / cr.dot(cr).sqrt());
     let mut ns = ng;
     let mut uv = Vec2::new(hit.u, hit.v);
-    if !g.triangle_shading.is_empty() {
+    if (has(F, Feature::ShadingNormals) || has(F, Feature::Textures))
+        && !g.triangle_shading.is_empty()
+    {
         let sh = &g.triangle_shading[hit.prim as usize];
-        if sh.flags & SHADING_HAS_NORMALS != 0 {
+        if has(F, Feature::ShadingNormals) && sh.flags & SHADING_HAS_NORMALS != 0 {
             let n = normalize(
                 Vec3::from(sh.n0) * w + Vec3::from(sh.n1) * hit.u + Vec3::from(sh.n2) * hit.v,
             );
             ns = if n.dot(ng) < 0.0 { -n } else { n };
         }
-        if sh.flags & SHADING_HAS_UVS != 0 {
+        if has(F, Feature::Textures) && sh.flags & SHADING_HAS_UVS != 0 {
             uv = Vec2::new(sh.u0, sh.v0) * w
                 + Vec2::new(sh.u1, sh.v1) * hit.u
                 + Vec2::new(sh.u2, sh.v2) * hit.v;
@@ -217,9 +221,9 @@ pub fn texture_bilinear(
 
 /// The material at a surface, its colour multiplied by its albedo texture (never on glass).
 #[inline]
-pub fn material_at(g: &Globals, surface: &SurfaceHit) -> GpuMaterial {
+pub fn material_at<const F: u32>(g: &Globals, surface: &SurfaceHit) -> GpuMaterial {
     let mut m = g.materials[surface.material as usize];
-    if m.texture != NO_TEXTURE && m.kind != MATERIAL_GLASS {
+    if has(F, Feature::Textures) && m.texture != NO_TEXTURE && m.kind != MATERIAL_GLASS {
         let h = g.texture_headers[m.texture as usize];
         let t = texture_bilinear(g, h.offset, h.width, h.height, h.format, surface.uv, true);
         m.color = (Vec3::from(m.color) * t).into();
@@ -229,12 +233,12 @@ pub fn material_at(g: &Globals, surface: &SurfaceHit) -> GpuMaterial {
 
 /// Radiance arriving from the environment along the unit direction `dir`.
 #[inline]
-pub fn environment_radiance(g: &Globals, dir: Vec3) -> Vec3 {
+pub fn environment_radiance<const F: u32>(g: &Globals, dir: Vec3) -> Vec3 {
     let s = g.scene;
-    if s.environment_kind == ENVIRONMENT_CONSTANT {
+    if has(F, Feature::ConstantEnvironment) && s.environment_kind == ENVIRONMENT_CONSTANT {
         return Vec3::from(s.environment_color);
     }
-    if s.environment_kind == ENVIRONMENT_MAP {
+    if has(F, Feature::EnvironmentMap) && s.environment_kind == ENVIRONMENT_MAP {
         let e = direction_to_equirect(dir);
         let uv = Vec2::new(e.x + s.environment_rotation, e.y);
         let l = texture_bilinear(
@@ -305,9 +309,10 @@ fn environment_cdf_base(g: &Globals, cell: u32) -> u32 {
 /// cell's probability times `width * height` over the Jacobian `2π² sin θ` of the
 /// equirectangular mapping.
 #[inline]
-pub fn environment_pdf(g: &Globals, dir: Vec3, cell: u32) -> f32 {
+pub fn environment_pdf<const F: u32>(g: &Globals, dir: Vec3, cell: u32) -> f32 {
     let s = &g.scene;
-    if s.environment_cdf_width == 0 {
+    let sky = has(F, Feature::ConstantEnvironment) || has(F, Feature::EnvironmentMap);
+    if !(sky && s.environment_cdf_width != 0) {
         return 0.25 * INV_PI;
     }
     let sin_theta = (1.0 - dir.y * dir.y).max(0.0).sqrt();
@@ -335,9 +340,10 @@ pub fn environment_pdf(g: &Globals, dir: Vec3, cell: u32) -> f32 {
 /// the map's rotation; a constant environment has none). Pdf 0 (a direction to ignore) at the
 /// poles.
 #[inline]
-pub fn sample_environment(g: &Globals, u: Vec2, cell: u32) -> (Vec3, f32) {
+pub fn sample_environment<const F: u32>(g: &Globals, u: Vec2, cell: u32) -> (Vec3, f32) {
     let s = &g.scene;
-    if s.environment_cdf_width == 0 {
+    let sky = has(F, Feature::ConstantEnvironment) || has(F, Feature::EnvironmentMap);
+    if !(sky && s.environment_cdf_width != 0) {
         let z = 1.0 - 2.0 * u.x;
         let r = (1.0 - z * z).max(0.0).sqrt();
         let phi = 2.0 * PI * u.y;
@@ -448,6 +454,7 @@ pub const SURFACE_WGSL: &str = include_str!("surface.wgsl");
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cpu::variant::GENERIC;
 
     use crate::gpu_types::{GpuMaterial, T_MAX};
     use raylume_bvh::{Ray, intersect_primitive, shear_ray};
@@ -527,7 +534,7 @@ mod tests {
         for i in 0..n {
             for j in 0..n {
                 let u = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-                let (dir, pdf) = sample_environment(&g, u, 0);
+                let (dir, pdf) = sample_environment::<GENERIC>(&g, u, 0);
                 assert!(
                     (dir.length() - 1.0).abs() < 1e-5 && pdf > 0.0,
                     "{dir} {pdf}"
@@ -540,7 +547,7 @@ mod tests {
                 // 2. The pdf it reports is the one environment_pdf gives that direction
                 // (which multiple importance sampling uses), except where the polynomial
                 // atan2/acos put a direction on a texel border into the neighbour.
-                let again = environment_pdf(&g, dir, 0);
+                let again = environment_pdf::<GENERIC>(&g, dir, 0);
                 if (again - pdf).abs() > 1e-3 * pdf {
                     mismatched += 1;
                 }
@@ -565,7 +572,7 @@ mod tests {
                 let z = 1.0 - 2.0 * (i as f32 + 0.5) / m as f32;
                 let phi = 2.0 * PI * (j as f32 + 0.5) / m as f32;
                 let r = (1.0 - z * z).sqrt();
-                sum += f64::from(environment_pdf(
+                sum += f64::from(environment_pdf::<GENERIC>(
                     &g,
                     Vec3::new(r * phi.cos(), z, r * phi.sin()),
                     0,
@@ -718,7 +725,7 @@ mod tests {
                 u: h.y,
                 v: h.z,
             };
-            let s = surface_at(&g, &hit, ray.origin, ray.dir);
+            let s = surface_at::<GENERIC>(&g, &hit, ray.origin, ray.dir);
             let out = r.f() < 0.5;
             let n = if out {
                 s.geometric_normal
@@ -803,7 +810,7 @@ mod tests {
                     u: h.y,
                     v: h.z,
                 };
-                let s = surface_at(&g, &hit, ray.origin, ray.dir);
+                let s = surface_at::<GENERIC>(&g, &hit, ray.origin, ray.dir);
                 let n = if ray.dir.dot(s.geometric_normal) < 0.0 {
                     s.geometric_normal
                 } else {

@@ -14,6 +14,7 @@ use raylume_kernels::env_guide::{
 use raylume_kernels::gpu_types::SceneUniforms;
 use raylume_kernels::scene_data::{SceneData, SceneOptions};
 use raylume_kernels::surface::{Globals, environment_cell, environment_pdf, sample_environment};
+use raylume_kernels::cpu::variant::GENERIC;
 use support::*;
 
 fn learned(opening: f32) -> (raylume_scene::Scene, raylume_bvh::GpuBvh, SceneData) {
@@ -142,7 +143,7 @@ fn guided_samples_have_the_pdf_they_report_and_integrate_exactly() {
                     theta.cos() as f32,
                     (-theta.sin() * phi.cos()) as f32,
                 );
-                let pdf = f64::from(environment_pdf(&g, d, cell)) * theta.sin();
+                let pdf = f64::from(environment_pdf::<GENERIC>(&g, d, cell)) * theta.sin();
                 total += pdf;
                 if d.y > 0.0 {
                     up += pdf;
@@ -166,9 +167,9 @@ fn guided_samples_have_the_pdf_they_report_and_integrate_exactly() {
         for i in 0..n {
             for j in 0..n {
                 let uv = Vec2::new((i as f32 + 0.5) / n as f32, (j as f32 + 0.5) / n as f32);
-                let (d, pdf) = sample_environment(&g, uv, cell);
+                let (d, pdf) = sample_environment::<GENERIC>(&g, uv, cell);
                 assert!(pdf > 0.0 && (d.length() - 1.0).abs() < 1e-5, "{d} {pdf}");
-                let again = environment_pdf(&g, d, cell);
+                let again = environment_pdf::<GENERIC>(&g, d, cell);
                 if (again - pdf).abs() > 1e-3 * pdf {
                     mismatched += 1;
                 }
@@ -222,7 +223,7 @@ fn guided_next_event_estimation_finds_the_skylight_more_often() {
             let r = |x: u32| raylume_kernels::rng::rand_f32(x);
             let p = Vec3::new(1.8 * r(h[0]) - 0.9, 1e-3, 1.8 * r(h[1]) - 0.9);
             let cell = environment_cell(g, p);
-            let (d, pdf) = sample_environment(g, Vec2::new(r(h[2]), r(h[3])), cell);
+            let (d, pdf) = sample_environment::<GENERIC>(g, Vec2::new(r(h[2]), r(h[3])), cell);
             let ray = raylume_bvh::Ray::new(p, d);
             let v = if d.y > 0.0 && pdf > 0.0 && !bvh.trace_any(&ray, 0.0, f32::INFINITY) {
                 f64::from(d.y / pdf)

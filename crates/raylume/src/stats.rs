@@ -92,15 +92,17 @@ pub struct RenderStats {
     pub spheres: usize,
     /// The scene's features (what the kernels were specialised on).
     pub features: Vec<&'static str>,
-    /// On the GPU, the features the pipelines were compiled for: the scene's, or every one
-    /// for the generic baseline (`Tracer::specialisation`). Empty on the CPU.
+    /// The features the code that traced was compiled for (`Tracer::specialisation`): on the
+    /// GPU the pipelines' (the scene's, or every one for the generic baseline); on the CPU
+    /// the mirror's variant (`raylume_kernels::cpu::variant`: the smallest of its sixteen that
+    /// holds the scene's features, or every one).
     pub pipeline_features: Vec<&'static str>,
     /// `Backend::Gpus`: what each device did (its adapter, samples, seconds, rays).
     pub workers: Vec<crate::WorkerStats>,
     /// For a render part (`Tracer::samples`), the samples of every pixel it traced.
     pub samples: Option<crate::SampleRange>,
-    /// On the GPU, how the pipelines were specialised: `"composed"`, `"overrides"` or
-    /// `"generic"`. Empty on the CPU.
+    /// How the code that traced was specialised: `"composed"`, `"overrides"` or `"generic"`
+    /// (on the CPU the first two run the same variant).
     pub specialisation: String,
     /// `megakernel` or `wavefront` (`megakernel + wavefront (auto trials)` when
     /// `--reorder auto` measured both in this render).

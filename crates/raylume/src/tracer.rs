@@ -455,7 +455,9 @@ pub struct Tracer {
     /// for is not in the shader at all; [`Specialisation::Overrides`]: it is, behind WGSL
     /// override constants; [`Specialisation::Generic`]: every feature compiled in, the
     /// baseline, `bench --specialise`). The image is the same every way (`tests/specialise.rs`).
-    /// The CPU mirror branches on the scene's data and is the same in all.
+    /// The CPU mirror's per-bounce functions are compiled in sixteen variants by feature group
+    /// (`raylume_kernels::cpu::variant`): `Generic` runs the one with every feature, the
+    /// others the smallest holding the scene's.
     pub specialisation: Specialisation,
     /// Features compiled into the GPU pipelines although the scene does not call for them
     /// (default none): for measuring what a feature costs when present but unused (`bench
@@ -1906,6 +1908,9 @@ impl Tracer {
         prepared.cpu = Some(data.clone());
         // The tree and the data are shared, not copied (hundreds of MB for a large scene).
         let mut tracer = CpuTracer::with_shared(bvh.clone(), data.clone())?;
+        tracer.set_specialisation(self.specialisation);
+        stats.specialisation = self.specialisation.name().into();
+        stats.pipeline_features = tracer.variant_features().names();
         stats.seconds.upload += t.elapsed().as_secs_f64();
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);

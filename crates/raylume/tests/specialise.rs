@@ -63,10 +63,47 @@ fn composed_overridden_and_generic_pipelines_render_the_same_image() {
             assert_eq!(s.stats.rays_traced, o.stats.rays_traced, "{name}");
         }
     }
-    // The CPU mirror is not specialised: it names no pipeline features.
-    let cpu = Tracer::new(Backend::Cpu)
-        .render(&common::small_scene(&common::project_scenes()[0], 16))
-        .unwrap();
-    assert!(cpu.stats.pipeline_features.is_empty());
-    assert!(cpu.stats.specialisation.is_empty());
+}
+
+/// The CPU mirror's variants (`raylume_kernels::cpu::variant`): every scene renders the same,
+/// bit for bit, with the per-bounce functions compiled for its feature groups and with every
+/// feature compiled in; the variant holds the scene's features and, for every scene here,
+/// lacks some (or the test would compare the generic code with itself).
+#[test]
+fn the_cpu_mirror_specialised_and_generic_render_the_same_image() {
+    let mut specialised = Tracer::new(Backend::Cpu);
+    let mut generic = Tracer::new(Backend::Cpu);
+    generic.specialisation = Specialisation::Generic;
+    let all = raylume::Features::all().names();
+    for path in common::project_scenes() {
+        let scene = common::small_scene(&path, 16);
+        let name = path.display();
+        let s = specialised.render(&scene).unwrap();
+        assert_eq!(s.stats.specialisation, "composed");
+        let variant = &s.stats.pipeline_features;
+        for f in raylume_kernels::tracer_features(&scene).names() {
+            assert!(variant.contains(&f), "{name}: the variant {variant:?} lacks {f}");
+        }
+        assert!(
+            variant.len() < all.len(),
+            "{name}: the variant has every feature, so this compares nothing"
+        );
+        assert!(s.pixels.iter().flatten().any(|v| *v > 0.0), "{name}: black");
+        let g = generic.render(&scene).unwrap();
+        assert_eq!(g.stats.specialisation, "generic");
+        assert_eq!(g.stats.pipeline_features, all, "{name}");
+        let differ = s
+            .pixels
+            .iter()
+            .zip(&g.pixels)
+            .filter(|(a, b)| a.map(f32::to_bits) != b.map(f32::to_bits))
+            .count();
+        assert_eq!(
+            differ,
+            0,
+            "{name}: {differ} of {} pixels differ between the CPU's variant and its generic code",
+            s.pixels.len()
+        );
+        assert_eq!(s.stats.rays_traced, g.stats.rays_traced, "{name}");
+    }
 }

@@ -4,6 +4,7 @@
 //! sorts rays.
 
 pub mod stages;
+pub mod variant;
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -16,7 +17,8 @@ use crate::batches::{RoundFlow, RoundHook, RoundSums, ends_round, into_rounds};
 use crate::gpu_types::{RayState, SceneUniforms};
 use crate::scene_data::{RenderChoices, SceneData, SceneOptions};
 use crate::surface::Globals;
-use crate::{KernelError, Schedule, TraceOutput, TraceSettings};
+use crate::{KernelError, Schedule, Specialisation, TraceOutput, TraceSettings};
+use variant::{ForVariant, run_variant, variant_of};
 
 /// Rays per batch on the CPU: bounds the wavefront's ray states to 256 MiB.
 pub const CPU_MAX_RAYS_PER_BATCH: u64 = 1 << 22;
@@ -29,6 +31,8 @@ pub struct CpuTracer {
     /// This tracer's estimator, roulette, sampler, guide use and sample range (the data's
     /// own at first).
     choices: RenderChoices,
+    /// The variant of the per-bounce functions the renders run ([`variant`]).
+    variant: usize,
     prepare_seconds: f64,
 }
 
@@ -65,6 +69,18 @@ impl CpuTracer {
         self.data.environment_guide_walks
     }
 
+    /// How the per-bounce functions are specialised on the scene's features ([`variant`]):
+    /// [`Specialisation::Generic`] runs the variant with every feature, the others (the
+    /// default) the smallest that holds the scene's. The image is the same.
+    pub fn set_specialisation(&mut self, specialisation: Specialisation) {
+        self.variant = variant_of(self.data.features, specialisation);
+    }
+
+    /// The feature bits of the variant the renders run ([`variant::variant`]).
+    pub fn variant_features(&self) -> raylume_scene::Features {
+        raylume_scene::Features::from_bits(variant::variant(self.variant))
+    }
+
     /// Trace only samples `range` of every pixel (`None`, the default: all of them) and
     /// leave each pixel's *sum* over the range in the image, not its mean: a render part, to
     /// be added to the other parts' sums and divided by the total count. The random numbers
@@ -91,6 +107,7 @@ impl CpuTracer {
         Ok(Self {
             bvh: Arc::new(bvh.clone()),
             choices: data.choices(),
+            variant: variant_of(data.features, Specialisation::default()),
             data: Arc::new(data),
             prepare_seconds: t.elapsed().as_secs_f64(),
         })
@@ -110,6 +127,7 @@ impl CpuTracer {
         Ok(Self {
             bvh,
             choices: data.choices(),
+            variant: variant_of(data.features, Specialisation::default()),
             data,
             prepare_seconds: 0.0,
         })
@@ -132,10 +150,31 @@ impl CpuTracer {
     /// The radiance of one pixel sample of a render with `settings` (what the GPU writes to
     /// that sample's slot, before the non-finite check): for tests and debugging.
     pub fn sample_radiance(&self, settings: &TraceSettings, pixel: u32, sample: u32) -> [f32; 3] {
+        struct OnePath<'a> {
+            g: &'a Globals<'a>,
+            bvh: &'a GpuBvh,
+            pixel: u32,
+            sample: u32,
+        }
+        impl ForVariant for OnePath<'_> {
+            type Out = [f32; 3];
+            fn run<const F: u32>(self) -> [f32; 3] {
+                stages::trace_path::<F>(self.g, self.bvh, self.pixel, self.sample)
+                    .0
+                    .into()
+            }
+        }
         let scene = self.data.uniforms_with(settings, &self.choices);
-        stages::trace_path(&self.globals(&scene), &self.bvh, pixel, sample)
-            .0
-            .into()
+        let g = self.globals(&scene);
+        run_variant(
+            self.variant,
+            OnePath {
+                g: &g,
+                bvh: &self.bvh,
+                pixel,
+                sample,
+            },
+        )
     }
 
     /// Renders with `settings`, calling `progress(spp_done, spp_total)` after each batch.
@@ -199,54 +238,24 @@ impl CpuTracer {
             let n = b.rays() as usize;
             slots.clear();
             slots.resize(n, [0.0; 3]);
-            match settings.schedule {
-                // The persistent schedule only changes which GPU thread traces a sample.
-                Schedule::Megakernel | Schedule::Persistent => {
-                    let t = Instant::now();
-                    let (traced, drops) = slots
-                        .par_iter_mut()
-                        .enumerate()
-                        .map(|(r, slot)| {
-                            let (v, d, traced) = stages::trace_paths(&g, bvh, r as u32);
-                            *slot = v;
-                            (u64::from(traced), u64::from(d))
-                        })
-                        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-                    rays_traced += traced;
-                    dropped += drops;
-                    t_paths += t.elapsed().as_secs_f64();
-                }
-                Schedule::Wavefront => {
-                    let t = Instant::now();
-                    states.clear();
-                    (0..b.rays())
-                        .into_par_iter()
-                        .map(|r| stages::raygen(&scene, r))
-                        .collect_into_vec(&mut states);
-                    t_raygen += t.elapsed().as_secs_f64();
-                    let t = Instant::now();
-                    for depth in 0..=settings.max_bounces {
-                        let (traced, drops) = states
-                            .par_iter_mut()
-                            .zip(slots.par_iter_mut())
-                            .filter(|(ray, _)| ray.alive != 0)
-                            .map(|(ray, slot)| match stages::propagate(&g, bvh, ray, depth) {
-                                Some((v, d)) => {
-                                    *slot = v;
-                                    (1u64, u64::from(d))
-                                }
-                                None => (1, 0),
-                            })
-                            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-                        rays_traced += traced;
-                        dropped += drops;
-                        if traced == 0 {
-                            break;
-                        }
-                    }
-                    t_propagate += t.elapsed().as_secs_f64();
-                }
-            }
+            let counts = run_variant(
+                self.variant,
+                BatchRun {
+                    g: &g,
+                    bvh,
+                    scene: &scene,
+                    schedule: settings.schedule,
+                    max_bounces: settings.max_bounces,
+                    rays: b.rays(),
+                    slots: &mut slots,
+                    states: &mut states,
+                },
+            );
+            rays_traced += counts.rays;
+            dropped += counts.dropped;
+            t_paths += counts.paths;
+            t_raygen += counts.raygen;
+            t_propagate += counts.propagate;
             let t = Instant::now();
             let pixel_range = b.pixel_begin as usize..(b.pixel_begin + b.pixel_count) as usize;
             image[pixel_range]
@@ -293,5 +302,93 @@ impl CpuTracer {
             dropped_samples: dropped,
             timings,
         })
+    }
+}
+
+/// One batch's paths on every core (`trace_paths`, or `raygen` then `propagate` per segment),
+/// run by [`run_variant`] with the functions of the tracer's variant.
+struct BatchRun<'a> {
+    g: &'a Globals<'a>,
+    bvh: &'a GpuBvh,
+    scene: &'a SceneUniforms,
+    schedule: Schedule,
+    max_bounces: u32,
+    rays: u32,
+    slots: &'a mut Vec<[f32; 3]>,
+    states: &'a mut Vec<RayState>,
+}
+
+/// What a [`BatchRun`] traced, dropped, and spent per stage (seconds).
+#[derive(Default)]
+struct BatchCounts {
+    rays: u64,
+    dropped: u64,
+    paths: f64,
+    raygen: f64,
+    propagate: f64,
+}
+
+impl ForVariant for BatchRun<'_> {
+    type Out = BatchCounts;
+
+    fn run<const F: u32>(self) -> BatchCounts {
+        let BatchRun {
+            g,
+            bvh,
+            scene,
+            schedule,
+            max_bounces,
+            rays,
+            slots,
+            states,
+        } = self;
+        let mut c = BatchCounts::default();
+        match schedule {
+            // The persistent schedule only changes which GPU thread traces a sample.
+            Schedule::Megakernel | Schedule::Persistent => {
+                let t = Instant::now();
+                (c.rays, c.dropped) = slots
+                    .par_iter_mut()
+                    .enumerate()
+                    .map(|(r, slot)| {
+                        let (v, d, traced) = stages::trace_paths::<F>(g, bvh, r as u32);
+                        *slot = v;
+                        (u64::from(traced), u64::from(d))
+                    })
+                    .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+                c.paths = t.elapsed().as_secs_f64();
+            }
+            Schedule::Wavefront => {
+                let t = Instant::now();
+                states.clear();
+                (0..rays)
+                    .into_par_iter()
+                    .map(|r| stages::raygen(scene, r))
+                    .collect_into_vec(states);
+                c.raygen = t.elapsed().as_secs_f64();
+                let t = Instant::now();
+                for depth in 0..=max_bounces {
+                    let (traced, drops) = states
+                        .par_iter_mut()
+                        .zip(slots.par_iter_mut())
+                        .filter(|(ray, _)| ray.alive != 0)
+                        .map(|(ray, slot)| match stages::propagate::<F>(g, bvh, ray, depth) {
+                            Some((v, d)) => {
+                                *slot = v;
+                                (1u64, u64::from(d))
+                            }
+                            None => (1, 0),
+                        })
+                        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+                    c.rays += traced;
+                    c.dropped += drops;
+                    if traced == 0 {
+                        break;
+                    }
+                }
+                c.propagate = t.elapsed().as_secs_f64();
+            }
+        }
+        c
     }
 }

@@ -64,7 +64,7 @@ pub fn raygen(scene: &SceneUniforms, r: u32) -> RayState {
 /// `propagate` at segment `depth`: advances a live stored ray by one segment. Returns the
 /// sample to write when the path ended (`Some((value, dropped))`).
 #[inline]
-pub fn propagate(
+pub fn propagate<const F: u32>(
     g: &Globals,
     bvh: &GpuBvh,
     ray: &mut RayState,
@@ -72,7 +72,7 @@ pub fn propagate(
 ) -> Option<([f32; 3], bool)> {
     let mut path = PathState::load(ray);
     path.alive = true;
-    trace_ray(g, bvh, &mut path, ray.pixel, ray.sample, depth);
+    trace_ray::<F>(g, bvh, &mut path, ray.pixel, ray.sample, depth);
     path.store(ray, depth + 1);
     (!path.alive).then(|| write_sample(path.radiance))
 }
@@ -80,13 +80,18 @@ pub fn propagate(
 /// The whole path of one pixel sample, all bounces in a loop: its radiance and the rays it
 /// traced.
 #[inline]
-pub fn trace_path(g: &Globals, bvh: &GpuBvh, pixel: u32, sample: u32) -> (Vec3, u32) {
+pub fn trace_path<const F: u32>(
+    g: &Globals,
+    bvh: &GpuBvh,
+    pixel: u32,
+    sample: u32,
+) -> (Vec3, u32) {
     let scene = g.scene;
     let mut path = camera_path(scene, pixel, sample);
     let mut traced = 0;
     let mut depth = 0;
     while depth <= scene.max_bounces && path.alive {
-        trace_ray(g, bvh, &mut path, pixel, sample, depth);
+        trace_ray::<F>(g, bvh, &mut path, pixel, sample, depth);
         traced += 1;
         depth += 1;
     }
@@ -96,9 +101,9 @@ pub fn trace_path(g: &Globals, bvh: &GpuBvh, pixel: u32, sample: u32) -> (Vec3, 
 /// `trace_paths`: the whole path of ray `r` of the batch; returns its slot value, whether
 /// it was dropped, and the rays traced.
 #[inline]
-pub fn trace_paths(g: &Globals, bvh: &GpuBvh, r: u32) -> ([f32; 3], bool, u32) {
+pub fn trace_paths<const F: u32>(g: &Globals, bvh: &GpuBvh, r: u32) -> ([f32; 3], bool, u32) {
     let (pixel, sample) = batch_ray(g.scene, r);
-    let (radiance, traced) = trace_path(g, bvh, pixel, sample);
+    let (radiance, traced) = trace_path::<F>(g, bvh, pixel, sample);
     let (value, dropped) = write_sample(radiance);
     (value, dropped, traced)
 }

@@ -1,0 +1,139 @@
+//! The CPU mirror specialised on a scene's features, as the GPU's pipelines are.
+//!
+//! The per-bounce functions (`shade::trace_ray`, `shade_hit`, `sample_lights`,
+//! `surface::surface_at`, ...) take the feature set as a const generic `F` (the bits of
+//! [`Features`]) and test [`has`] where the WGSL tests its `HAS_*` override constants, so that
+//! the variant compiled for a scene without a feature holds none of its code: the compiler
+//! folds the test to `false` and drops the branch. A render picks its variant once
+//! ([`variant_of`], by [`Specialisation`]); [`GENERIC`] has every feature.
+//!
+//! Compiling a variant per feature set (2^14) is out of the question, so the features are
+//! compiled in or out by group ([`GROUPS`]: the materials beyond diffuse, spheres, textures and
+//! shading normals, the environment), diffuse surfaces, emission and triangles always in:
+//! sixteen variants, each a superset of the features of the scenes it serves. On the 2-core
+//! machine the Cornell box (diffuse and emission only) traced 5 % faster with every other
+//! group's branches removed by hand (docs/RESULTS.md).
+
+use raylume_scene::{Feature, Features};
+
+use crate::Specialisation;
+
+/// Whether the feature set `f` (a variant's bits) holds `feature`: the Rust side of a WGSL
+/// `HAS_*` constant.
+#[inline(always)]
+pub const fn has(f: u32, feature: Feature) -> bool {
+    f & feature as u32 != 0
+}
+
+/// Every feature: the generic variant, the baseline.
+pub const GENERIC: u32 = Features::all().bits();
+
+/// What every variant holds: diffuse surfaces, emission, triangles (and bloom, which is not
+/// the tracer's).
+pub const ALWAYS: u32 = Feature::Diffuse as u32
+    | Feature::Emission as u32
+    | Feature::Triangles as u32
+    | Feature::Bloom as u32;
+
+/// The groups of features a variant holds or lacks as a whole.
+pub const GROUPS: [u32; 4] = [
+    Feature::Metal as u32
+        | Feature::RoughMetal as u32
+        | Feature::Glass as u32
+        | Feature::RoughGlass as u32
+        | Feature::Plastic as u32,
+    Feature::Spheres as u32,
+    Feature::Textures as u32 | Feature::ShadingNormals as u32,
+    Feature::ConstantEnvironment as u32 | Feature::EnvironmentMap as u32,
+];
+
+/// The variants compiled, by index: bit `i` of the index holds group `i`.
+pub const VARIANTS: usize = 1 << GROUPS.len();
+
+/// The feature bits of variant `index` ([`ALWAYS`] and its groups).
+pub const fn variant(index: usize) -> u32 {
+    let mut f = ALWAYS;
+    let mut i = 0;
+    while i < GROUPS.len() {
+        if index & (1 << i) != 0 {
+            f |= GROUPS[i];
+        }
+        i += 1;
+    }
+    f
+}
+
+/// The index of the smallest variant holding `features`.
+pub fn variant_index(features: Features) -> usize {
+    GROUPS
+        .iter()
+        .enumerate()
+        .filter(|(_, g)| features.bits() & **g != 0)
+        .map(|(i, _)| 1 << i)
+        .sum()
+}
+
+/// The variant a render of a scene of `features` runs: the smallest holding them, or every
+/// feature for [`Specialisation::Generic`]. (`Overrides` and `Composed`, which differ on the
+/// GPU in how the absent code is dropped, are the same here.)
+pub fn variant_of(features: Features, specialisation: Specialisation) -> usize {
+    match specialisation {
+        Specialisation::Generic => VARIANTS - 1,
+        Specialisation::Overrides | Specialisation::Composed => variant_index(features),
+    }
+}
+
+/// Code generic over a variant, run by [`run_variant`] with the one chosen at run time.
+pub trait ForVariant {
+    /// What the code returns.
+    type Out;
+    /// Runs the code compiled for the feature set `F`.
+    fn run<const F: u32>(self) -> Self::Out;
+}
+
+/// Runs `code` compiled for variant `index` (< [`VARIANTS`]).
+pub fn run_variant<T: ForVariant>(index: usize, code: T) -> T::Out {
+    match index {
+        0 => code.run::<{ variant(0) }>(),
+        1 => code.run::<{ variant(1) }>(),
+        2 => code.run::<{ variant(2) }>(),
+        3 => code.run::<{ variant(3) }>(),
+        4 => code.run::<{ variant(4) }>(),
+        5 => code.run::<{ variant(5) }>(),
+        6 => code.run::<{ variant(6) }>(),
+        7 => code.run::<{ variant(7) }>(),
+        8 => code.run::<{ variant(8) }>(),
+        9 => code.run::<{ variant(9) }>(),
+        10 => code.run::<{ variant(10) }>(),
+        11 => code.run::<{ variant(11) }>(),
+        12 => code.run::<{ variant(12) }>(),
+        13 => code.run::<{ variant(13) }>(),
+        14 => code.run::<{ variant(14) }>(),
+        _ => code.run::<{ variant(15) }>(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_feature_set_runs_a_variant_that_holds_it() {
+        assert_eq!(VARIANTS, 16, "run_variant's arms");
+        assert_eq!(variant(VARIANTS - 1), GENERIC, "the last variant is the generic one");
+        let all: u32 = GROUPS.iter().fold(ALWAYS, |a, g| a | g);
+        assert_eq!(all, GENERIC, "every feature is in a group or always in");
+        for bits in 0..=GENERIC {
+            let f = Features::from_bits(bits);
+            let v = variant(variant_of(f, Specialisation::Composed));
+            assert_eq!(v & bits, bits, "variant {v:#x} lacks features of {bits:#x}");
+            // And it is the smallest: each of its groups is needed.
+            for g in GROUPS {
+                if v & g != 0 {
+                    assert_ne!(bits & g, 0, "variant {v:#x} holds a group {bits:#x} lacks");
+                }
+            }
+            assert_eq!(variant_of(f, Specialisation::Generic), VARIANTS - 1);
+        }
+    }
+}
