@@ -31,12 +31,12 @@ use glam::{Vec2, Vec3, Vec4};
 use raylume_bvh::{GpuBvh, PRIM_SPHERE, PRIM_TRIANGLE, Ray};
 use raylume_scene::Feature;
 
-use crate::cpu::variant::has;
 use crate::bsdf::{
     BsdfEval, BsdfSample, bsdf_absorbed, bsdf_eval_zero, eval_conductor, eval_plastic,
     eval_rough_dielectric, eval_rough_plastic, sample_conductor, sample_plastic,
     sample_rough_dielectric, sample_rough_plastic,
 };
+use crate::cpu::variant::has;
 use crate::gpu_types::{
     DIM_CAMERA, DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE, GpuMaterial,
     LIGHT_ENVIRONMENT, LIGHT_SPHERE, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL,
@@ -151,8 +151,7 @@ pub fn shade_hit<const F: u32>(
             pdf: wi.dot(ns_facing).max(0.0) * INV_PI,
             transmitted: false,
         };
-    } else if (has(F, Feature::Metal) || has(F, Feature::RoughMetal))
-        && mat.kind == MATERIAL_METAL
+    } else if (has(F, Feature::Metal) || has(F, Feature::RoughMetal)) && mat.kind == MATERIAL_METAL
     {
         let (eta, k) = (Vec3::from(mat.eta), Vec3::from(mat.k));
         let alpha = if has(F, Feature::RoughMetal) {
@@ -169,8 +168,7 @@ pub fn shade_hit<const F: u32>(
             k,
             Vec2::new(rnd.x, rnd.y),
         );
-    } else if (has(F, Feature::Glass) || has(F, Feature::RoughGlass))
-        && mat.kind == MATERIAL_GLASS
+    } else if (has(F, Feature::Glass) || has(F, Feature::RoughGlass)) && mat.kind == MATERIAL_GLASS
     {
         let eta = if front { 1.0 / mat.ior } else { mat.ior };
         let alpha = if has(F, Feature::RoughGlass) {

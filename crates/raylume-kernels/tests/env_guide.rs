@@ -7,6 +7,7 @@
 mod support;
 
 use glam::{Vec2, Vec3};
+use raylume_kernels::cpu::variant::GENERIC;
 use raylume_kernels::env_guide::{
     EnvironmentGuide, GUIDE_HEIGHT, GUIDE_UNIFORM_SHARE, cell_index, guide_grid,
     learn_environment_guide,
@@ -14,7 +15,6 @@ use raylume_kernels::env_guide::{
 use raylume_kernels::gpu_types::SceneUniforms;
 use raylume_kernels::scene_data::{SceneData, SceneOptions};
 use raylume_kernels::surface::{Globals, environment_cell, environment_pdf, sample_environment};
-use raylume_kernels::cpu::variant::GENERIC;
 use support::*;
 
 fn learned(opening: f32) -> (raylume_scene::Scene, raylume_bvh::GpuBvh, SceneData) {

@@ -459,9 +459,10 @@ pub struct Tracer {
     /// (`raylume_kernels::cpu::variant`): `Generic` runs the one with every feature, the
     /// others the smallest holding the scene's.
     pub specialisation: Specialisation,
-    /// Features compiled into the GPU pipelines although the scene does not call for them
-    /// (default none): for measuring what a feature costs when present but unused (`bench
-    /// --extra-feature`). The image is the same.
+    /// Features compiled into the GPU pipelines (and into the CPU mirror's variant, whose
+    /// groups then include theirs) although the scene does not call for them (default none):
+    /// for measuring what a feature costs when present but unused (`bench --extra-feature`).
+    /// The image is the same.
     pub extra_features: raylume_scene::Features,
     /// Render only these samples of every pixel (default `None`: all of them): a render
     /// **part**, whose image holds each pixel's *sum* over the range and whose
@@ -1908,7 +1909,7 @@ impl Tracer {
         prepared.cpu = Some(data.clone());
         // The tree and the data are shared, not copied (hundreds of MB for a large scene).
         let mut tracer = CpuTracer::with_shared(bvh.clone(), data.clone())?;
-        tracer.set_specialisation(self.specialisation);
+        tracer.set_specialisation(self.specialisation, self.extra_features);
         stats.specialisation = self.specialisation.name().into();
         stats.pipeline_features = tracer.variant_features().names();
         stats.seconds.upload += t.elapsed().as_secs_f64();

@@ -74,7 +74,10 @@ fn the_cpu_mirror_specialised_and_generic_render_the_same_image() {
     let mut specialised = Tracer::new(Backend::Cpu);
     let mut generic = Tracer::new(Backend::Cpu);
     generic.specialisation = Specialisation::Generic;
-    let all = raylume::Features::all().names();
+    // Every feature but bloom, a post pass and not the tracer's.
+    let mut every = raylume::Features::all();
+    every.remove(raylume::Feature::Bloom);
+    let all = every.names();
     for path in common::project_scenes() {
         let scene = common::small_scene(&path, 16);
         let name = path.display();
@@ -82,7 +85,10 @@ fn the_cpu_mirror_specialised_and_generic_render_the_same_image() {
         assert_eq!(s.stats.specialisation, "composed");
         let variant = &s.stats.pipeline_features;
         for f in raylume_kernels::tracer_features(&scene).names() {
-            assert!(variant.contains(&f), "{name}: the variant {variant:?} lacks {f}");
+            assert!(
+                variant.contains(&f),
+                "{name}: the variant {variant:?} lacks {f}"
+            );
         }
         assert!(
             variant.len() < all.len(),
@@ -106,4 +112,14 @@ fn the_cpu_mirror_specialised_and_generic_render_the_same_image() {
         );
         assert_eq!(s.stats.rays_traced, g.stats.rays_traced, "{name}");
     }
+    // A feature compiled in although the scene lacks it (`bench --extra-feature`): its group
+    // joins the variant, and the image stays.
+    let scene = common::small_cornell(2);
+    let plain = specialised.render(&scene).unwrap();
+    assert!(!plain.stats.pipeline_features.contains(&"spheres"));
+    let mut extra = Tracer::new(Backend::Cpu);
+    extra.extra_features.insert(raylume::Feature::Spheres);
+    let with_spheres = extra.render(&scene).unwrap();
+    assert!(with_spheres.stats.pipeline_features.contains(&"spheres"));
+    assert_eq!(with_spheres.pixels, plain.pixels);
 }

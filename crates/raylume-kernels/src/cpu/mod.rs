@@ -71,9 +71,16 @@ impl CpuTracer {
 
     /// How the per-bounce functions are specialised on the scene's features ([`variant`]):
     /// [`Specialisation::Generic`] runs the variant with every feature, the others (the
-    /// default) the smallest that holds the scene's. The image is the same.
-    pub fn set_specialisation(&mut self, specialisation: Specialisation) {
-        self.variant = variant_of(self.data.features, specialisation);
+    /// default) the smallest that holds the scene's and `extra` (features compiled in
+    /// although the scene lacks them: what one costs present but unused, `bench
+    /// --extra-feature`). The image is the same.
+    pub fn set_specialisation(
+        &mut self,
+        specialisation: Specialisation,
+        extra: raylume_scene::Features,
+    ) {
+        let features = self.data.features.bits() | extra.bits();
+        self.variant = variant_of(raylume_scene::Features::from_bits(features), specialisation);
     }
 
     /// The feature bits of the variant the renders run ([`variant::variant`]).
@@ -372,13 +379,15 @@ impl ForVariant for BatchRun<'_> {
                         .par_iter_mut()
                         .zip(slots.par_iter_mut())
                         .filter(|(ray, _)| ray.alive != 0)
-                        .map(|(ray, slot)| match stages::propagate::<F>(g, bvh, ray, depth) {
-                            Some((v, d)) => {
-                                *slot = v;
-                                (1u64, u64::from(d))
-                            }
-                            None => (1, 0),
-                        })
+                        .map(
+                            |(ray, slot)| match stages::propagate::<F>(g, bvh, ray, depth) {
+                                Some((v, d)) => {
+                                    *slot = v;
+                                    (1u64, u64::from(d))
+                                }
+                                None => (1, 0),
+                            },
+                        )
                         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
                     c.rays += traced;
                     c.dropped += drops;

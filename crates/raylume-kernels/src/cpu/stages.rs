@@ -80,12 +80,7 @@ pub fn propagate<const F: u32>(
 /// The whole path of one pixel sample, all bounces in a loop: its radiance and the rays it
 /// traced.
 #[inline]
-pub fn trace_path<const F: u32>(
-    g: &Globals,
-    bvh: &GpuBvh,
-    pixel: u32,
-    sample: u32,
-) -> (Vec3, u32) {
+pub fn trace_path<const F: u32>(g: &Globals, bvh: &GpuBvh, pixel: u32, sample: u32) -> (Vec3, u32) {
     let scene = g.scene;
     let mut path = camera_path(scene, pixel, sample);
     let mut traced = 0;
