@@ -14,7 +14,9 @@
 # counts tried besides the default, RAYLUME_PERSISTENT_THREADS), T1_PARTS (which parts run: "plain
 # nee threads mitsuba first-image large specialise", all by default; `specialise` is issue 14's:
 # every scene with its pipelines composed, overridden and generic, then with each absent feature
-# compiled in (present but unused); `parts` is issue 16's: a render whole and as 4 parts in
+# compiled in (present but unused; T1_SPECIALISE_EXTRA=0 skips that); `cpu-specialise` the same
+# on the host's CPU (the mirror's variant against its generic code, T1_CPU_SIZE, default
+# 600x600, 4 spp, both estimators); `parts` is issue 16's: a render whole and as 4 parts in
 # separate processes (the overhead of splitting), merged, and --backend gpus on the one GPU;
 # `workgroup` times the Cornell box and the living room with RAYLUME_WORKGROUP_SIZE in
 # T1_WORKGROUPS (default "32 64 128 256");
@@ -120,11 +122,27 @@ device() {
   timeout 150 /tmp/bench $one --spp 100 --specialise composed,overrides,generic --estimator nee --rr-depth 5 \
     --json $R/specialise-nee.json $S6 > $R/specialise-nee.md 2> $R/specialise-nee.log || echo "bench: exit $?"
   awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/specialise-nee.md
+  if [ "${T1_SPECIALISE_EXTRA:-1}" = 1 ]; then
   echo "== each feature present but unused (composed, plain, 100 spp; at $(el) s)"
   timeout 240 /tmp/bench $one --spp 100 --specialise composed \
     --extra-feature diffuse,metal,rough_metal,glass,rough_glass,plastic,emission,spheres,textures,shading_normals,constant_environment,environment_map \
     --json $R/extra.json $S6 > $R/extra.md 2> $R/extra.log || echo "bench: exit $?"
   awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/extra.md
+  fi
+  fi
+  if [[ $parts == *" cpu-specialise "* ]]; then
+  # Issue 14 on the host's CPU: the mirror's variant against its generic code, per estimator.
+  local S6="scenes/cornell-box.toml scenes/living-room/scene.json scenes/teapot.toml scenes/glass-teapot.toml scenes/spheres.toml scenes/cornell-plus.toml"
+  local est
+  for est in plain nee; do
+    echo "== issue 14 on the CPU ($(nproc) threads): specialised and generic, $est (at $(el) s)"
+    local opts="--estimator plain"
+    [ $est = nee ] && opts="--estimator nee --sampler sobol --rr-depth 5"
+    timeout 200 /tmp/bench --backend cpu --size ${T1_CPU_SIZE:-600x600} --spp 4 --repeat 5 \
+      --specialise composed,generic $opts --json $R/cpu-specialise-$est.json $S6 \
+      > $R/cpu-specialise-$est.md 2> $R/cpu-specialise-$est.log || echo "bench: exit $?"
+    awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/cpu-specialise-$est.md
+  done
   fi
   if [[ $parts == *" workgroup "* ]]; then
   local wg est
