@@ -10,6 +10,14 @@ mod common;
 
 use raylume::{Backend, Specialisation, Tracer};
 
+/// Pixels of `a` and `b` that are not equal bit for bit.
+fn differing_pixels(a: &[[f32; 3]], b: &[[f32; 3]]) -> usize {
+    a.iter()
+        .zip(b)
+        .filter(|(x, y)| x.map(f32::to_bits) != y.map(f32::to_bits))
+        .count()
+}
+
 #[test]
 fn composed_overridden_and_generic_pipelines_render_the_same_image() {
     let Some(_ctx) = raylume_gpu::testing::context_or_skip(
@@ -48,12 +56,7 @@ fn composed_overridden_and_generic_pipelines_render_the_same_image() {
                 scene.features().names()
             };
             assert_eq!(o.stats.pipeline_features, expected, "{name}");
-            let differ = s
-                .pixels
-                .iter()
-                .zip(&o.pixels)
-                .filter(|(a, b)| a.map(f32::to_bits) != b.map(f32::to_bits))
-                .count();
+            let differ = differing_pixels(&s.pixels, &o.pixels);
             assert_eq!(
                 differ,
                 0,
@@ -98,12 +101,7 @@ fn the_cpu_mirror_specialised_and_generic_render_the_same_image() {
         let g = generic.render(&scene).unwrap();
         assert_eq!(g.stats.specialisation, "generic");
         assert_eq!(g.stats.pipeline_features, all, "{name}");
-        let differ = s
-            .pixels
-            .iter()
-            .zip(&g.pixels)
-            .filter(|(a, b)| a.map(f32::to_bits) != b.map(f32::to_bits))
-            .count();
+        let differ = differing_pixels(&s.pixels, &g.pixels);
         assert_eq!(
             differ,
             0,
