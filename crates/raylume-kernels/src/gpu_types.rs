@@ -398,6 +398,10 @@ pub fn wgsl_constants() -> String {
     s += &u("NO_ROULETTE", NO_ROULETTE);
     s += &u("RAY_ALIVE", RAY_ALIVE);
     s += &u("WORKGROUP_SIZE", crate::workgroup_size());
+    s += &u(
+        "MEGAKERNEL_WORKGROUP_SIZE",
+        crate::megakernel_workgroup_size(),
+    );
     // `{:e}` prints the shortest representation that round-trips, so the WGSL literal is the
     // same f32.
     s += &format!("const SHADOW_T_SCALE: f32 = {:e};\n", SHADOW_T_SCALE);

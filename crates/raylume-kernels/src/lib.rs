@@ -101,21 +101,42 @@ pub use scene_data::SceneOptions;
 
 use raylume_scene::RenderSettings;
 
-/// Threads per workgroup of every 1D kernel (the paper used 128 threads per block).
+/// Threads per workgroup of every 1D kernel but the megakernel (the paper used 128 threads
+/// per block).
 pub const WORKGROUP_SIZE: u32 = 64;
+
+/// Threads per workgroup of the megakernel (`trace_paths`): 32. On the H200 its trace was
+/// 0.3-2.8 % faster than at 64 on every scene measured (the Cornell box, the living room, both
+/// teapots, both estimators), while the persistent schedule, which shares the module, is up to
+/// 2.6 % slower at 32 than at 64 (`docs/RESULTS.md`).
+pub const MEGAKERNEL_WORKGROUP_SIZE: u32 = 32;
 
 /// The workgroup size the tracer's 1D kernels are compiled and dispatched with:
 /// [`WORKGROUP_SIZE`], or `RAYLUME_WORKGROUP_SIZE` (a multiple of 32 from 32 to 1024; read once
 /// per process) for measuring others (`docs/RESULTS.md`).
 pub fn workgroup_size() -> u32 {
     static SIZE: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
+    *SIZE.get_or_init(|| size_from_env("RAYLUME_WORKGROUP_SIZE").unwrap_or(WORKGROUP_SIZE))
+}
+
+/// The workgroup size the megakernel is compiled and dispatched with:
+/// [`MEGAKERNEL_WORKGROUP_SIZE`], or `RAYLUME_MEGAKERNEL_WORKGROUP_SIZE`, or, when only that
+/// is set, `RAYLUME_WORKGROUP_SIZE` (same rules as [`workgroup_size`]).
+pub fn megakernel_workgroup_size() -> u32 {
+    static SIZE: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
     *SIZE.get_or_init(|| {
-        std::env::var("RAYLUME_WORKGROUP_SIZE")
-            .ok()
-            .and_then(|v| v.trim().parse::<u32>().ok())
-            .filter(|n| (32..=1024).contains(n) && n % 32 == 0)
-            .unwrap_or(WORKGROUP_SIZE)
+        size_from_env("RAYLUME_MEGAKERNEL_WORKGROUP_SIZE")
+            .or_else(|| size_from_env("RAYLUME_WORKGROUP_SIZE"))
+            .unwrap_or(MEGAKERNEL_WORKGROUP_SIZE)
     })
+}
+
+/// A workgroup size from environment variable `name`: a multiple of 32 from 32 to 1024.
+fn size_from_env(name: &str) -> Option<u32> {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.trim().parse::<u32>().ok())
+        .filter(|n| (32..=1024).contains(n) && n % 32 == 0)
 }
 
 /// The largest `max_bounces` accepted (the random-number key holds the bounce in 28 bits;

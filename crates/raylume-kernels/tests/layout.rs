@@ -93,6 +93,10 @@ fn shared_constants_reach_the_shader() {
             "const WORKGROUP_SIZE: u32 = {}u;",
             raylume_kernels::WORKGROUP_SIZE
         ),
+        format!(
+            "const MEGAKERNEL_WORKGROUP_SIZE: u32 = {}u;",
+            raylume_kernels::MEGAKERNEL_WORKGROUP_SIZE
+        ),
     ] {
         assert!(src.contains(&line), "{line}");
     }

@@ -43,6 +43,9 @@ pub(crate) struct BatchRecorder<'r> {
     pub sorters: &'r [RadixSorter],
     pub probe: Option<&'r dyn BounceProbe>,
     pub ray_groups: (u32, u32),
+    /// The megakernel's dispatch: the batch's samples in groups of
+    /// [`crate::megakernel_workgroup_size`].
+    pub path_groups: (u32, u32),
     pub pixel_groups: (u32, u32),
     /// The persistent schedule's dispatch: the batch's samples, at most
     /// [`crate::PERSISTENT_THREADS`] threads.
@@ -80,9 +83,10 @@ impl<'r> BatchRecorder<'r> {
         };
         let mut out = Vec::new();
         if plan.schedule == Schedule::Megakernel {
+            let (mx, my) = self.path_groups;
             out.push(Stage::pass("trace_paths", None, move |pass| {
                 self.bind(pass, "trace_paths", 0, 0);
-                pass.dispatch_workgroups(rx, ry, 1);
+                pass.dispatch_workgroups(mx, my, 1);
             }));
             out.push(Stage::pass("resolve", None, resolve));
             return out;

@@ -1,13 +1,14 @@
 // The persistent / megakernel schedule: one thread per pixel sample of the batch follows its
 // whole path with the state in registers, then writes its radiance to its own slot.
 
-@compute @workgroup_size(WORKGROUP_SIZE)
+// Its own workgroup size (MEGAKERNEL_WORKGROUP_SIZE, lib.rs): faster than the other kernels'.
+@compute @workgroup_size(MEGAKERNEL_WORKGROUP_SIZE)
 fn trace_paths(
     @builtin(workgroup_id) wg: vec3<u32>,
     @builtin(num_workgroups) nwg: vec3<u32>,
     @builtin(local_invocation_index) local: u32,
 ) {
-    let r = thread_index(wg, nwg, local);
+    let r = (wg.y * nwg.x + wg.x) * MEGAKERNEL_WORKGROUP_SIZE + local;
     var traced = 0u;
     var dropped = 0u;
     if (r < scene.rays_in_batch) {

@@ -352,6 +352,7 @@ impl GpuTracer<'_> {
             sorters: &self.sorters,
             probe: self.capture.as_ref().and_then(|c| c.probe()),
             ray_groups: dispatch_size(b.rays(), workgroup_size(), max_dim),
+            path_groups: dispatch_size(b.rays(), crate::megakernel_workgroup_size(), max_dim),
             persistent_groups: dispatch_size(
                 b.rays()
                     .min(self.persistent_threads.unwrap_or(p.default_threads)),
