@@ -105,10 +105,11 @@ use raylume_scene::RenderSettings;
 /// per block).
 pub const WORKGROUP_SIZE: u32 = 64;
 
-/// Threads per workgroup of the megakernel (`trace_paths`): 32. On the H200 its trace was
-/// 0.3-2.8 % faster than at 64 on every scene measured (the Cornell box, the living room, both
-/// teapots, both estimators), while the persistent schedule, which shares the module, is up to
-/// 2.6 % slower at 32 than at 64 (`docs/RESULTS.md`).
+/// Threads per workgroup of the megakernel (`trace_paths`): 32. On the H200 (commit 7e3a926,
+/// 100 spp, both estimators, two rounds) its trace was 0.7-3.3 % faster than at 64 on five of
+/// the project's six scenes and 0-4 % slower on the smallest (four spheres, 0.02 s), while the
+/// persistent schedule, which shares the module, was up to 2.6 % slower at 32 than at 64
+/// (`docs/RESULTS.md`).
 pub const MEGAKERNEL_WORKGROUP_SIZE: u32 = 32;
 
 /// The workgroup size the tracer's 1D kernels are compiled and dispatched with:
