@@ -121,8 +121,9 @@ pub fn workgroup_size() -> u32 {
 }
 
 /// The workgroup size the megakernel is compiled and dispatched with:
-/// [`MEGAKERNEL_WORKGROUP_SIZE`], or `RAYLUME_MEGAKERNEL_WORKGROUP_SIZE`, or, when only that
-/// is set, `RAYLUME_WORKGROUP_SIZE` (same rules as [`workgroup_size`]).
+/// `RAYLUME_MEGAKERNEL_WORKGROUP_SIZE` if set, else `RAYLUME_WORKGROUP_SIZE` if set (which then
+/// sizes every kernel alike), else [`MEGAKERNEL_WORKGROUP_SIZE`] (the variables' rules as
+/// [`workgroup_size`]'s).
 pub fn megakernel_workgroup_size() -> u32 {
     static SIZE: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
     *SIZE.get_or_init(|| {
