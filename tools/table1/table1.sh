@@ -16,7 +16,8 @@
 # every scene with its pipelines composed, overridden and generic, then with each absent feature
 # compiled in (present but unused; T1_SPECIALISE_EXTRA=0 skips that); `cpu-specialise` the same
 # on the host's CPU (the mirror's variant against its generic code, T1_CPU_SIZE, default
-# 600x600, 4 spp, both estimators); `parts` is issue 16's: a render whole and as 4 parts in
+# 600x600, 4 spp, both estimators); `feature-cost` times the Cornell box and its one-feature
+# variants (tools/features/cornell_variants.py) on the GPU and the CPU; `parts` is issue 16's: a render whole and as 4 parts in
 # separate processes (the overhead of splitting), merged, and --backend gpus on the one GPU;
 # `workgroup` times the Cornell box and the living room with RAYLUME_WORKGROUP_SIZE in
 # T1_WORKGROUPS (default "32 64 128 256");
@@ -129,6 +130,26 @@ device() {
     --json $R/extra.json $S6 > $R/extra.md 2> $R/extra.log || echo "bench: exit $?"
   awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/extra.md
   fi
+  fi
+  if [[ $parts == *" feature-cost "* ]]; then
+  # Issue 14's "what a feature costs when used": the Cornell box and its one-feature variants
+  # (tools/features/cornell_variants.py), each with its specialised code, GPU and CPU.
+  local V; V=$(python3 tools/features/cornell_variants.py scenes/cornell-box.toml /tmp/variants)
+  local est opts
+  for est in plain nee; do
+    opts="--estimator plain"
+    [ $est = nee ] && opts="--estimator nee --sampler sobol --rr-depth 5"
+    echo "== feature cost, GPU, $est (at $(el) s)"
+    timeout 150 /tmp/bench --backend gpu --spp 100 --repeat 3 --schedule megakernel --reorder off \
+      --bvh wide $opts --json $R/feature-cost-gpu-$est.json $V > $R/feature-cost-gpu-$est.md \
+      2> $R/feature-cost-gpu-$est.log || echo "bench: exit $?"
+    awk '/^\| scene \| prims \| backend/{p=1} /^$/{p=0} p' $R/feature-cost-gpu-$est.md
+    echo "== feature cost, CPU ($(nproc) threads), $est (at $(el) s)"
+    timeout 150 /tmp/bench --backend cpu --size ${T1_CPU_SIZE:-600x600} --spp 4 --repeat 5 \
+      $opts --json $R/feature-cost-cpu-$est.json $V > $R/feature-cost-cpu-$est.md \
+      2> $R/feature-cost-cpu-$est.log || echo "bench: exit $?"
+    awk '/^\| scene \| prims \| backend/{p=1} /^$/{p=0} p' $R/feature-cost-cpu-$est.md
+  done
   fi
   if [[ $parts == *" cpu-specialise "* ]]; then
   # Issue 14 on the host's CPU: the mirror's variant against its generic code, per estimator.
