@@ -400,7 +400,11 @@ fn run(args: Args) -> Result<(), String> {
         },
         s.bvh_builder,
         s.seconds.pipelines,
-        if s.pipelines_cached { " cached" } else { "" },
+        match (s.pipelines_cached, s.pipelines_ahead) {
+            (true, _) => " cached",
+            (false, true) => " ahead",
+            _ => "",
+        },
         s.seconds.upload,
         s.seconds.guide,
         s.seconds.prepare,
