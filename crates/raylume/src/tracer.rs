@@ -912,6 +912,22 @@ impl Tracer {
         self.gpu_pipelines.clear();
     }
 
+    /// Where in the cache the tree of `key` is: that tree, or, when the preset was chosen (not
+    /// set) and the tree is built on the CPU, the same geometry's Quality tree if that is
+    /// cached: it traces at least as fast, for nothing. (A cached Fast tree is not taken for a
+    /// Fastest choice: the two are close.)
+    fn cached_tree(&self, key: &GeometryKey) -> Option<usize> {
+        let better =
+            (self.bvh_quality.is_none() && key.quality != BvhQuality::Quality && !key.on_gpu)
+                .then_some(GeometryKey {
+                    quality: BvhQuality::Quality,
+                    ..*key
+                });
+        self.bvh_cache
+            .iter()
+            .position(|c| c.key == *key || Some(c.key) == better)
+    }
+
     /// The BVH a render of `scene` builds (preset, layout, and whether on the GPU): on the
     /// CPU (`gpu` None) or on a GPU (`Some(hardware)`: whether a hardware adapter, which
     /// sets the rays' rate and may build on the GPU, [`Tracer::bvh_builder`]).
@@ -1208,17 +1224,7 @@ impl Tracer {
             return Ok(());
         }
         let key = GeometryKey::of(scene, quality, layout);
-        // As the render looks: a cached Quality tree of the same geometry serves a chosen preset.
-        let better =
-            (self.bvh_quality.is_none() && quality != BvhQuality::Quality).then_some(GeometryKey {
-                quality: BvhQuality::Quality,
-                ..key
-            });
-        let found = self
-            .bvh_cache
-            .iter()
-            .position(|c| c.key == key || Some(c.key) == better);
-        let i = match found {
+        let i = match self.cached_tree(&key) {
             Some(i) => i,
             None => {
                 let t = Instant::now();
@@ -1472,19 +1478,7 @@ impl Tracer {
             on_gpu: gpu_build,
             ..GeometryKey::of(scene, quality, layout)
         };
-        // The tree this render would build, or, when the preset was chosen (not set), the same
-        // geometry's Quality tree if that is cached: it traces at least as fast, for nothing.
-        // (A cached Fast tree is not taken for a Fastest choice: the two are close.)
-        let better = (self.bvh_quality.is_none() && quality != BvhQuality::Quality && !gpu_build)
-            .then_some(GeometryKey {
-                quality: BvhQuality::Quality,
-                ..key
-            });
-        let cached = self
-            .bvh_cache
-            .iter()
-            .position(|c| c.key == key || Some(c.key) == better)
-            .map(|i| self.bvh_cache.remove(i));
+        let cached = self.cached_tree(&key).map(|i| self.bvh_cache.remove(i));
         if let Some(c) = &cached {
             key = c.key;
             stats.bvh_preset = c.key.quality.name().into();
@@ -1730,18 +1724,14 @@ impl Tracer {
         let prepared = prepared.of(SceneKey::of(scene, options));
         // Whether the scene was prepared (and its guide learned) by this render.
         let mut fresh = false;
-        let ahead = match (&prepared.gpu, bvh) {
-            (None, BuiltBvh::Cpu(_)) => prepared.ahead.take(),
-            _ => None,
-        };
         let uploaded = match (&prepared.gpu, &prepared.cpu, bvh) {
             (Some(g), _, _) => {
                 stats.scene_cached = true;
                 g.clone()
             }
-            // Prepared by `prepare_scene` before the device was open: uploaded now.
-            (None, _, BuiltBvh::Cpu(bvh)) if ahead.is_some() => {
-                let (data, seconds) = ahead.expect("matched");
+            // Prepared by `prepare_scene` before the device was open: uploaded now (moved).
+            (None, _, BuiltBvh::Cpu(bvh)) if prepared.ahead.is_some() => {
+                let (data, seconds) = prepared.ahead.take().expect("matched");
                 stats.prepared_ahead = true;
                 stats.seconds.upload += seconds;
                 Arc::new(GpuScene::upload_data(
