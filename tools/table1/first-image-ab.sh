@@ -7,7 +7,8 @@
 #   . .gl/on-device.sh && bash .gpu/first-image-ab.sh     # there (the device tool's run)
 #
 # AB_ROUNDS (default 4) rounds of: raylume before (REV), raylume after (the staged build),
-# Mitsuba's load + first render (mitsuba_table1.py --spp 1, 10 spp). Process 1 of each
+# Mitsuba's load + first render (mitsuba_table1.py --spp 1, 10 spp, at the file's 1280x720
+# and 64 bounces, the image raylume renders). Process 1 of each
 # compiles; later ones find the driver's and Dr.Jit's caches. Each raylume process writes its
 # `--stats` JSON; results in $OUT/ab.tgz.
 set -euo pipefail
@@ -41,11 +42,21 @@ stage)
       time (/tmp/render-$b scenes/living-room/scene.json -o /tmp/lr-$b.png --backend gpu --spp 10 \
         --stats $R/$b-$k.json -q 2>&1 | grep -E '^raylume: trace')
     done
+    # Mitsuba renders the file as raylume does (its 1280x720 and 64 bounces: max_depth 65),
+    # and, with AB_MI_TABLE1=1, also at Table 1's 1000x1000 and 10 bounces (the protocol of
+    # the calls before 2026-12-03).
     TIMEFORMAT="round $k, mitsuba: process %R s"
     time (PYTHONPATH=$m python3 .gpu/mitsuba_table1.py scenes/living-room /tmp/mi$k \
-      --tungsten .gpu/tungsten.py --spp 1 > /tmp/mi$k.log 2>&1 || true)
+      --tungsten .gpu/tungsten.py --spp 1 --size 1280x720 --depth 65 > /tmp/mi$k.log 2>&1 || true)
     head -1 /tmp/mi$k.log
     cp /tmp/mi$k/living-room-mi-table1.json $R/mitsuba-$k.json 2>/dev/null || true
+    if [ "${AB_MI_TABLE1:-0}" = 1 ]; then
+      TIMEFORMAT="round $k, mitsuba at 1000x1000, depth 11: process %R s"
+      time (PYTHONPATH=$m python3 .gpu/mitsuba_table1.py scenes/living-room /tmp/mt$k \
+        --tungsten .gpu/tungsten.py --spp 1 > /tmp/mt$k.log 2>&1 || true)
+      head -1 /tmp/mt$k.log
+      cp /tmp/mt$k/living-room-mi-table1.json $R/mitsuba-t1-$k.json 2>/dev/null || true
+    fi
   done
   cmp /tmp/lr-before.png /tmp/lr-after.png && echo "the PNGs are the same" || echo "the PNGs differ"
   cp /tmp/lr-before.png /tmp/lr-after.png $R/

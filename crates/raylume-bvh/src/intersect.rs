@@ -261,11 +261,23 @@ pub fn intersect_sphere(
     if t > t_min && t < t_max { t } else { T_MISS }
 }
 
-/// One primitive of either kind: `(t, u, v)` as [`intersect_triangle`] returns it.
+/// One primitive of either kind: `(t, u, v)` as [`intersect_triangle`] returns it. With
+/// `SPHERES` false the sphere test is left out (every primitive is read as a triangle), as in
+/// the tracer's WGSL composed for a scene without spheres (its `//#if spheres` block): only
+/// for trees without spheres.
 #[inline(always)]
-pub fn intersect_primitive(p: &Primitive, r: &ShearedRay, t_min: f32, t_max: f32) -> Vec3 {
+pub fn intersect_primitive<const SPHERES: bool>(
+    p: &Primitive,
+    r: &ShearedRay,
+    t_min: f32,
+    t_max: f32,
+) -> Vec3 {
     let a = Vec3::new(p.a[0], p.a[1], p.a[2]);
-    if p.b[3].to_bits() == PRIM_SPHERE {
+    debug_assert!(
+        SPHERES || p.b[3].to_bits() != PRIM_SPHERE,
+        "a sphere traced without SPHERES"
+    );
+    if SPHERES && p.b[3].to_bits() == PRIM_SPHERE {
         let t = intersect_sphere(r.origin, r.dir, a, p.a[3], t_min, t_max);
         Vec3::new(t, 0.0, 0.0)
     } else {

@@ -61,29 +61,24 @@ fn shear_ray(ray: Ray) -> ShearedRay {
 // (without FMA contraction); t is the barycentric mean of the vertices' depths. Only
 // det == 0 is rejected. See intersect.rs.
 //
-// `a[kx]` is read as dot(a, e_kx) with e_kx the unit vector of axis kx: every product is a
-// multiplication by exactly 1 or 0 and every sum adds exact zeros, so the value is a[kx] bit
-// for bit (up to the sign of a zero, which no comparison below sees), whatever the compiler
-// fuses. Dynamic vector indexing cost ~14% of the Cornell box's render time on the H100
-// (docs/RESULTS.md); these selects and dots do not.
+// `a[kx]` is read as axis_pick(a, kx): two selects, no arithmetic, so the value is a[kx] bit
+// for bit whatever the compiler fuses. Dynamic vector indexing cost ~14% of the Cornell box's
+// render time on the H100 (docs/RESULTS.md).
 fn intersect_triangle(r: ShearedRay, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>,
                       t_min: f32, t_max: f32) -> vec3<f32> {
     let miss = vec3<f32>(T_MISS, 0.0, 0.0);
-    let ex = axis_unit(r.kx);
-    let ey = axis_unit(r.ky);
-    let ez = axis_unit(r.kz);
     let a = v0 - r.origin;
     let b = v1 - r.origin;
     let c = v2 - r.origin;
-    let a_z = dot(a, ez);
-    let b_z = dot(b, ez);
-    let c_z = dot(c, ez);
-    let ax = dot(a, ex) - r.shear.x * a_z;
-    let ay = dot(a, ey) - r.shear.y * a_z;
-    let bx = dot(b, ex) - r.shear.x * b_z;
-    let by = dot(b, ey) - r.shear.y * b_z;
-    let cx = dot(c, ex) - r.shear.x * c_z;
-    let cy = dot(c, ey) - r.shear.y * c_z;
+    let a_z = axis_pick(a, r.kz);
+    let b_z = axis_pick(b, r.kz);
+    let c_z = axis_pick(c, r.kz);
+    let ax = axis_pick(a, r.kx) - r.shear.x * a_z;
+    let ay = axis_pick(a, r.ky) - r.shear.y * a_z;
+    let bx = axis_pick(b, r.kx) - r.shear.x * b_z;
+    let by = axis_pick(b, r.ky) - r.shear.y * b_z;
+    let cx = axis_pick(c, r.kx) - r.shear.x * c_z;
+    let cy = axis_pick(c, r.ky) - r.shear.y * c_z;
     let w0 = cx * by - cy * bx;
     let w1 = ax * cy - ay * cx;
     let w2 = bx * ay - by * ax;
@@ -103,9 +98,9 @@ fn intersect_triangle(r: ShearedRay, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>
     return miss;
 }
 
-// The unit vector of axis k (0, 1, 2).
-fn axis_unit(k: u32) -> vec3<f32> {
-    return vec3<f32>(select(0.0, 1.0, k == 0u), select(0.0, 1.0, k == 1u), select(0.0, 1.0, k == 2u));
+// v[k] for an axis k (0, 1, 2), by selects (Rust: `v[k]`).
+fn axis_pick(v: vec3<f32>, k: u32) -> f32 {
+    return select(select(v.z, v.y, k == 1u), v.x, k == 0u);
 }
 
 // Smallest root t_min < t < t_max, else T_MISS; from inside, the far side. Roots tc ± s
@@ -133,9 +128,14 @@ fn intersect_sphere(origin: vec3<f32>, dir: vec3<f32>, center: vec3<f32>, radius
     return select(T_MISS, t, t > t_min && t < t_max);
 }
 
+// One primitive of either kind: (t, u, v) as intersect_triangle returns it. The tracer's
+// source composed for a scene without spheres (raylume-kernels' `compose`) has no sphere
+// test here.
 fn intersect_primitive(p: Primitive, r: ShearedRay, t_min: f32, t_max: f32) -> vec3<f32> {
+    //#if spheres
     if bitcast<u32>(p.b.w) == PRIM_SPHERE {
         return vec3<f32>(intersect_sphere(r.origin, r.dir, p.a.xyz, p.a.w, t_min, t_max), 0.0, 0.0);
     }
+    //#endif
     return intersect_triangle(r, p.a.xyz, p.b.xyz, p.c.xyz, t_min, t_max);
 }

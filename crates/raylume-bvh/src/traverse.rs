@@ -40,7 +40,7 @@ const _: () = assert!(std::mem::offset_of!(Hit, v) == 12);
 /// Intersects `primitives[first .. first + count]`, keeping the closest hit in `hit`; with
 /// `any_hit`, returns true at the first hit (then `hit` holds it).
 #[inline(always)]
-fn intersect_leaf(
+fn intersect_leaf<const SPHERES: bool>(
     primitives: &[Primitive],
     ray: &ShearedRay,
     first: u32,
@@ -50,7 +50,7 @@ fn intersect_leaf(
     any_hit: bool,
 ) -> bool {
     for i in first..first + count {
-        let r = intersect_primitive(&primitives[i as usize], ray, t_min, hit.t);
+        let r = intersect_primitive::<SPHERES>(&primitives[i as usize], ray, t_min, hit.t);
         if r.x < hit.t {
             *hit = Hit {
                 t: r.x,
@@ -123,7 +123,7 @@ fn order_children(
 /// The walk both queries share (obvhs' `traverse!` likewise takes the leaf test as a
 /// parameter): the closest hit with `t_min < t < t_max` in the tree `nodes` over
 /// `primitives`, or with `any_hit` the first one found; a miss has `prim == INVALID_INDEX` and
-/// `t == min(t_max, T_MAX_LIMIT)`.
+/// `t == min(t_max, T_MAX_LIMIT)`. `SPHERES`: as [`intersect_primitive`]'s.
 ///
 /// At each node both child boxes are tested with the current closest `t`; hit leaves are
 /// intersected at once (nearer first), and of the hit inner children the nearer is entered and
@@ -133,7 +133,7 @@ fn order_children(
 /// a missed one `T_MISS`: for the any-hit walk, whose `t` stays `t_max` until it returns,
 /// "within the closest `t`" is "not missed".)
 #[inline(always)]
-pub fn binary_walk(
+pub fn binary_walk<const SPHERES: bool>(
     nodes: &[BvhNode],
     primitives: &[Primitive],
     ray: &Ray,
@@ -158,7 +158,7 @@ pub fn binary_walk(
             order_children(node, ray.origin, inv_dir, t_min, hit.t);
         if near_count > 0
             && t_near <= hit.t * AABB_T_FAR_SCALE
-            && intersect_leaf(
+            && intersect_leaf::<SPHERES>(
                 primitives, &sheared, near_index, near_count, t_min, &mut hit, any_hit,
             )
         {
@@ -166,7 +166,7 @@ pub fn binary_walk(
         }
         if far_count > 0
             && t_far <= hit.t * AABB_T_FAR_SCALE
-            && intersect_leaf(
+            && intersect_leaf::<SPHERES>(
                 primitives, &sheared, far_index, far_count, t_min, &mut hit, any_hit,
             )
         {
@@ -202,7 +202,7 @@ pub fn trace_closest(
     t_min: f32,
     t_max: f32,
 ) -> Hit {
-    binary_walk(nodes, primitives, ray, t_min, t_max, false)
+    binary_walk::<true>(nodes, primitives, ray, t_min, t_max, false)
 }
 
 /// True if anything is hit with `t_min < t < t_max`: [`binary_walk`] returning at the first
@@ -214,7 +214,7 @@ pub fn trace_any(
     t_min: f32,
     t_max: f32,
 ) -> bool {
-    binary_walk(nodes, primitives, ray, t_min, t_max, true).prim != INVALID_INDEX
+    binary_walk::<true>(nodes, primitives, ray, t_min, t_max, true).prim != INVALID_INDEX
 }
 
 impl GpuBvh {
@@ -222,20 +222,43 @@ impl GpuBvh {
     /// [`trace_closest`] and [`wide_traverse::trace_closest`](crate::wide_traverse::trace_closest).
     #[inline]
     pub fn trace_closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        let hit = match self.layout {
-            BvhLayout::Binary => trace_closest(&self.nodes, &self.primitives, ray, t_min, t_max),
-            BvhLayout::Wide => self.wide_trace_closest(ray, t_min, t_max),
-        };
-        (hit.prim != INVALID_INDEX).then_some(hit)
+        self.trace_closest_for::<true>(ray, t_min, t_max)
     }
 
     /// True if anything is hit with `t_min < t < t_max`. See [`trace_any`] and
     /// [`wide_traverse::trace_any`](crate::wide_traverse::trace_any).
     #[inline]
     pub fn trace_any(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        match self.layout {
-            BvhLayout::Binary => trace_any(&self.nodes, &self.primitives, ray, t_min, t_max),
-            BvhLayout::Wide => self.wide_trace_any(ray, t_min, t_max),
-        }
+        self.trace_any_for::<true>(ray, t_min, t_max)
+    }
+
+    /// [`GpuBvh::trace_closest`] with the sphere test compiled in only when `SPHERES` (see
+    /// [`intersect_primitive`]): `false` only for a tree without spheres.
+    #[inline(always)]
+    pub fn trace_closest_for<const SPHERES: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<Hit> {
+        let hit = match self.layout {
+            BvhLayout::Binary => {
+                binary_walk::<SPHERES>(&self.nodes, &self.primitives, ray, t_min, t_max, false)
+            }
+            BvhLayout::Wide => self.wide_walk::<SPHERES>(ray, t_min, t_max, false),
+        };
+        (hit.prim != INVALID_INDEX).then_some(hit)
+    }
+
+    /// [`GpuBvh::trace_any`] with the sphere test compiled in only when `SPHERES`.
+    #[inline(always)]
+    pub fn trace_any_for<const SPHERES: bool>(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        let hit = match self.layout {
+            BvhLayout::Binary => {
+                binary_walk::<SPHERES>(&self.nodes, &self.primitives, ray, t_min, t_max, true)
+            }
+            BvhLayout::Wide => self.wide_walk::<SPHERES>(ray, t_min, t_max, true),
+        };
+        hit.prim != INVALID_INDEX
     }
 }

@@ -196,9 +196,10 @@ fn first_leading_bit(x: u32) -> u32 {
 /// primitives of a node's hit leaves are tested when the node is. The closest hit with
 /// `t_min < t < t_max`, or with `any_hit` the first one found; a miss has
 /// `prim == INVALID_INDEX` and `t == min(t_max, T_MAX_LIMIT)`. The stack holds at most
-/// `depth - 1` groups, which `validate` bounds by [`WIDE_STACK_SIZE`].
+/// `depth - 1` groups, which `validate` bounds by [`WIDE_STACK_SIZE`]. `SPHERES`: as
+/// [`intersect_primitive`]'s.
 #[inline(always)]
-pub fn wide_walk(
+pub fn wide_walk<const SPHERES: bool>(
     nodes: &[WideNode],
     primitives: &[Primitive],
     ray: &Ray,
@@ -239,7 +240,8 @@ pub fn wide_walk(
                 let k = first_leading_bit(prims);
                 prims &= !(1 << k);
                 let i = node.prim_base + k;
-                let r = intersect_primitive(&primitives[i as usize], &sheared, t_min, hit.t);
+                let r =
+                    intersect_primitive::<SPHERES>(&primitives[i as usize], &sheared, t_min, hit.t);
                 if r.x < hit.t {
                     hit = Hit {
                         t: r.x,
@@ -273,7 +275,7 @@ pub fn trace_closest(
     t_min: f32,
     t_max: f32,
 ) -> Hit {
-    wide_walk(nodes, primitives, ray, t_min, t_max, false)
+    wide_walk::<true>(nodes, primitives, ray, t_min, t_max, false)
 }
 
 /// True if anything is hit with `t_min < t < t_max`: [`wide_walk`] returning at the first
@@ -285,17 +287,26 @@ pub fn trace_any(
     t_min: f32,
     t_max: f32,
 ) -> bool {
-    wide_walk(nodes, primitives, ray, t_min, t_max, true).prim != INVALID_INDEX
+    wide_walk::<true>(nodes, primitives, ray, t_min, t_max, true).prim != INVALID_INDEX
 }
 
 impl GpuBvh {
-    /// [`trace_closest`] over [`GpuBvh::wide_nodes`], for a tree of [`BvhLayout::Wide`](crate::BvhLayout::Wide).
-    pub(crate) fn wide_trace_closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Hit {
-        trace_closest(&self.wide_nodes, &self.primitives, ray, t_min, t_max)
-    }
-
-    /// [`trace_any`] over [`GpuBvh::wide_nodes`].
-    pub(crate) fn wide_trace_any(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        trace_any(&self.wide_nodes, &self.primitives, ray, t_min, t_max)
+    /// [`wide_walk`] over [`GpuBvh::wide_nodes`], for a tree of [`BvhLayout::Wide`](crate::BvhLayout::Wide).
+    #[inline(always)]
+    pub(crate) fn wide_walk<const SPHERES: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        any_hit: bool,
+    ) -> Hit {
+        wide_walk::<SPHERES>(
+            &self.wide_nodes,
+            &self.primitives,
+            ray,
+            t_min,
+            t_max,
+            any_hit,
+        )
     }
 }

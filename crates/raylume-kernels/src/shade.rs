@@ -36,7 +36,7 @@ use crate::bsdf::{
     eval_rough_dielectric, eval_rough_plastic, sample_conductor, sample_plastic,
     sample_rough_dielectric, sample_rough_plastic,
 };
-use crate::cpu::variant::has;
+use crate::cpu::variant::{has, trace_any, trace_closest};
 use crate::gpu_types::{
     DIM_CAMERA, DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE, GpuMaterial,
     LIGHT_ENVIRONMENT, LIGHT_SPHERE, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL,
@@ -292,7 +292,7 @@ pub fn trace_ray<const F: u32>(
         origin: path.origin,
         dir: path.dir,
     };
-    let Some(hit) = bvh.trace_closest(&ray, 0.0, T_MAX) else {
+    let Some(hit) = trace_closest::<F>(bvh, &ray, 0.0, T_MAX) else {
         // Escaped from a vertex that sampled the lights, the environment among them: weigh
         // the scattered ray's estimate against the shadow ray's.
         let w = if path.mis_pdf > 0.0 && g.scene.environment_select > 0.0 {
@@ -593,7 +593,7 @@ pub fn sample_lights<const F: u32>(
         origin: from,
         dir: wi,
     };
-    if bvh.trace_any(&shadow, 0.0, t_max) {
+    if trace_any::<F>(bvh, &shadow, 0.0, t_max) {
         return Vec3::ZERO;
     }
     let f = eval_material::<F>(g, mat, dir_in, ns_facing, wi, front);

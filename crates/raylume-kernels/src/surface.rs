@@ -715,7 +715,7 @@ mod tests {
             };
             let from = target + r.v().normalize() * size * 3.0;
             let ray = Ray::new(from, (target - from).normalize());
-            let h = intersect_primitive(&prim, &shear_ray(&ray), 0.0, T_MAX);
+            let h = intersect_primitive::<true>(&prim, &shear_ray(&ray), 0.0, T_MAX);
             if h.x == T_MAX {
                 continue;
             }
@@ -734,7 +734,8 @@ mod tests {
             };
             let o = offset_ray_origin(&s, ray.dir, n);
             let dir = r.dir_about(n);
-            let again = intersect_primitive(&prim, &shear_ray(&Ray::new(o, dir)), 0.0, T_MAX).x;
+            let again =
+                intersect_primitive::<true>(&prim, &shear_ray(&Ray::new(o, dir)), 0.0, T_MAX).x;
             cases += 1;
             let bad = if sphere && !out {
                 // Into the sphere: only its far side, a chord 2 r cos away.
@@ -791,7 +792,7 @@ mod tests {
             let closest = |ray: &Ray| {
                 let sr = shear_ray(ray);
                 (0..4)
-                    .map(|i| (intersect_primitive(&prims[i], &sr, 0.0, T_MAX), i))
+                    .map(|i| (intersect_primitive::<true>(&prims[i], &sr, 0.0, T_MAX), i))
                     .filter(|(h, _)| h.x < T_MAX)
                     .min_by(|a, b| a.0.x.total_cmp(&b.0.x))
             };

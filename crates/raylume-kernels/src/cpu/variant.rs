@@ -14,6 +14,7 @@
 //! machine the Cornell box (diffuse and emission only) traced 5 % faster with every other
 //! group's branches removed by hand (docs/RESULTS.md).
 
+use raylume_bvh::{GpuBvh, Hit, Ray};
 use raylume_scene::{Feature, Features};
 
 use crate::Specialisation;
@@ -23,6 +24,28 @@ use crate::Specialisation;
 #[inline(always)]
 pub const fn has(f: u32, feature: Feature) -> bool {
     f & feature as u32 != 0
+}
+
+/// `bvh.trace_closest` in variant `F`: the traversal's sphere test compiled in only when `F`
+/// holds spheres (the tracer's WGSL drops it by the `//#if spheres` block of raylume-bvh's
+/// `intersect_primitive`).
+#[inline(always)]
+pub fn trace_closest<const F: u32>(bvh: &GpuBvh, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+    if has(F, Feature::Spheres) {
+        bvh.trace_closest_for::<true>(ray, t_min, t_max)
+    } else {
+        bvh.trace_closest_for::<false>(ray, t_min, t_max)
+    }
+}
+
+/// `bvh.trace_any` in variant `F` (see [`trace_closest`]).
+#[inline(always)]
+pub fn trace_any<const F: u32>(bvh: &GpuBvh, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+    if has(F, Feature::Spheres) {
+        bvh.trace_any_for::<true>(ray, t_min, t_max)
+    } else {
+        bvh.trace_any_for::<false>(ray, t_min, t_max)
+    }
 }
 
 /// Every feature of the tracer (all but bloom, a post pass): the generic variant, the
