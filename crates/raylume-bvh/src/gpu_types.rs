@@ -162,6 +162,7 @@ impl WideNode {
     }
 
     /// The grid's cell size per axis (a power of two each).
+    #[inline]
     pub fn cell(&self) -> [f32; 3] {
         [0, 1, 2].map(|k| f32::from_bits(u32::from(self.e_imask[k]) << 23))
     }

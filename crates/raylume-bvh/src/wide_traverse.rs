@@ -39,7 +39,7 @@
 
 use glam::{UVec2, UVec4, Vec3, Vec4};
 
-use crate::intersect::{Ray, ShearedRay, intersect_primitive, shear_ray};
+use crate::intersect::{Ray, ShearedRay, intersect_primitive, intersect_triangles4, shear_ray};
 use crate::traverse::{Hit, T_MAX_LIMIT};
 use crate::{GpuBvh, INVALID_INDEX, Primitive, WIDE_STACK_SIZE, WideNode};
 
@@ -71,9 +71,30 @@ fn unpack4x_u8(w: u32) -> UVec4 {
     UVec4::new(w & 0xff, (w >> 8) & 0xff, (w >> 16) & 0xff, w >> 24)
 }
 
+/// `unpack4x_u8(w).as_vec4()`: on x86-64 by SSE2's byte unpacks and one four-lane
+/// conversion (every byte converts exactly, so the values are the same).
+#[inline(always)]
+fn bytes_as_vec4(w: u32) -> Vec4 {
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    #[allow(unused_unsafe)]
+    // SAFETY: SSE2 is enabled (the cfg), and these intrinsics touch registers only.
+    unsafe {
+        use std::arch::x86_64::*;
+        let z = _mm_setzero_si128();
+        let v = _mm_cvtsi32_si128(w as i32);
+        Vec4::from(_mm_cvtepi32_ps(_mm_unpacklo_epi16(
+            _mm_unpacklo_epi8(v, z),
+            z,
+        )))
+    }
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    unpack4x_u8(w).as_vec4()
+}
+
 #[inline(always)]
 fn word(bytes: &[u8], i: usize) -> u32 {
-    u32::from_le_bytes([bytes[i], bytes[i + 1], bytes[i + 2], bytes[i + 3]])
+    // One four-byte load.
+    u32::from_le_bytes(bytes[i..i + 4].try_into().expect("four bytes"))
 }
 
 #[inline(always)]
@@ -110,7 +131,7 @@ pub fn wide_overlap4(
     t_min: f32,
     t_max: f32,
 ) -> [bool; 4] {
-    let q = |w: u32| unpack4x_u8(w).as_vec4();
+    let q = bytes_as_vec4;
     let tnx = q(near_x) * a.x + Vec4::splat(b_near.x);
     let tny = q(near_y) * a.y + Vec4::splat(b_near.y);
     let tnz = q(near_z) * a.z + Vec4::splat(b_near.z);
@@ -167,9 +188,8 @@ pub fn intersect_wide_node(node: &WideNode, r: &WideRay, t_min: f32, t_max: f32)
     ] {
         let (cb, bi) = (unpack4x_u8(cb), unpack4x_u8(bi));
         for j in 0..4 {
-            if hit[j] {
-                bits |= cb[j] << bi[j];
-            }
+            // The WGSL's select: no branch.
+            bits |= (cb[j] << bi[j]) & 0u32.wrapping_sub(u32::from(hit[j]));
         }
     }
     bits
@@ -237,6 +257,22 @@ pub fn wide_walk<const SPHERES: bool>(
             );
             let mut prims = mask & 0x00ff_ffff;
             while prims != 0 {
+                if !SPHERES && prims.count_ones() > 1 {
+                    // The CPU's four-wide form of the loop below (same hits: see
+                    // `leaf_group4`).
+                    if leaf_group4(
+                        primitives,
+                        node.prim_base,
+                        &mut prims,
+                        &sheared,
+                        t_min,
+                        &mut hit,
+                    ) && any_hit
+                    {
+                        return hit;
+                    }
+                    continue;
+                }
                 let k = first_leading_bit(prims);
                 prims &= !(1 << k);
                 let i = node.prim_base + k;
@@ -264,6 +300,50 @@ pub fn wide_walk<const SPHERES: bool>(
         }
     }
     hit
+}
+
+/// Up to four of the primitives in `prims` (offsets from `base`; the highest bits, which the
+/// loop over them in [`wide_walk`] takes first), cleared from it and tested at once
+/// ([`intersect_triangles4`]; all of them triangles): `hit` becomes what that loop would make
+/// it, taking them in its order, a lane replacing `hit` only if strictly closer, so that of
+/// equal distances the first in that order stays. True if any of them was hit.
+#[inline(always)]
+fn leaf_group4(
+    primitives: &[Primitive],
+    base: u32,
+    prims: &mut u32,
+    sheared: &ShearedRay,
+    t_min: f32,
+    hit: &mut Hit,
+) -> bool {
+    let mut index = [0u32; 4];
+    let mut n = 0;
+    while *prims != 0 && n < 4 {
+        let k = first_leading_bit(*prims);
+        *prims &= !(1 << k);
+        index[n] = base + k;
+        n += 1;
+    }
+    // Unused lanes repeat the last primitive: a repeat is never strictly closer.
+    for j in n..4 {
+        index[j] = index[n - 1];
+    }
+    let tris = index.map(|i| &primitives[i as usize]);
+    let [t, u, v] = intersect_triangles4(sheared, tris, t_min, hit.t);
+    let (t, u, v) = (t.to_array(), u.to_array(), v.to_array());
+    let mut found = false;
+    for j in 0..n {
+        if t[j] < hit.t {
+            *hit = Hit {
+                t: t[j],
+                prim: index[j],
+                u: u[j],
+                v: v[j],
+            };
+            found = true;
+        }
+    }
+    found
 }
 
 /// The closest hit with `t_min < t < t_max` in the wide tree `nodes` over `primitives`, or a
