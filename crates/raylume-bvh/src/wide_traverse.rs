@@ -217,7 +217,9 @@ fn first_leading_bit(x: u32) -> u32 {
 /// `t_min < t < t_max`, or with `any_hit` the first one found; a miss has
 /// `prim == INVALID_INDEX` and `t == min(t_max, T_MAX_LIMIT)`. The stack holds at most
 /// `depth - 1` groups, which `validate` bounds by [`WIDE_STACK_SIZE`]. `SPHERES`: as
-/// [`intersect_primitive`]'s.
+/// [`intersect_primitive`]'s; without it the CPU tests a node's triangles up to four at once
+/// (`leaf_group4`), so that an any-hit walk returns the closest hit of the first group
+/// that has one (a hit all the same: `trace_any` reads only whether there is one).
 #[inline(always)]
 pub fn wide_walk<const SPHERES: bool>(
     nodes: &[WideNode],
