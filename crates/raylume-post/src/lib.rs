@@ -49,4 +49,4 @@ pub use bloom::{BloomParams, bloom_cpu};
 pub use bloom_gpu::{BLOOM_STAGES, BLOOM_WGSL, GpuBloom, PIXEL_BYTES, bloom_gpu};
 pub use error::PostError;
 pub use metrics::{mae, relative_mse, rmse, ssim};
-pub use tonemap::{ToneCurve, ToneMap, quantize, srgb_decode, srgb_encode};
+pub use tonemap::{ToneCurve, ToneMap, quantize, srgb_decode, srgb_encode, srgb8, srgb8_steps};
