@@ -306,31 +306,92 @@ pub fn prepare_plastic_tables_for(materials: &[raylume_scene::Material]) {
 }
 
 /// The coat tables of the rough plastics among `materials`, by key, in key order.
+///
+/// The process keeps every table it computed. A key no one has asked for is marked pending
+/// and computed by this call (its tables on every core, outside any lock); a key pending in
+/// another call is waited for, not computed twice. No rayon job ever waits here: an earlier
+/// form computed each table inside `OnceLock::get_or_init` within a parallel iterator, and a
+/// worker waiting in a nested join could steal a job waiting on a table its own stack was
+/// computing: a deadlock (seen on two cores: `prepare_plastic_tables` beside the BVH build
+/// and `prepare_plastic_tables_for` on the loading thread, both asking for the living
+/// room's tables).
 fn tables_of(materials: &[raylume_scene::Material]) -> (Vec<(u32, u32)>, Vec<RoughPlasticTable>) {
     use rayon::prelude::*;
-    use std::sync::{Arc, Mutex, OnceLock};
-    type Slot = Arc<OnceLock<RoughPlasticTable>>;
-    static CACHE: OnceLock<Mutex<HashMap<(u32, u32), Slot>>> = OnceLock::new();
+    use std::sync::{Condvar, Mutex, MutexGuard, OnceLock};
+    type Cache = HashMap<(u32, u32), Option<RoughPlasticTable>>;
+    static CACHE: OnceLock<(Mutex<Cache>, Condvar)> = OnceLock::new();
+    let (cache, ready) = CACHE.get_or_init(Default::default);
+    let lock = || cache.lock().unwrap_or_else(|e| e.into_inner());
     let mut keys: Vec<(u32, u32)> = materials.iter().filter_map(table_key).collect();
     keys.sort_unstable();
     keys.dedup();
-    let cache = CACHE.get_or_init(Default::default);
-    // Each key's slot, made by whoever asks first; the table in it is computed once, by the
-    // first thread to reach it, the others waiting (`OnceLock::get_or_init`).
-    let slots: Vec<Slot> = {
-        let mut c = cache.lock().unwrap_or_else(|e| e.into_inner());
-        keys.iter()
-            .map(|k| c.entry(*k).or_default().clone())
-            .collect()
+    // Claim the keys no one has: `None` marks a table in the making.
+    let mine: Vec<(u32, u32)> = {
+        let mut c = lock();
+        let mut mine = Vec::new();
+        for k in &keys {
+            if !c.contains_key(k) {
+                c.insert(*k, None);
+                mine.push(*k);
+            }
+        }
+        mine
     };
-    let tables: Vec<RoughPlasticTable> = keys
-        .par_iter()
-        .zip(slots)
-        .map(|(k, slot)| {
-            *slot.get_or_init(|| RoughPlasticTable::new(f32::from_bits(k.0), f32::from_bits(k.1)))
-        })
-        .collect();
-    (keys, tables)
+    if !mine.is_empty() {
+        // Should the computation panic, its keys are released (and the waiters woken, to
+        // claim them) rather than left pending for ever.
+        struct Release<'a>(&'a [(u32, u32)], &'a Mutex<Cache>, &'a Condvar);
+        impl Drop for Release<'_> {
+            fn drop(&mut self) {
+                let mut c = self.1.lock().unwrap_or_else(|e| e.into_inner());
+                for k in self.0 {
+                    if c.get(k).is_some_and(Option::is_none) {
+                        c.remove(k);
+                    }
+                }
+                self.2.notify_all();
+            }
+        }
+        let release = Release(&mine, cache, ready);
+        let tables: Vec<RoughPlasticTable> = mine
+            .par_iter()
+            .map(|k| RoughPlasticTable::new(f32::from_bits(k.0), f32::from_bits(k.1)))
+            .collect();
+        let mut c = lock();
+        for (k, t) in mine.iter().zip(tables) {
+            c.insert(*k, Some(t));
+        }
+        drop(c);
+        drop(release);
+    }
+    // Every key is now ready or in another call's making: wait for those (a rayon worker
+    // helps the pool meanwhile instead of blocking it), or claim a key a failed call released.
+    let mut c: MutexGuard<'_, Cache> = lock();
+    loop {
+        let missing: Vec<(u32, u32)> = keys
+            .iter()
+            .filter(|k| !c.get(k).is_some_and(Option::is_some))
+            .copied()
+            .collect();
+        if missing.is_empty() {
+            let tables = keys.iter().map(|k| c[k].expect("ready")).collect();
+            return (keys, tables);
+        }
+        if missing.iter().any(|k| !c.contains_key(k)) {
+            // Released by a call that failed: start over, claiming it.
+            drop(c);
+            return tables_of(materials);
+        }
+        if rayon::current_thread_index().is_some() {
+            drop(c);
+            if rayon::yield_now().is_none() {
+                std::thread::yield_now();
+            }
+            c = lock();
+        } else {
+            c = ready.wait(c).unwrap_or_else(|e| e.into_inner());
+        }
+    }
 }
 
 /// One coat table per distinct (alpha, ior) of the scene's rough plastics, and the index of
