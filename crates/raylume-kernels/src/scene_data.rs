@@ -309,7 +309,8 @@ pub fn prepare_plastic_tables_for(materials: &[raylume_scene::Material]) {
 ///
 /// The process keeps every table it computed. A key no one has asked for is marked pending
 /// and computed by this call (its tables on every core, outside any lock); a key pending in
-/// another call is waited for, not computed twice. No rayon job ever waits here: an earlier
+/// another call is waited for, not computed twice, except by a rayon worker, which computes
+/// it again rather than wait. No rayon job ever waits here: an earlier
 /// form computed each table inside `OnceLock::get_or_init` within a parallel iterator, and a
 /// worker waiting in a nested join could steal a job waiting on a table its own stack was
 /// computing: a deadlock (seen on two cores: `prepare_plastic_tables` beside the BVH build
@@ -364,8 +365,8 @@ fn tables_of(materials: &[raylume_scene::Material]) -> (Vec<(u32, u32)>, Vec<Rou
         drop(c);
         drop(release);
     }
-    // Every key is now ready or in another call's making: wait for those (a rayon worker
-    // helps the pool meanwhile instead of blocking it), or claim a key a failed call released.
+    // Every key is now ready or in another call's making: wait for those (a thread outside
+    // the rayon pool; a worker computes them itself), or claim a key a failed call released.
     let mut c: MutexGuard<'_, Cache> = lock();
     loop {
         let missing: Vec<(u32, u32)> = keys
@@ -383,11 +384,19 @@ fn tables_of(materials: &[raylume_scene::Material]) -> (Vec<(u32, u32)>, Vec<Rou
             return tables_of(materials);
         }
         if rayon::current_thread_index().is_some() {
+            // A rayon worker never waits for another call's tables (that call may be a job
+            // further down its own stack, which cannot go on until this one returns): it
+            // computes them itself, the same numbers, and keeps whichever lands first.
             drop(c);
-            if rayon::yield_now().is_none() {
-                std::thread::yield_now();
-            }
+            let tables: Vec<RoughPlasticTable> = missing
+                .par_iter()
+                .map(|k| RoughPlasticTable::new(f32::from_bits(k.0), f32::from_bits(k.1)))
+                .collect();
             c = lock();
+            for (k, t) in missing.iter().zip(tables) {
+                c.entry(*k).or_insert(None).get_or_insert(t);
+            }
+            ready.notify_all();
         } else {
             c = ready.wait(c).unwrap_or_else(|e| e.into_inner());
         }
