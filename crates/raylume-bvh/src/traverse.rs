@@ -241,24 +241,24 @@ impl GpuBvh {
         t_min: f32,
         t_max: f32,
     ) -> Option<Hit> {
-        let hit = match self.layout {
-            BvhLayout::Binary => {
-                binary_walk::<SPHERES>(&self.nodes, &self.primitives, ray, t_min, t_max, false)
-            }
-            BvhLayout::Wide => self.wide_walk::<SPHERES>(ray, t_min, t_max, false),
-        };
+        let hit = self.walk::<SPHERES>(ray, t_min, t_max, false);
         (hit.prim != INVALID_INDEX).then_some(hit)
     }
 
     /// [`GpuBvh::trace_any`] with the sphere test compiled in only when `SPHERES`.
     #[inline(always)]
     pub fn trace_any_for<const SPHERES: bool>(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        let hit = match self.layout {
+        self.walk::<SPHERES>(ray, t_min, t_max, true).prim != INVALID_INDEX
+    }
+
+    /// The walk of the tree's layout ([`binary_walk`] or the wide one).
+    #[inline(always)]
+    fn walk<const SPHERES: bool>(&self, ray: &Ray, t_min: f32, t_max: f32, any_hit: bool) -> Hit {
+        match self.layout {
             BvhLayout::Binary => {
-                binary_walk::<SPHERES>(&self.nodes, &self.primitives, ray, t_min, t_max, true)
+                binary_walk::<SPHERES>(&self.nodes, &self.primitives, ray, t_min, t_max, any_hit)
             }
-            BvhLayout::Wide => self.wide_walk::<SPHERES>(ray, t_min, t_max, true),
-        };
-        hit.prim != INVALID_INDEX
+            BvhLayout::Wide => self.wide_walk::<SPHERES>(ray, t_min, t_max, any_hit),
+        }
     }
 }

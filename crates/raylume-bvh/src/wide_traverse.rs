@@ -331,6 +331,10 @@ fn leaf_group4(
         index[j] = index[n - 1];
     }
     let tris = index.map(|i| &primitives[i as usize]);
+    debug_assert!(
+        tris.iter().all(|p| p.b[3].to_bits() != crate::PRIM_SPHERE),
+        "a sphere traced without SPHERES"
+    );
     let [t, u, v] = intersect_triangles4(sheared, tris, t_min, hit.t);
     let (t, u, v) = (t.to_array(), u.to_array(), v.to_array());
     let mut found = false;

@@ -11,7 +11,8 @@
 //! values, `-inf` included, become 0.
 //!
 //! **CPU only, on purpose.** Tone mapping runs once per image and is a few dozen flops per
-//! pixel (the sRGB power looked up: [`srgb8`]): a few milliseconds for 1M pixels with rayon, less than copying the HDR image
+//! pixel (the sRGB power looked up: [`srgb8`]): a few milliseconds for 1M pixels with rayon,
+//! less than copying the HDR image
 //! back from the GPU, which has to happen anyway to save it. A kernel would add a pipeline and
 //! a second (8-bit) read-back for no gain.
 
@@ -157,8 +158,8 @@ pub fn srgb_encode(linear: f32) -> f32 {
 
 /// `quantize(srgb_encode(v))`, the 8-bit sRGB code of `v`, by a binary search of the 255
 /// values where the code steps up ([`srgb8_steps`]) instead of a power in f64 per channel
-/// (which took most of a 1280x720 image's tone mapping: ~0.14 s of CPU time). The same code
-/// for every `f32`, NaN included (tested).
+/// (a 1280x720 PNG's save on the 2-core machine: 0.038-0.053 s before, 0.033-0.037 s after;
+/// the rest is the encoder). The same code for every `f32`, NaN included (tested).
 #[inline]
 pub fn srgb8(v: f32) -> u8 {
     // The number of steps at or below v: NaN compares false, so it maps to 0 as quantize does.
