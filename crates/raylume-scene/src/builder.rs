@@ -220,13 +220,34 @@ impl SceneBuilder {
             return;
         }
         let set = paths.iter().cloned().collect();
+        // On threads of their own, not rayon's: a rayon worker waiting inside the meshes'
+        // parallel parse would steal a decode and hold its mesh until the image is done (on
+        // the H200's host the meshes finished only after the progressive JPEG, every time).
         let decode = move || -> Vec<(PathBuf, Texture)> {
+            let threads = std::thread::available_parallelism()
+                .map_or(1, usize::from)
+                .min(paths.len());
+            let next = std::sync::atomic::AtomicUsize::new(0);
+            let mut out: Vec<Option<Texture>> = Vec::new();
+            out.resize_with(paths.len(), || None);
+            let slots: Vec<std::sync::Mutex<Option<Texture>>> =
+                out.into_iter().map(std::sync::Mutex::new).collect();
+            std::thread::scope(|scope| {
+                for _ in 0..threads {
+                    scope.spawn(|| {
+                        loop {
+                            let i = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                            let Some(p) = paths.get(i) else { break };
+                            let t = image_io::load_texture(p, "").ok();
+                            *slots[i].lock().unwrap_or_else(|e| e.into_inner()) = t;
+                        }
+                    });
+                }
+            });
             paths
-                .into_par_iter()
-                .filter_map(|p| {
-                    let t = image_io::load_texture(&p, "").ok()?;
-                    Some((p, t))
-                })
+                .into_iter()
+                .zip(slots)
+                .filter_map(|(p, t)| Some((p, t.into_inner().unwrap_or_else(|e| e.into_inner())?)))
                 .collect()
         };
         // Without a thread to be had, the textures decode at their references.
