@@ -43,7 +43,9 @@ pub struct GpuInfo {
 }
 
 /// A wgpu device and queue with the adapter's limits, the optional features raylume uses, and
-/// typed error capture. Cheap to share by reference; all methods take `&self`.
+/// typed error capture. Cheap to share by reference; all methods take `&self`. A clone is
+/// the same device (wgpu's handles and the error state are shared), for another thread.
+#[derive(Clone)]
 pub struct GpuContext {
     pub adapter: wgpu::Adapter,
     pub device: wgpu::Device,

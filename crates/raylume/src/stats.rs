@@ -173,6 +173,9 @@ pub struct RenderStats {
     /// as soon as it opened ([`crate::Tracer::prepare_scene`] asked for them), beside the
     /// scene's load and BVH build; `seconds.pipelines` is then what that took.
     pub pipelines_ahead: bool,
+    /// With `pipelines_ahead`: the seconds the render waited for them after uploading its
+    /// scene, which it did while they compiled (0 when they were done first).
+    pub pipelines_wait: f64,
     /// Who built it: `"obvhs PLOC on the CPU, N threads"` (a cached tree: who built it then).
     pub bvh_builder: String,
     /// The post-processing passes that ran, in order (`bloom_threshold`, `bloom_h`, ...).

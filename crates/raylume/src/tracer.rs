@@ -286,6 +286,41 @@ fn build_on_gpu(
     }
 }
 
+/// Reports `p` in `stats` (its seconds; compiled `ahead` on the opening's thread, or taken
+/// from `cache`) and puts it first in `cache`.
+fn adopt_pipelines(
+    cache: &mut Vec<Arc<TracerPipelines>>,
+    p: &Arc<TracerPipelines>,
+    ahead: bool,
+    stats: &mut RenderStats,
+) {
+    stats.seconds.pipelines = p.seconds();
+    stats.pipelines_ahead = ahead;
+    stats.pipelines_cached = !ahead && cache.iter().any(|q| Arc::ptr_eq(p, q));
+    cache.retain(|q| !Arc::ptr_eq(p, q));
+    cache.insert(0, p.clone());
+    cache.truncate(PIPELINE_CACHE_ENTRIES);
+}
+
+/// The pipelines of `p`, waited for if they are compiling ahead (reported then, and cached).
+fn resolve_pipelines(
+    p: RenderPipelines,
+    ctx: &GpuContext,
+    cache: &mut Vec<Arc<TracerPipelines>>,
+    stats: &mut RenderStats,
+) -> Result<Arc<TracerPipelines>, Error> {
+    match p {
+        RenderPipelines::Ready(p) => Ok(p),
+        RenderPipelines::Ahead(a) => {
+            let t = Instant::now();
+            let p = a.wait(ctx)?;
+            stats.pipelines_wait = t.elapsed().as_secs_f64();
+            adopt_pipelines(cache, &p, true, stats);
+            Ok(p)
+        }
+    }
+}
+
 /// A finished render: linear HDR radiance per pixel (after bloom, before tone mapping).
 #[derive(Clone, Debug)]
 pub struct Render {
@@ -496,9 +531,10 @@ pub struct Tracer {
     device_seconds: Option<f64>,
     /// A GPU context being created on a thread of its own ([`Tracer::start_backend`]).
     opening: Option<Opening>,
-    /// Pipelines compiled on the opening's thread for a render still to come
-    /// ([`Tracer::prepare_scene`]): that render reports them as compiled, not cached.
-    pipelines_ahead: Option<Arc<TracerPipelines>>,
+    /// Pipelines the opening's thread compiles (or has compiled) for a render still to come
+    /// ([`Tracer::prepare_scene`]), after it handed over the context: that render uploads
+    /// its scene meanwhile, then waits for them, and reports them as compiled, not cached.
+    pipelines_ahead: Option<AheadPipelines>,
     /// The last BVHs built (at most [`BVH_CACHE_ENTRIES`], the latest first), each for the
     /// geometry, preset and layout it was built from: rendering the same scene again (another
     /// spp, size, seed, or a benchmark's repeats, also alternating the two layouts) skips the
@@ -547,7 +583,15 @@ impl BuiltBvh {
 /// the thread creating it (its result and the seconds it took).
 struct Opening {
     choice: AdapterChoice,
-    thread: std::thread::JoinHandle<OpeningResult>,
+    thread: std::thread::JoinHandle<()>,
+    /// The context (or why not) and the seconds it took, sent as soon as it is open: the
+    /// thread goes on to compile what it was asked for (`compiled`), and its end (~10 ms on
+    /// the H200's host after the pipelines) is nobody's wait.
+    ready: std::sync::mpsc::Receiver<(Result<GpuContext, GpuError>, f64)>,
+    /// The pipelines compiled on the thread, if asked (`asked`).
+    compiled: std::sync::mpsc::Receiver<PipelinesResult>,
+    /// What `request` carried, if anything.
+    asked: Option<PipelineRequest>,
     /// Where [`Tracer::prepare_scene`] asks for the pipelines the render will need, to be
     /// compiled on the opening's thread as soon as the device is open; dropped (the thread
     /// then compiles nothing) before the thread is joined.
@@ -560,13 +604,39 @@ struct Opening {
     known: Option<Option<bool>>,
 }
 
-/// What an opening's thread returns: the context (or why not), the seconds it took, and the
-/// pipelines it compiled afterwards, if asked.
-type OpeningResult = (
-    Result<GpuContext, GpuError>,
-    f64,
-    Option<Result<Arc<TracerPipelines>, raylume_kernels::KernelError>>,
-);
+/// Pipelines compiled, or why not.
+type PipelinesResult = Result<Arc<TracerPipelines>, raylume_kernels::KernelError>;
+
+/// Pipelines an opening's thread compiles after handing over its context
+/// ([`Tracer::pipelines_ahead`]).
+struct AheadPipelines {
+    request: PipelineRequest,
+    compiled: std::sync::mpsc::Receiver<PipelinesResult>,
+    thread: std::thread::JoinHandle<()>,
+}
+
+impl AheadPipelines {
+    /// The pipelines, once compiled: the thread's result, its panic resumed here, or (should
+    /// the thread have ended without a word) compiled now on `ctx`.
+    fn wait(self, ctx: &GpuContext) -> PipelinesResult {
+        match self.compiled.recv() {
+            Ok(r) => r,
+            Err(_) => {
+                self.thread
+                    .join()
+                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+                self.request.compile(ctx)
+            }
+        }
+    }
+}
+
+/// The pipelines a GPU render traces with: compiled (or kept) already, or still compiling on
+/// the opening's thread while the render uploads its scene.
+enum RenderPipelines {
+    Ready(Arc<TracerPipelines>),
+    Ahead(AheadPipelines),
+}
 
 /// The pipelines a render will compile: features, layout and specialisation (the cache's
 /// key), the schedule it starts with, and whether it learns an environment guide.
@@ -580,6 +650,11 @@ struct PipelineRequest {
 }
 
 impl PipelineRequest {
+    /// The pipeline cache's key of what this compiles.
+    fn key(&self) -> (raylume_scene::Features, BvhLayout, Specialisation) {
+        (self.features, self.layout, self.specialisation)
+    }
+
     /// Makes the module and compiles the schedule's pipelines (and the guide's walks beside
     /// them, when the render learns a guide): what a render's compiling thread does.
     fn compile(
@@ -1157,6 +1232,8 @@ impl Tracer {
         }
         let (announce, adapter) = std::sync::mpsc::channel();
         let (request, requests) = std::sync::mpsc::channel::<PipelineRequest>();
+        let (send_ready, ready) = std::sync::mpsc::channel();
+        let (send_compiled, compiled) = std::sync::mpsc::channel();
         let thread = std::thread::spawn(move || {
             let t = Instant::now();
             let options = ContextOptions {
@@ -1168,16 +1245,22 @@ impl Tracer {
                 let _ = announce.send(software);
             });
             let seconds = t.elapsed().as_secs_f64();
-            // The pipelines `prepare_scene` asks for, if it does before the render joins.
-            let pipelines = match &ctx {
-                Ok(c) => requests.recv().ok().map(|r| r.compile(c)),
-                Err(_) => None,
-            };
-            (ctx, seconds, pipelines)
+            let compiling = ctx.as_ref().ok().cloned();
+            let _ = send_ready.send((ctx, seconds));
+            // The pipelines `prepare_scene` asks for, if it does before the render takes
+            // the context; the render uploads its scene meanwhile.
+            if let Some(c) = compiling
+                && let Ok(r) = requests.recv()
+            {
+                let _ = send_compiled.send(r.compile(&c));
+            }
         });
         self.opening = Some(Opening {
             choice,
             thread,
+            ready,
+            compiled,
+            asked: None,
             request: Some(request),
             adapter,
             known: None,
@@ -1211,14 +1294,18 @@ impl Tracer {
         let (quality, layout, on_gpu) = self.bvh_plan(scene, gpu);
         // The device's thread compiles the render's pipelines as soon as the device is open
         // (the render's own guess of its first schedule: `On` sorts, so starts wavefront).
-        if gpu.is_some()
-            && let Some(ask) = self.opening.as_ref().and_then(|o| o.request.as_ref())
-        {
+        if gpu.is_some() {
             let schedule = match self.reorder {
                 ReorderPolicy::On => Schedule::Wavefront,
                 _ => self.schedule,
             };
-            let _ = ask.send(self.pipeline_request(scene, layout, schedule));
+            let wanted = self.pipeline_request(scene, layout, schedule);
+            if let Some(o) = self.opening.as_mut()
+                && let Some(ask) = o.request.take()
+                && ask.send(wanted).is_ok()
+            {
+                o.asked = Some(wanted);
+            }
         }
         if on_gpu {
             return Ok(());
@@ -1297,13 +1384,34 @@ impl Tracer {
     /// A new GPU context of adapters `choice`: the one [`Tracer::start_backend`] is opening
     /// (waited for), or one opened now. Its time goes to `device_seconds`.
     fn new_context(&mut self, choice: AdapterChoice) -> Result<GpuContext, GpuError> {
-        let (ctx, seconds, pipelines) = match self.opening.take() {
+        let (ctx, seconds) = match self.opening.take() {
             Some(mut o) if o.choice == choice => {
                 // No more requests: the thread compiles what it was asked for, if anything.
                 o.request = None;
-                o.thread
-                    .join()
-                    .unwrap_or_else(|panic| std::panic::resume_unwind(panic))
+                match o.ready.recv() {
+                    Ok((ctx, seconds)) => {
+                        if let (Ok(_), Some(request)) = (&ctx, o.asked) {
+                            self.pipelines_ahead = Some(AheadPipelines {
+                                request,
+                                compiled: o.compiled,
+                                thread: o.thread,
+                            });
+                        }
+                        (ctx, seconds)
+                    }
+                    // The thread ended without a context: it panicked.
+                    Err(_) => {
+                        o.thread
+                            .join()
+                            .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+                        let t = Instant::now();
+                        let ctx = GpuContext::new(&ContextOptions {
+                            choice,
+                            adapter_name: None,
+                        });
+                        (ctx, t.elapsed().as_secs_f64())
+                    }
+                }
             }
             // Opened for another backend (changed since): not this one's device.
             _ => {
@@ -1312,17 +1420,11 @@ impl Tracer {
                     choice,
                     adapter_name: None,
                 });
-                (ctx, t.elapsed().as_secs_f64(), None)
+                (ctx, t.elapsed().as_secs_f64())
             }
         };
         if ctx.is_ok() {
             self.device_seconds = Some(seconds);
-        }
-        // Pipelines that failed to compile are left to the render, which reports why.
-        if let Some(Ok(p)) = pipelines {
-            self.gpu_pipelines.insert(0, p.clone());
-            self.gpu_pipelines.truncate(PIPELINE_CACHE_ENTRIES);
-            self.pipelines_ahead = Some(p);
         }
         ctx
     }
@@ -1507,11 +1609,18 @@ impl Tracer {
             .iter()
             .find(|p| (p.features(), p.bvh_layout(), p.specialisation()) == pipeline_key)
             .cloned();
+        // Compiling on the opening's thread: waited for after the upload (`trace_gpu`).
+        let compiling_ahead = match (&reuse, &self.pipelines_ahead) {
+            (None, Some(a)) if use_gpu && a.request.key() == pipeline_key => {
+                self.pipelines_ahead.take()
+            }
+            _ => None,
+        };
         let gpu = self.gpu.as_ref().filter(|_| use_gpu);
         let mut prepared = Prepared::default();
         let (bvh, pipelines) = std::thread::scope(|threads| {
-            let compiling = match (gpu, &reuse) {
-                (Some(ctx), None) => Some(threads.spawn(move || request.compile(ctx))),
+            let compiling = match (gpu, &reuse, &compiling_ahead) {
+                (Some(ctx), None, None) => Some(threads.spawn(move || request.compile(ctx))),
                 _ => None,
             };
             // The rough plastics' coat tables need the materials only: integrated beside the
@@ -1565,18 +1674,13 @@ impl Tracer {
             }
         };
         if let Some(p) = &pipelines {
-            stats.seconds.pipelines = p.seconds();
-            // Compiled on the device's thread for this render: not a cache hit.
-            let ahead = self
-                .pipelines_ahead
-                .take()
-                .is_some_and(|q| Arc::ptr_eq(p, &q));
-            stats.pipelines_ahead = ahead;
-            stats.pipelines_cached = !ahead && self.gpu_pipelines.iter().any(|q| Arc::ptr_eq(p, q));
-            self.gpu_pipelines.retain(|q| !Arc::ptr_eq(p, q));
-            self.gpu_pipelines.insert(0, p.clone());
-            self.gpu_pipelines.truncate(PIPELINE_CACHE_ENTRIES);
+            adopt_pipelines(&mut self.gpu_pipelines, p, false, &mut stats);
         }
+        let pipelines = match (pipelines, compiling_ahead) {
+            (Some(p), _) => Some(RenderPipelines::Ready(p)),
+            (None, Some(a)) => Some(RenderPipelines::Ahead(a)),
+            (None, None) => None,
+        };
         stats.bvh_nodes = bvh.node_count();
         stats.bvh_builder = match (&bvh, builder_note) {
             (_, Some(note)) => note,
@@ -1709,7 +1813,7 @@ impl Tracer {
         scene: &Scene,
         bvh: &BuiltBvh,
         prepared: &mut Prepared,
-        pipelines: Arc<TracerPipelines>,
+        pipelines: RenderPipelines,
         settings: &TraceSettings,
         auto_key: Option<u64>,
         bloom: Option<raylume_post::BloomParams>,
@@ -1724,6 +1828,8 @@ impl Tracer {
         let prepared = prepared.of(SceneKey::of(scene, options));
         // Whether the scene was prepared (and its guide learned) by this render.
         let mut fresh = false;
+        let mut pipelines = Some(pipelines);
+        let mut ready = None;
         let uploaded = match (&prepared.gpu, &prepared.cpu, bvh) {
             (Some(g), _, _) => {
                 stats.scene_cached = true;
@@ -1753,7 +1859,17 @@ impl Tracer {
             (None, _, bvh) => {
                 fresh = true;
                 let learner = match options.environment_guide {
-                    true => Some(pipelines.guide_learner(ctx)?),
+                    true => {
+                        let p = resolve_pipelines(
+                            pipelines.take().expect("not taken yet"),
+                            ctx,
+                            &mut self.gpu_pipelines,
+                            stats,
+                        )?;
+                        let learner = p.guide_learner(ctx)?;
+                        ready = Some(p);
+                        Some(learner)
+                    }
                     false => None,
                 };
                 Arc::new(match bvh {
@@ -1775,6 +1891,12 @@ impl Tracer {
         }
         let uploaded_bytes = uploaded.texel_bytes();
         prepared.gpu = Some(uploaded.clone());
+        // Pipelines still compiling on the opening's thread were given the upload's time.
+        let pipelines = match (ready, pipelines) {
+            (Some(p), _) => p,
+            (None, Some(p)) => resolve_pipelines(p, ctx, &mut self.gpu_pipelines, stats)?,
+            (None, None) => unreachable!("taken only with `ready` set"),
+        };
         let mut tracer = GpuTracer::with_scene(ctx, uploaded, pipelines)?;
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
