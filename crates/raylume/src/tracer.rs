@@ -590,6 +590,8 @@ struct Opening {
     ready: std::sync::mpsc::Receiver<(Result<GpuContext, GpuError>, f64)>,
     /// The pipelines compiled on the thread, if asked (`asked`).
     compiled: std::sync::mpsc::Receiver<PipelinesResult>,
+    /// The same, as soon as their guide learner is made ([`AheadPipelines::learner`]).
+    learner: std::sync::mpsc::Receiver<Arc<TracerPipelines>>,
     /// What `request` carried, if anything.
     asked: Option<PipelineRequest>,
     /// Where [`Tracer::prepare_scene`] asks for the pipelines the render will need, to be
@@ -612,6 +614,9 @@ type PipelinesResult = Result<Arc<TracerPipelines>, raylume_kernels::KernelError
 struct AheadPipelines {
     request: PipelineRequest,
     compiled: std::sync::mpsc::Receiver<PipelinesResult>,
+    /// The pipelines once their guide learner is made (only when the request learns a
+    /// guide), before the tracer's own pipelines are.
+    learner: std::sync::mpsc::Receiver<Arc<TracerPipelines>>,
     thread: std::thread::JoinHandle<()>,
 }
 
@@ -638,6 +643,17 @@ enum RenderPipelines {
     Ahead(AheadPipelines),
 }
 
+impl RenderPipelines {
+    /// The pipelines as soon as their guide learner can be had (they may still compile the
+    /// tracer's own); `None` when the opening's thread made no learner (an error to come).
+    fn with_learner(&self) -> Option<Arc<TracerPipelines>> {
+        match self {
+            RenderPipelines::Ready(p) => Some(p.clone()),
+            RenderPipelines::Ahead(a) => a.learner.recv().ok(),
+        }
+    }
+}
+
 /// The pipelines a render will compile: features, layout and specialisation (the cache's
 /// key), the schedule it starts with, and whether it learns an environment guide.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -661,11 +677,28 @@ impl PipelineRequest {
         &self,
         ctx: &GpuContext,
     ) -> Result<Arc<TracerPipelines>, raylume_kernels::KernelError> {
+        self.compile_announcing(ctx, |_| ())
+    }
+
+    /// [`PipelineRequest::compile`], handing the pipelines to `learner_made` as soon as
+    /// their guide learner is made (when the render learns a guide), while the tracer's own
+    /// pipelines may still compile: the render can run the guide's walks meanwhile.
+    fn compile_announcing(
+        &self,
+        ctx: &GpuContext,
+        learner_made: impl FnOnce(&Arc<TracerPipelines>) + Send,
+    ) -> Result<Arc<TracerPipelines>, raylume_kernels::KernelError> {
         let p = TracerPipelines::specialised(ctx, self.features, self.layout, self.specialisation)?;
         // The guide's walks compile (and warm up) beside the tracer's pipelines: on a first
         // run the driver spends ~0.2 s on them, ~1 s on the megakernel.
         std::thread::scope(|inner| {
-            let learner = self.guides.then(|| inner.spawn(|| p.guide_learner(ctx)));
+            let learner = self.guides.then(|| {
+                inner.spawn(|| {
+                    let l = p.guide_learner(ctx)?;
+                    learner_made(&p);
+                    Ok::<_, raylume_kernels::KernelError>(l)
+                })
+            });
             p.compile(ctx, self.schedule)?;
             if let Some(handle) = learner {
                 handle
@@ -1234,6 +1267,7 @@ impl Tracer {
         let (request, requests) = std::sync::mpsc::channel::<PipelineRequest>();
         let (send_ready, ready) = std::sync::mpsc::channel();
         let (send_compiled, compiled) = std::sync::mpsc::channel();
+        let (send_learner, learner) = std::sync::mpsc::channel();
         let thread = std::thread::spawn(move || {
             let t = Instant::now();
             let options = ContextOptions {
@@ -1252,7 +1286,10 @@ impl Tracer {
             if let Some(c) = compiling
                 && let Ok(r) = requests.recv()
             {
-                let _ = send_compiled.send(r.compile(&c));
+                let made = r.compile_announcing(&c, |p| {
+                    let _ = send_learner.send(p.clone());
+                });
+                let _ = send_compiled.send(made);
             }
         });
         self.opening = Some(Opening {
@@ -1260,6 +1297,7 @@ impl Tracer {
             thread,
             ready,
             compiled,
+            learner,
             asked: None,
             request: Some(request),
             adapter,
@@ -1394,6 +1432,7 @@ impl Tracer {
                             self.pipelines_ahead = Some(AheadPipelines {
                                 request,
                                 compiled: o.compiled,
+                                learner: o.learner,
                                 thread: o.thread,
                             });
                         }
@@ -1860,15 +1899,23 @@ impl Tracer {
                 fresh = true;
                 let learner = match options.environment_guide {
                     true => {
-                        let p = resolve_pipelines(
-                            pipelines.take().expect("not taken yet"),
-                            ctx,
-                            &mut self.gpu_pipelines,
-                            stats,
-                        )?;
-                        let learner = p.guide_learner(ctx)?;
-                        ready = Some(p);
-                        Some(learner)
+                        // The learner as soon as it is made: the walks run while the
+                        // tracer's pipelines may still compile on the opening's thread.
+                        let with_learner = pipelines.as_ref().and_then(|p| p.with_learner());
+                        let p = match with_learner {
+                            Some(p) => p,
+                            None => {
+                                let p = resolve_pipelines(
+                                    pipelines.take().expect("not taken yet"),
+                                    ctx,
+                                    &mut self.gpu_pipelines,
+                                    stats,
+                                )?;
+                                ready = Some(p.clone());
+                                p
+                            }
+                        };
+                        Some(p.guide_learner(ctx)?)
                     }
                     false => None,
                 };

@@ -164,3 +164,39 @@ fn prepare_scene_refuses_what_render_refuses() {
         "the render's own error"
     );
 }
+
+/// With an environment guide learned on the GPU, the guide's walks need the pipelines' learner
+/// before the upload: the render takes the pipelines compiling on the device's thread as soon
+/// as that learner is made (the tracer's own pipelines may still compile), and makes the image
+/// and the guide a render that compiled everything itself makes.
+#[test]
+fn a_guided_render_takes_the_learner_before_the_pipelines_are_done() {
+    let Some(_) = raylume_gpu::testing::context_or_skip(
+        "a_guided_render_takes_the_learner_before_the_pipelines_are_done",
+    ) else {
+        return;
+    };
+    let mut scene = cornell(16, 16, 2);
+    scene.environment = raylume::scene::Environment::Constant(raylume::glam::Vec3::splat(0.5));
+    let guided = |t: &mut Tracer| {
+        t.environment_guide = Some(true);
+    };
+    let mut plain = Tracer::new(Backend::Gpu);
+    guided(&mut plain);
+    let plain = plain.render(&scene).unwrap();
+    assert!(
+        plain.stats.environment_guide.starts_with("guided")
+            || plain.stats.environment_guide.starts_with("by radiance (too few"),
+        "the walks ran: {}",
+        plain.stats.environment_guide
+    );
+    let mut t = Tracer::new(Backend::Gpu);
+    guided(&mut t);
+    t.start_backend();
+    t.prepare_scene(&scene).unwrap();
+    let r = t.render(&scene).unwrap();
+    assert!(r.stats.pipelines_ahead && !r.stats.pipelines_cached);
+    assert!(r.stats.pipelines_wait >= 0.0 && r.stats.pipelines_wait <= r.stats.seconds.total);
+    assert_eq!(r.stats.environment_guide, plain.stats.environment_guide);
+    assert_eq!(r.pixels, plain.pixels);
+}
