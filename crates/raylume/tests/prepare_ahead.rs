@@ -186,7 +186,10 @@ fn a_guided_render_takes_the_learner_before_the_pipelines_are_done() {
     let plain = plain.render(&scene).unwrap();
     assert!(
         plain.stats.environment_guide.starts_with("guided")
-            || plain.stats.environment_guide.starts_with("by radiance (too few"),
+            || plain
+                .stats
+                .environment_guide
+                .starts_with("by radiance (too few"),
         "the walks ran: {}",
         plain.stats.environment_guide
     );
