@@ -309,9 +309,33 @@ impl SceneBuilder {
     /// Drops degenerate triangles (with a warning per source), clamps albedos above 1 (with a
     /// warning per material), then validates. NaN/Inf are errors, found before anything is
     /// dropped so that the index in the message is the index in the source file.
-    pub fn finish(mut self) -> Result<Scene, SceneError> {
+    pub fn finish(self) -> Result<Scene, SceneError> {
+        self.finish_with(&mut |_| {})
+    }
+
+    /// [`SceneBuilder::finish`], calling `geometry_ready` once the geometry, materials,
+    /// camera and settings are final (sanitised), before waiting for the textures still
+    /// decoding ([`SceneBuilder::prefetch_textures`]): a caller can build the BVH meanwhile.
+    /// Errors come as from `finish`: a texture that fails, referenced before the data that
+    /// fails sanitising, is the error.
+    pub fn finish_with(
+        mut self,
+        geometry_ready: &mut dyn FnMut(&mut Scene),
+    ) -> Result<Scene, SceneError> {
+        if let Err(e) = sanitize(&mut self) {
+            self.settle_textures()?;
+            return Err(e);
+        }
+        geometry_ready(&mut self.scene);
         self.settle_textures()?;
-        sanitize_and_validate(&mut self)?;
+        validate_with(
+            &self.scene,
+            &Provenance {
+                file: &self.file,
+                sources: &self.sources,
+                sphere_labels: &self.sphere_labels,
+            },
+        )?;
         Ok(self.scene)
     }
 }
@@ -372,8 +396,6 @@ pub(crate) fn line_of_offset(bytes: &[u8], offset: usize) -> usize {
         + 1
 }
 
-/// The loaders' last step (see [`SceneBuilder::finish`]): NaN/Inf errors, degenerate triangles
-/// dropped, albedo/tint clamped, then [`validate_with`].
 /// Drops degenerate triangles, with a warning per source that had some.
 fn drop_degenerate(b: &mut SceneBuilder) {
     let n = b.scene.triangles.len();
@@ -411,7 +433,9 @@ fn drop_degenerate(b: &mut SceneBuilder) {
     b.scene.triangles = kept;
 }
 
-fn sanitize_and_validate(b: &mut SceneBuilder) -> Result<(), SceneError> {
+/// The loaders' sanitising (see [`SceneBuilder::finish_with`]): NaN/Inf errors, degenerate
+/// triangles dropped, albedo/tint clamped; [`validate_with`] follows once the textures are in.
+fn sanitize(b: &mut SceneBuilder) -> Result<(), SceneError> {
     let prov = Provenance {
         file: &b.file,
         sources: &b.sources,
@@ -459,12 +483,5 @@ fn sanitize_and_validate(b: &mut SceneBuilder) -> Result<(), SceneError> {
             }
         }
     }
-    validate_with(
-        &b.scene,
-        &Provenance {
-            file: &b.file,
-            sources: &b.sources,
-            sphere_labels: &b.sphere_labels,
-        },
-    )
+    Ok(())
 }

@@ -472,3 +472,81 @@ fn prefetched_textures_are_the_referenced_ones_and_errors_keep_their_place() {
         "{e:?}"
     );
 }
+
+/// `Scene::load_with` calls its hook once, with the geometry, materials, camera and settings
+/// final (degenerate triangles already dropped) while the images may still decode, keeps
+/// what the hook changed, and returns the scene `Scene::load` returns; it does not call the
+/// hook when loading fails, and the errors keep the file's order: a corrupt image referenced
+/// before a bad emitter is the error.
+#[test]
+fn load_with_hands_over_the_final_geometry_before_the_textures() {
+    let d = TempDir::new("tungsten-load-with");
+    d.write("tex.png", common::png_2x2());
+    d.write("bad.png", b"not a png");
+    let doc = json!({
+        "bsdfs": [
+            { "name": "a", "type": "lambert", "albedo": "tex.png" },
+            { "name": "b", "type": "lambert", "albedo": 0.5 }
+        ],
+        "primitives": [
+            { "type": "quad", "bsdf": "a" },
+            { "type": "quad", "bsdf": "b", "transform": { "position": [0, 0, 1] } },
+            // Degenerate (all its points on a line): dropped before the hook sees the scene.
+            { "type": "quad", "bsdf": "b", "transform": { "position": [0, 0, 2], "scale": [0, 1, 1] } }
+        ],
+        "camera": { "transform": { "position": [0, 5, 0], "look_at": [0, 0, 0], "up": [0, 0, 1] } }
+    });
+    let path = d.write("scene.json", doc.to_string());
+    let plain = Scene::load(&path).unwrap();
+    let mut calls = 0;
+    let mut seen = None;
+    let hooked = Scene::load_with(&path, |s| {
+        calls += 1;
+        seen = Some((s.triangles.clone(), s.materials.clone(), s.camera, s.render));
+        s.render.spp = 7;
+    })
+    .unwrap();
+    assert_eq!(calls, 1);
+    let (triangles, materials, camera, render) = seen.unwrap();
+    assert_eq!(triangles, plain.triangles, "the final geometry");
+    assert_eq!(materials, plain.materials);
+    assert_eq!((camera, render), (plain.camera, plain.render));
+    assert_eq!(
+        hooked.textures, plain.textures,
+        "the textures settled after the hook"
+    );
+    assert_eq!(hooked.render.spp, 7, "the hook's change kept");
+    assert_eq!(hooked.triangles, plain.triangles);
+
+    // A corrupt image referenced before an unsupported emitter: the image's error, and the
+    // hook is never called.
+    let bad = json!({
+        "bsdfs": [{ "name": "c", "type": "lambert", "albedo": "bad.png" }],
+        "primitives": [{ "type": "quad", "bsdf": "c" }],
+        "emissions": [{ "type": "nonsense" }]
+    });
+    let mut called = false;
+    let e = Scene::load_with(d.write("bad.json", bad.to_string()), |_| called = true).unwrap_err();
+    assert!(
+        matches!(e, SceneError::Image { .. }) && e.to_string().contains("bsdfs[0].albedo"),
+        "{e:?}"
+    );
+    assert!(!called);
+    // The emitter alone: its own error.
+    let emitter = json!({
+        "bsdfs": [{ "name": "c", "type": "lambert", "albedo": "tex.png" }],
+        "primitives": [{ "type": "quad", "bsdf": "c" }],
+        "emissions": [{ "type": "nonsense" }]
+    });
+    let e = Scene::load_with(d.write("emitter.json", emitter.to_string()), |_| {}).unwrap_err();
+    assert!(e.to_string().contains("emission"), "{e:?}");
+
+    // Other formats call the hook once too, at the end.
+    let mut toml_calls = 0;
+    let s = Scene::load_with(
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../scenes/cornell-box.toml"),
+        |_| toml_calls += 1,
+    );
+    assert!(s.is_ok(), "{s:?}");
+    assert_eq!(toml_calls, 1);
+}

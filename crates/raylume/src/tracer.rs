@@ -1326,6 +1326,46 @@ impl Tracer {
     pub fn prepare_scene(&mut self, scene: &Scene) -> Result<(), Error> {
         Self::check_settings(scene)?;
         scene.validate()?;
+        self.prepare_geometry(scene)?;
+        let Some(gpu) = self.expected_gpu() else {
+            return Ok(());
+        };
+        let (quality, layout, on_gpu) = self.bvh_plan(scene, gpu);
+        if on_gpu {
+            return Ok(());
+        }
+        let key = GeometryKey::of(scene, quality, layout);
+        let Some(i) = self.cached_tree(&key) else {
+            return Ok(());
+        };
+        let options = self.scene_options(scene);
+        let entry = &mut self.bvh_cache[i];
+        let BuiltBvh::Cpu(bvh) = &entry.bvh else {
+            return Ok(());
+        };
+        let prepared = entry.prepared.of(SceneKey::of(scene, options));
+        // Nothing to do when the data is there, and a GPU render learns its environment
+        // guide on the GPU, after the upload.
+        let skip = prepared.ahead.is_some()
+            || prepared.cpu.is_some()
+            || (gpu.is_some() && (prepared.gpu.is_some() || options.environment_guide));
+        if !skip {
+            let t = Instant::now();
+            let data = SceneData::with_options(scene, bvh, &options)?;
+            prepared.ahead = Some((data, t.elapsed().as_secs_f64()));
+        }
+        Ok(())
+    }
+
+    /// The part of [`Tracer::prepare_scene`] that needs the scene's geometry, materials and
+    /// settings only, not its textures' texels: the BVH the render will use (with the rough
+    /// plastics' coat tables integrated beside it), and on the GPU the pipelines asked of the
+    /// device's thread. What [`Scene::load_with`]'s hook calls while the scene's images still
+    /// decode (the `render` example does); `prepare_scene` later finds the tree and prepares
+    /// the rest. Checks the settings, not the scene (its textures may be placeholders then):
+    /// the render validates it.
+    pub fn prepare_geometry(&mut self, scene: &Scene) -> Result<(), Error> {
+        Self::check_settings(scene)?;
         let Some(gpu) = self.expected_gpu() else {
             return Ok(());
         };
@@ -1349,9 +1389,8 @@ impl Tracer {
             return Ok(());
         }
         let key = GeometryKey::of(scene, quality, layout);
-        let i = match self.cached_tree(&key) {
-            Some(i) => i,
-            None => {
+        if self.cached_tree(&key).is_none() {
+            {
                 let t = Instant::now();
                 let bvh = std::thread::scope(|threads| {
                     let tables = threads
@@ -1372,24 +1411,7 @@ impl Tracer {
                     },
                 );
                 self.bvh_cache.truncate(BVH_CACHE_ENTRIES);
-                0
             }
-        };
-        let options = self.scene_options(scene);
-        let entry = &mut self.bvh_cache[i];
-        let BuiltBvh::Cpu(bvh) = &entry.bvh else {
-            return Ok(());
-        };
-        let prepared = entry.prepared.of(SceneKey::of(scene, options));
-        // Nothing to do when the data is there, and a GPU render learns its environment
-        // guide on the GPU, after the upload.
-        let skip = prepared.ahead.is_some()
-            || prepared.cpu.is_some()
-            || (gpu.is_some() && (prepared.gpu.is_some() || options.environment_guide));
-        if !skip {
-            let t = Instant::now();
-            let data = SceneData::with_options(scene, bvh, &options)?;
-            prepared.ahead = Some((data, t.elapsed().as_secs_f64()));
         }
         Ok(())
     }

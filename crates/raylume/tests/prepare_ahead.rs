@@ -203,3 +203,30 @@ fn a_guided_render_takes_the_learner_before_the_pipelines_are_done() {
     assert_eq!(r.stats.environment_guide, plain.stats.environment_guide);
     assert_eq!(r.pixels, plain.pixels);
 }
+
+/// `prepare_geometry` (what `Scene::load_with`'s hook calls while the images decode) builds the
+/// render's tree; `prepare_scene` then finds it and prepares the rest, and the render makes
+/// the image of a plain render, reporting the build as done ahead.
+#[test]
+fn the_tree_built_from_the_geometry_alone_is_the_renders() {
+    let scene = cornell(16, 16, 2);
+    let plain = Tracer::new(Backend::Cpu).render(&scene).unwrap();
+    let mut t = Tracer::new(Backend::Cpu);
+    t.prepare_geometry(&scene).unwrap();
+    t.prepare_scene(&scene).unwrap();
+    let r = t.render(&scene).unwrap();
+    assert!(
+        r.stats.prepared_ahead && !r.stats.bvh_cached,
+        "{:?}",
+        r.stats.seconds
+    );
+    assert!(r.stats.seconds.bvh > 0.0);
+    assert_eq!(r.pixels, plain.pixels);
+    // A scene the render refuses: refused here as well.
+    let mut empty = scene.clone();
+    empty.render.width = 0;
+    assert!(matches!(
+        Tracer::new(Backend::Cpu).prepare_geometry(&empty),
+        Err(Error::Settings(_))
+    ));
+}

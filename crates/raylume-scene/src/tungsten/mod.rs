@@ -62,8 +62,12 @@ pub(crate) struct Tungsten<'a> {
     bsdf_names: HashMap<&'a str, usize>,
 }
 
-/// Loads a Tungsten `scene.json`.
-pub(crate) fn load(path: &Path) -> Result<Scene, SceneError> {
+/// Loads a Tungsten `scene.json`, calling `geometry_ready` as [`SceneBuilder::finish_with`]
+/// does: with the geometry final while the image files may still decode.
+pub(crate) fn load_with(
+    path: &Path,
+    geometry_ready: &mut dyn FnMut(&mut Scene),
+) -> Result<Scene, SceneError> {
     let file = path.display().to_string();
     let bytes = read_description(path, None)?;
     let doc: Value = serde_json::from_slice(&bytes).map_err(|e| SceneError::Syntax {
@@ -178,29 +182,12 @@ pub(crate) fn load(path: &Path) -> Result<Scene, SceneError> {
                 return Err(e);
             }
         }
-        b.settle_textures()?;
     }
-    if let Some(em) = root.key("emissions") {
-        let list = em.j().array()?;
-        for i in 0..list.len() {
-            let e = em.j().index(i).expect("index within the array");
-            let e = e.j();
-            let ty = e
-                .key("type")
-                .map(|t| t.j().str().map(str::to_string))
-                .transpose()?;
-            match ty.as_deref() {
-                Some("envmap" | "infinite_sphere") => {
-                    let r = e
-                        .key("radiance")
-                        .or_else(|| e.key("emission"))
-                        .ok_or_else(|| e.invalid("environment emitter without `radiance`"))?;
-                    let env = t.environment(&mut b, r.j())?;
-                    t.set_environment(&mut b, env, e.path);
-                }
-                _ => return Err(e.unsupported(format!("emission type {ty:?}"))),
-            }
-        }
+    // The images may still decode (until `finish_with`): an error from here on is reported
+    // after theirs, as the file orders them.
+    if let Err(e) = t.emissions(&mut b, root) {
+        b.settle_textures()?;
+        return Err(e);
     }
     if !ignored.is_empty() {
         b.warn(format!("{file}: ignored: {}", ignored.join(", ")));
@@ -208,7 +195,37 @@ pub(crate) fn load(path: &Path) -> Result<Scene, SceneError> {
     if !have_camera {
         b.scene.camera = crate::transform::frame_bounds(b.scene.bounds());
     }
-    b.finish()
+    b.finish_with(geometry_ready)
+}
+
+impl Tungsten<'_> {
+    /// The `emissions` array: environment emitters.
+    fn emissions(&self, b: &mut SceneBuilder, root: J<'_, '_>) -> Result<(), SceneError> {
+        let t = self;
+        if let Some(em) = root.key("emissions") {
+            let list = em.j().array()?;
+            for i in 0..list.len() {
+                let e = em.j().index(i).expect("index within the array");
+                let e = e.j();
+                let ty = e
+                    .key("type")
+                    .map(|t| t.j().str().map(str::to_string))
+                    .transpose()?;
+                match ty.as_deref() {
+                    Some("envmap" | "infinite_sphere") => {
+                        let r = e
+                            .key("radiance")
+                            .or_else(|| e.key("emission"))
+                            .ok_or_else(|| e.invalid("environment emitter without `radiance`"))?;
+                        let env = t.environment(b, r.j())?;
+                        t.set_environment(b, env, e.path);
+                    }
+                    _ => return Err(e.unsupported(format!("emission type {ty:?}"))),
+                }
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The image files a BSDF (or an array or nesting of them) may read as textures: every
