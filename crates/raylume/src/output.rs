@@ -105,9 +105,7 @@ pub fn save_png(
     let bytes: Vec<u8> = tone
         .to_srgb8(pixels)
         .map_err(|e| output_err(path, e))?
-        .into_iter()
-        .flatten()
-        .collect();
+        .into_flattened();
     let img = image::RgbImage::from_raw(width, height, bytes)
         .ok_or_else(|| output_err(path, "pixel buffer size mismatch"))?;
     write_atomically(path, |w| {

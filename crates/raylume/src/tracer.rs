@@ -379,7 +379,7 @@ impl Render {
 
     /// [`Render::to_srgb8`] as an [`image::RgbImage`].
     pub fn to_image(&self) -> Result<image::RgbImage, Error> {
-        let bytes: Vec<u8> = self.to_srgb8()?.into_iter().flatten().collect();
+        let bytes: Vec<u8> = self.to_srgb8()?.into_flattened();
         image::RgbImage::from_raw(self.width, self.height, bytes).ok_or_else(|| Error::Output {
             path: std::path::PathBuf::new(),
             reason: "pixel buffer size mismatch".into(),
