@@ -107,3 +107,35 @@ fn a_gpu_upload_learns_the_guide_on_the_gpu() {
     let plain = GpuScene::upload(ctx, &scene, &bvh, &SceneOptions::default()).unwrap();
     assert_eq!(plain.data().environment_guide_walks, None);
 }
+
+/// A learner made on another thread is adopted by pipelines of its layout (and then is theirs:
+/// `guide_learner` returns it, compiling none) and refused, with a typed error, by pipelines
+/// of the other layout.
+#[test]
+fn pipelines_adopt_a_learner_of_their_layout_only() {
+    let Some(ctx) =
+        raylume_gpu::testing::context_or_skip("pipelines_adopt_a_learner_of_their_layout_only")
+    else {
+        return;
+    };
+    use raylume_kernels::gpu::TracerPipelines;
+    let features = raylume_scene::Features::all();
+    let wide = TracerPipelines::specialised(
+        &ctx,
+        features,
+        BvhLayout::Wide,
+        raylume_kernels::Specialisation::Composed,
+    )
+    .unwrap();
+    let binary = std::sync::Arc::new(GuideLearner::new(&ctx, BvhLayout::Binary).unwrap());
+    assert!(matches!(
+        wide.adopt_guide_learner(binary),
+        Err(raylume_kernels::KernelError::InvalidSettings(_))
+    ));
+    let learner = std::sync::Arc::new(GuideLearner::new(&ctx, BvhLayout::Wide).unwrap());
+    wide.adopt_guide_learner(learner.clone()).unwrap();
+    assert!(std::sync::Arc::ptr_eq(
+        &wide.guide_learner(&ctx).unwrap(),
+        &learner
+    ));
+}

@@ -13,7 +13,7 @@ use raylume_kernels::batches::{RoundHook, RoundSums};
 use raylume_kernels::{
     BatchPlan, CpuTracer, Estimator, GpuScene, GpuTracer, GpuWorkspace, Reorder, ReorderMode,
     Sampler, Schedule, Specialisation, TraceSettings, TraceStats,
-    gpu::{LbvhBuilder, ResidentBvh, TracerPipelines},
+    gpu::{GuideLearner, LbvhBuilder, ResidentBvh, TracerPipelines},
     scene_data::SceneData,
 };
 use raylume_scene::Scene;
@@ -590,8 +590,8 @@ struct Opening {
     ready: std::sync::mpsc::Receiver<(Result<GpuContext, GpuError>, f64)>,
     /// The pipelines compiled on the thread, if asked (`asked`).
     compiled: std::sync::mpsc::Receiver<PipelinesResult>,
-    /// The same, as soon as their guide learner is made ([`AheadPipelines::learner`]).
-    learner: std::sync::mpsc::Receiver<Arc<TracerPipelines>>,
+    /// Their guide learner, as soon as it is made ([`AheadPipelines::learner`]).
+    learner: std::sync::mpsc::Receiver<Arc<GuideLearner>>,
     /// What `request` carried, if anything.
     asked: Option<PipelineRequest>,
     /// Where [`Tracer::prepare_scene`] asks for the pipelines the render will need, to be
@@ -614,9 +614,9 @@ type PipelinesResult = Result<Arc<TracerPipelines>, raylume_kernels::KernelError
 struct AheadPipelines {
     request: PipelineRequest,
     compiled: std::sync::mpsc::Receiver<PipelinesResult>,
-    /// The pipelines once their guide learner is made (only when the request learns a
-    /// guide), before the tracer's own pipelines are.
-    learner: std::sync::mpsc::Receiver<Arc<TracerPipelines>>,
+    /// The guide's learner once made (only when the request learns a guide), before the
+    /// tracer's own pipelines are.
+    learner: std::sync::mpsc::Receiver<Arc<GuideLearner>>,
     thread: std::thread::JoinHandle<()>,
 }
 
@@ -644,11 +644,12 @@ enum RenderPipelines {
 }
 
 impl RenderPipelines {
-    /// The pipelines as soon as their guide learner can be had (they may still compile the
-    /// tracer's own); `None` when the opening's thread made no learner (an error to come).
-    fn with_learner(&self) -> Option<Arc<TracerPipelines>> {
+    /// The guide's learner of pipelines compiling ahead, as soon as it is made (the tracer's
+    /// own may still compile); `None` for pipelines ready (their learner is theirs to make)
+    /// or when the opening's thread made none (an error to come with the pipelines).
+    fn ahead_learner(&self) -> Option<Arc<GuideLearner>> {
         match self {
-            RenderPipelines::Ready(p) => Some(p.clone()),
+            RenderPipelines::Ready(_) => None,
             RenderPipelines::Ahead(a) => a.learner.recv().ok(),
         }
     }
@@ -680,34 +681,36 @@ impl PipelineRequest {
         self.compile_announcing(ctx, |_| ())
     }
 
-    /// [`PipelineRequest::compile`], handing the pipelines to `learner_made` as soon as
-    /// their guide learner is made (when the render learns a guide), while the tracer's own
-    /// pipelines may still compile: the render can run the guide's walks meanwhile.
+    /// [`PipelineRequest::compile`], handing the guide's learner (when the render learns a
+    /// guide) to `learner_made` as soon as it is made: it compiles on a thread of its own from
+    /// the start, beside the tracer's module and pipelines, so that the render can run the
+    /// guide's walks while they compile.
     fn compile_announcing(
         &self,
         ctx: &GpuContext,
-        learner_made: impl FnOnce(&Arc<TracerPipelines>) + Send,
+        learner_made: impl FnOnce(&Arc<GuideLearner>) + Send,
     ) -> Result<Arc<TracerPipelines>, raylume_kernels::KernelError> {
-        let p = TracerPipelines::specialised(ctx, self.features, self.layout, self.specialisation)?;
         // The guide's walks compile (and warm up) beside the tracer's pipelines: on a first
         // run the driver spends ~0.2 s on them, ~1 s on the megakernel.
         std::thread::scope(|inner| {
             let learner = self.guides.then(|| {
                 inner.spawn(|| {
-                    let l = p.guide_learner(ctx)?;
-                    learner_made(&p);
+                    let l = Arc::new(GuideLearner::new(ctx, self.layout)?);
+                    learner_made(&l);
                     Ok::<_, raylume_kernels::KernelError>(l)
                 })
             });
+            let p =
+                TracerPipelines::specialised(ctx, self.features, self.layout, self.specialisation)?;
             p.compile(ctx, self.schedule)?;
             if let Some(handle) = learner {
-                handle
+                let l = handle
                     .join()
                     .unwrap_or_else(|panic| std::panic::resume_unwind(panic))?;
+                p.adopt_guide_learner(l)?;
             }
-            Ok::<_, raylume_kernels::KernelError>(())
-        })?;
-        Ok(p)
+            Ok(p)
+        })
     }
 }
 
@@ -1286,8 +1289,8 @@ impl Tracer {
             if let Some(c) = compiling
                 && let Ok(r) = requests.recv()
             {
-                let made = r.compile_announcing(&c, |p| {
-                    let _ = send_learner.send(p.clone());
+                let made = r.compile_announcing(&c, |l| {
+                    let _ = send_learner.send(l.clone());
                 });
                 let _ = send_compiled.send(made);
             }
@@ -1923,9 +1926,8 @@ impl Tracer {
                     true => {
                         // The learner as soon as it is made: the walks run while the
                         // tracer's pipelines may still compile on the opening's thread.
-                        let with_learner = pipelines.as_ref().and_then(|p| p.with_learner());
-                        let p = match with_learner {
-                            Some(p) => p,
+                        match pipelines.as_ref().and_then(RenderPipelines::ahead_learner) {
+                            Some(l) => Some(l),
                             None => {
                                 let p = resolve_pipelines(
                                     pipelines.take().expect("not taken yet"),
@@ -1933,11 +1935,11 @@ impl Tracer {
                                     &mut self.gpu_pipelines,
                                     stats,
                                 )?;
-                                ready = Some(p.clone());
-                                p
+                                let l = p.guide_learner(ctx)?;
+                                ready = Some(p);
+                                Some(l)
                             }
-                        };
-                        Some(p.guide_learner(ctx)?)
+                        }
                     }
                     false => None,
                 };

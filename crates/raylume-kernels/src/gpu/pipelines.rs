@@ -192,6 +192,25 @@ impl TracerPipelines {
             .clone())
     }
 
+    /// Keeps `learner` (made on another thread, over this module's BVH layout) as
+    /// [`Self::guide_learner`]'s, unless one is kept already; its time counts in
+    /// [`Self::seconds`].
+    pub fn adopt_guide_learner(&self, learner: Arc<GuideLearner>) -> Result<(), KernelError> {
+        if learner.layout() != self.bvh_layout {
+            return Err(KernelError::InvalidSettings(format!(
+                "a guide learner for the {} BVH layout offered to pipelines of the {} layout",
+                learner.layout().name(),
+                self.bvh_layout.name()
+            )));
+        }
+        let mut guide = self.guide.lock().unwrap_or_else(|e| e.into_inner());
+        if guide.is_none() {
+            *self.seconds.lock().unwrap_or_else(|e| e.into_inner()) += learner.seconds();
+            *guide = Some(learner);
+        }
+        Ok(())
+    }
+
     /// The compute pipeline of entry point `entry`, compiled on first use.
     pub(crate) fn pipeline(
         &self,
