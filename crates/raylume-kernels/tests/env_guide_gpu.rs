@@ -121,21 +121,21 @@ fn pipelines_adopt_a_learner_of_their_layout_only() {
     use raylume_kernels::gpu::TracerPipelines;
     let features = raylume_scene::Features::all();
     let wide = TracerPipelines::specialised(
-        &ctx,
+        ctx,
         features,
         BvhLayout::Wide,
         raylume_kernels::Specialisation::Composed,
     )
     .unwrap();
-    let binary = std::sync::Arc::new(GuideLearner::new(&ctx, BvhLayout::Binary).unwrap());
+    let binary = std::sync::Arc::new(GuideLearner::new(ctx, BvhLayout::Binary).unwrap());
     assert!(matches!(
         wide.adopt_guide_learner(binary),
         Err(raylume_kernels::KernelError::InvalidSettings(_))
     ));
-    let learner = std::sync::Arc::new(GuideLearner::new(&ctx, BvhLayout::Wide).unwrap());
+    let learner = std::sync::Arc::new(GuideLearner::new(ctx, BvhLayout::Wide).unwrap());
     wide.adopt_guide_learner(learner.clone()).unwrap();
     assert!(std::sync::Arc::ptr_eq(
-        &wide.guide_learner(&ctx).unwrap(),
+        &wide.guide_learner(ctx).unwrap(),
         &learner
     ));
 }
