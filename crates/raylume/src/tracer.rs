@@ -1329,16 +1329,7 @@ impl Tracer {
     pub fn prepare_scene(&mut self, scene: &Scene) -> Result<(), Error> {
         Self::check_settings(scene)?;
         scene.validate()?;
-        self.prepare_geometry(scene)?;
-        let Some(gpu) = self.expected_gpu() else {
-            return Ok(());
-        };
-        let (quality, layout, on_gpu) = self.bvh_plan(scene, gpu);
-        if on_gpu {
-            return Ok(());
-        }
-        let key = GeometryKey::of(scene, quality, layout);
-        let Some(i) = self.cached_tree(&key) else {
+        let Some((i, gpu)) = self.prepare_tree(scene)? else {
             return Ok(());
         };
         let options = self.scene_options(scene);
@@ -1369,8 +1360,15 @@ impl Tracer {
     /// the render validates it.
     pub fn prepare_geometry(&mut self, scene: &Scene) -> Result<(), Error> {
         Self::check_settings(scene)?;
+        self.prepare_tree(scene).map(|_| ())
+    }
+
+    /// [`Tracer::prepare_geometry`]'s work: the tree's place in the BVH cache (built now if
+    /// it was not there) and the backend expected (`expected_gpu`'s), or `None` when no tree
+    /// is built on the CPU for the render (the backend unknown, or the tree built on the GPU).
+    fn prepare_tree(&mut self, scene: &Scene) -> Result<Option<(usize, Option<bool>)>, Error> {
         let Some(gpu) = self.expected_gpu() else {
-            return Ok(());
+            return Ok(None);
         };
         let (quality, layout, on_gpu) = self.bvh_plan(scene, gpu);
         // The device's thread compiles the render's pipelines as soon as the device is open
@@ -1389,34 +1387,33 @@ impl Tracer {
             }
         }
         if on_gpu {
-            return Ok(());
+            return Ok(None);
         }
         let key = GeometryKey::of(scene, quality, layout);
-        if self.cached_tree(&key).is_none() {
-            {
-                let t = Instant::now();
-                let bvh = std::thread::scope(|threads| {
-                    let tables = threads
-                        .spawn(|| raylume_kernels::scene_data::prepare_plastic_tables(scene));
-                    let bvh = GpuBvh::from_scene_with_layout(scene, quality, layout);
-                    tables
-                        .join()
-                        .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
-                    bvh
-                })?;
-                self.bvh_cache.insert(
-                    0,
-                    BvhCacheEntry {
-                        key,
-                        bvh: BuiltBvh::Cpu(Arc::new(bvh)),
-                        prepared: Prepared::default(),
-                        ahead: Some(t.elapsed().as_secs_f64()),
-                    },
-                );
-                self.bvh_cache.truncate(BVH_CACHE_ENTRIES);
-            }
+        if let Some(i) = self.cached_tree(&key) {
+            return Ok(Some((i, gpu)));
         }
-        Ok(())
+        let t = Instant::now();
+        let bvh = std::thread::scope(|threads| {
+            let tables =
+                threads.spawn(|| raylume_kernels::scene_data::prepare_plastic_tables(scene));
+            let bvh = GpuBvh::from_scene_with_layout(scene, quality, layout);
+            tables
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+            bvh
+        })?;
+        self.bvh_cache.insert(
+            0,
+            BvhCacheEntry {
+                key,
+                bvh: BuiltBvh::Cpu(Arc::new(bvh)),
+                prepared: Prepared::default(),
+                ahead: Some(t.elapsed().as_secs_f64()),
+            },
+        );
+        self.bvh_cache.truncate(BVH_CACHE_ENTRIES);
+        Ok(Some((0, gpu)))
     }
 
     /// What the next render's backend will be, as far as [`Tracer::prepare_scene`] can tell
