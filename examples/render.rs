@@ -117,6 +117,11 @@ struct Args {
     /// No progress bar, progress lines or time estimate.
     #[arg(long, short = 'q')]
     quiet: bool,
+    /// Print the render's milestones (the scene loaded, the BVH built, the GPU device open,
+    /// its pipelines compiled, the upload, the trace, the file written), in seconds from the
+    /// process's start, to find what the image waited for. `--stats` writes them anyway.
+    #[arg(long)]
+    timeline: bool,
 }
 
 /// `--rr-depth`: a segment number or `off`.
@@ -223,7 +228,7 @@ fn check_output_path(path: &Path, what: &str, allowed: &[&str]) -> Result<(), St
     Ok(())
 }
 
-fn run(args: Args) -> Result<(), String> {
+fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
     check_output_path(&args.output, "output", &["png", "exr"])?;
     if args.part.is_some()
         && !args
@@ -242,6 +247,7 @@ fn run(args: Args) -> Result<(), String> {
 
     let t_start = Instant::now();
     let mut tracer = Tracer::new(args.backend);
+    tracer.timeline = Some(timeline.clone());
     tracer.seed = args.seed;
     tracer.reorder = args.reorder;
     tracer.bloom = !args.no_bloom;
@@ -284,6 +290,7 @@ fn run(args: Args) -> Result<(), String> {
     // 0.06-0.15 s on the H200's host). A part's render plans its own tree.
     let mut geometry_s = 0.0;
     let mut scene = Scene::load_with(&args.scene, |scene| {
+        timeline.mark("load: geometry final");
         overrides(scene);
         if args.part.is_none() {
             let t = Instant::now();
@@ -293,6 +300,7 @@ fn run(args: Args) -> Result<(), String> {
         }
     })
     .map_err(|e| e.to_string())?;
+    timeline.mark("load: done");
     // The build is the `bvh` stage's (the render reports it), not the load's.
     let load_s = t_load.elapsed().as_secs_f64() - geometry_s;
     overrides(&mut scene);
@@ -302,6 +310,7 @@ fn run(args: Args) -> Result<(), String> {
         tracer.samples = Some(range);
     }
     tracer.prepare_scene(&scene).map_err(|e| e.to_string())?;
+    timeline.mark("prepare_scene: done");
     // A bar on a terminal; plain lines (no escape codes) when stderr is piped or redirected.
     let terminal = std::io::stderr().is_terminal();
     let bar = if args.quiet || !terminal {
@@ -371,6 +380,8 @@ fn run(args: Args) -> Result<(), String> {
     render.save(&args.output).map_err(|e| e.to_string())?;
     render.stats.seconds.save = t_save.elapsed().as_secs_f64();
     render.stats.seconds.total = t_start.elapsed().as_secs_f64();
+    timeline.mark("saved");
+    render.stats.timeline = timeline.marks();
 
     let s = &render.stats;
     let roulette = match s.russian_roulette {
@@ -427,6 +438,11 @@ fn run(args: Args) -> Result<(), String> {
     );
     if let Some(target) = s.target_error {
         eprintln!("raylume: {}", describe_target(s, target));
+    }
+    if args.timeline {
+        for m in &s.timeline {
+            eprintln!("raylume: timeline {:8.4} s  {}", m.seconds, m.event);
+        }
     }
     if s.dropped_samples > 0 {
         eprintln!(
@@ -573,9 +589,10 @@ fn describe_target(s: &raylume::RenderStats, target: f32) -> String {
 }
 
 fn main() -> ExitCode {
+    let timeline = raylume::Timeline::new();
     ensure_runtime_dir();
     let args = Args::parse();
-    match run(args) {
+    match run(args, timeline) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e}");

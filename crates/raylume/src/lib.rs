@@ -79,6 +79,7 @@ mod parts;
 mod prepared;
 mod stats;
 mod target;
+pub mod timeline;
 mod tracer;
 
 pub use auto::AutoDecision;
@@ -88,6 +89,7 @@ pub use gpus::WorkerStats;
 pub use output::{ImageFormat, save_exr, save_png};
 pub use parts::{Part, PartHeader, SampleRange, join, merge, merge_bound};
 pub use stats::{DepthSeconds, LightStats, NO_LIGHT_WARNING, RenderStats, StageSeconds};
+pub use timeline::{Timeline, TimelineMark};
 pub use tracer::{
     BVH_BUILD_THREADS, Backend, BvhBuilder, CPU_FASTEST_BUILD_SECONDS,
     CPU_RAYS_PER_SECOND_PER_THREAD, GPU_BUILD_FIXED_SECONDS, GPU_BUILD_SECONDS,

@@ -191,6 +191,9 @@ pub struct RenderStats {
     /// next-event estimation has no light to sample). The `render` command prints each with
     /// `warning:` before the first batch.
     pub warnings: Vec<String>,
+    /// The milestones of [`crate::Tracer::timeline`] up to the render's end (empty without
+    /// one): seconds from the timeline's origin, from every thread the render ran.
+    pub timeline: Vec<crate::TimelineMark>,
 }
 
 /// The light list of a scene: what emits, and so what next-event estimation

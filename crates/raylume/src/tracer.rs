@@ -21,6 +21,7 @@ use raylume_scene::Scene;
 use crate::auto::{AutoDecision, AutoPolicy, AutoState, fingerprint};
 use crate::prepared::{Prepared, SceneKey};
 use crate::target::TargetRun;
+use crate::timeline::mark;
 use crate::{DepthSeconds, Error, ImageFormat, Part, PartHeader, RenderStats, SampleRange};
 
 /// Where rays are traced.
@@ -511,6 +512,10 @@ pub struct Tracer {
     pub bloom: bool,
     /// Exposure, tone curve and encoding for `.png` output.
     pub tone: raylume_post::ToneMap,
+    /// Where the tracer marks its milestones (default `None`: nowhere): the device's
+    /// opening and pipelines, the BVH, the upload, the trace, from every thread it runs;
+    /// [`RenderStats::timeline`] carries them ([`crate::timeline`]).
+    pub timeline: Option<crate::Timeline>,
     progress: Option<ProgressFn>,
     on_start: Option<StartFn>,
     pub(crate) gpu: Option<GpuContext>,
@@ -892,6 +897,7 @@ impl Tracer {
             samples: None,
             bloom: true,
             tone: raylume_post::ToneMap::default(),
+            timeline: None,
             progress: None,
             on_start: None,
             gpu: None,
@@ -1272,6 +1278,7 @@ impl Tracer {
         let (send_ready, ready) = std::sync::mpsc::channel();
         let (send_compiled, compiled) = std::sync::mpsc::channel();
         let (send_learner, learner) = std::sync::mpsc::channel();
+        let timeline = self.timeline.clone();
         let thread = std::thread::spawn(move || {
             let t = Instant::now();
             let options = ContextOptions {
@@ -1281,9 +1288,11 @@ impl Tracer {
             let ctx = GpuContext::new_announcing(&options, |info| {
                 let software = info.map(|i| i.device_type == wgpu::DeviceType::Cpu);
                 let _ = announce.send(software);
+                mark(&timeline, "device: adapter chosen");
             });
             let seconds = t.elapsed().as_secs_f64();
             let compiling = ctx.as_ref().ok().cloned();
+            mark(&timeline, "device: open");
             let _ = send_ready.send((ctx, seconds));
             // The pipelines `prepare_scene` asks for, if it does before the render takes
             // the context; the render uploads its scene meanwhile.
@@ -1291,8 +1300,10 @@ impl Tracer {
                 && let Ok(r) = requests.recv()
             {
                 let made = r.compile_announcing(&c, |l| {
+                    mark(&timeline, "pipelines: guide learner made");
                     let _ = send_learner.send(l.clone());
                 });
+                mark(&timeline, "pipelines: compiled");
                 let _ = send_compiled.send(made);
             }
         });
@@ -1348,6 +1359,7 @@ impl Tracer {
             let t = Instant::now();
             let data = SceneData::with_options(scene, bvh, &options)?;
             prepared.ahead = Some((data, t.elapsed().as_secs_f64()));
+            mark(&self.timeline, "scene data prepared ahead");
         }
         Ok(())
     }
@@ -1404,6 +1416,7 @@ impl Tracer {
                 .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
             bvh
         })?;
+        mark(&self.timeline, "bvh: built ahead");
         self.bvh_cache.insert(
             0,
             BvhCacheEntry {
@@ -1533,6 +1546,7 @@ impl Tracer {
     /// a degenerate triangle or absurd radiance is an error, not a silently wrong image.
     pub fn render(&mut self, scene: &Scene) -> Result<Render, Error> {
         let t_total = Instant::now();
+        mark(&self.timeline, "render: starts");
         Self::check_settings(scene)?;
         if let Some(e) = self.target_error
             && !(e.is_finite() && e > 0.0)
@@ -1716,6 +1730,7 @@ impl Tracer {
             };
             (bvh, pipelines)
         });
+        mark(&self.timeline, "render: bvh in hand");
         let (bvh, builder_note) = match bvh {
             Ok(b) => b,
             Err(e) => {
@@ -1841,6 +1856,10 @@ impl Tracer {
         if stats.seconds.trace > 0.0 {
             stats.mrays_per_s = stats.rays_traced as f64 / stats.seconds.trace / 1e6;
         }
+        mark(&self.timeline, "render: ends");
+        if let Some(t) = &self.timeline {
+            stats.timeline = t.marks();
+        }
         Ok(self.make_render(scene, pixels, stats))
     }
 
@@ -1925,7 +1944,10 @@ impl Tracer {
                         // The learner as soon as it is made: the walks run while the
                         // tracer's pipelines may still compile on the opening's thread.
                         match pipelines.as_ref().and_then(RenderPipelines::ahead_learner) {
-                            Some(l) => Some(l),
+                            Some(l) => {
+                                mark(&self.timeline, "upload: guide learner in hand");
+                                Some(l)
+                            }
                             None => {
                                 let p = resolve_pipelines(
                                     pipelines.take().expect("not taken yet"),
@@ -1955,6 +1977,7 @@ impl Tracer {
                 })
             }
         };
+        mark(&self.timeline, "upload: done");
         if fresh {
             stats.seconds.guide = uploaded.data().environment_guide_seconds;
         }
@@ -1966,6 +1989,7 @@ impl Tracer {
             (None, Some(p)) => resolve_pipelines(p, ctx, &mut self.gpu_pipelines, stats)?,
             (None, None) => unreachable!("taken only with `ready` set"),
         };
+        mark(&self.timeline, "render: pipelines in hand");
         let mut tracer = GpuTracer::with_scene(ctx, uploaded, pipelines)?;
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
@@ -1998,6 +2022,7 @@ impl Tracer {
                 out
             }
         };
+        mark(&self.timeline, "render: traced");
         stats.schedule = schedules_run(&out);
         stats.take_trace(out.rays_traced, out.dropped_samples, &out.timings);
         stats.depth_seconds = out
@@ -2051,6 +2076,7 @@ impl Tracer {
         stats.seconds.post = t.elapsed().as_secs_f64();
         let pixels = (settings.width * settings.height) as usize;
         let pixels = ctx.read_buffer::<[f32; 3]>(image, pixels)?;
+        mark(&self.timeline, "render: image read back");
         self.gpu_workspace = Some(tracer.take_workspace());
         Ok(pixels)
     }
@@ -2094,6 +2120,7 @@ impl Tracer {
         stats.specialisation = self.specialisation.name().into();
         stats.pipeline_features = tracer.variant_features().names();
         stats.seconds.upload += t.elapsed().as_secs_f64();
+        mark(&self.timeline, "upload: done");
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
         let guides = self.guides(scene);
@@ -2107,6 +2134,7 @@ impl Tracer {
             None => tracer.render(settings, report)?,
             Some(t) => tracer.render_with_hook(settings, report, &mut |r| t.on_round(r))?,
         };
+        mark(&self.timeline, "render: traced");
         stats.take_trace(out.rays_traced, out.dropped_samples, &out.timings);
         let mut pixels = out.radiance;
         let t = Instant::now();

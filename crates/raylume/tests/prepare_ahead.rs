@@ -230,3 +230,50 @@ fn the_tree_built_from_the_geometry_alone_is_the_renders() {
         Err(Error::Settings(_))
     ));
 }
+
+#[test]
+fn the_timeline_holds_the_milestones_in_the_order_they_depend_on() {
+    let Some(_) = raylume_gpu::testing::context_or_skip(
+        "the_timeline_holds_the_milestones_in_the_order_they_depend_on",
+    ) else {
+        return;
+    };
+    let scene = cornell(16, 16, 2);
+    let timeline = raylume::Timeline::new();
+    let mut t = Tracer::new(Backend::Gpu);
+    t.timeline = Some(timeline.clone());
+    t.start_backend();
+    t.prepare_scene(&scene).unwrap();
+    timeline.mark("prepared");
+    let r = t.render(&scene).unwrap();
+    let marks = &r.stats.timeline;
+    let at = |event: &str| {
+        let found: Vec<f64> = marks
+            .iter()
+            .filter(|m| m.event == event)
+            .map(|m| m.seconds)
+            .collect();
+        assert_eq!(found.len(), 1, "`{event}` once in {marks:#?}");
+        found[0]
+    };
+    // Each milestone after what it needs: the tree before the render that uses it, the
+    // device before its pipelines and the upload, the upload and pipelines before the trace.
+    assert!(at("device: adapter chosen") <= at("device: open"));
+    assert!(at("device: open") <= at("pipelines: compiled"));
+    assert!(at("bvh: built ahead") <= at("prepared"));
+    assert!(at("prepared") <= at("render: starts"));
+    assert!(at("device: open") <= at("upload: done"));
+    assert!(at("pipelines: compiled") <= at("render: pipelines in hand"));
+    assert!(at("upload: done") <= at("render: traced"));
+    assert!(at("render: pipelines in hand") <= at("render: traced"));
+    assert!(at("render: traced") <= at("render: image read back"));
+    assert_eq!(marks.last().unwrap().event, "render: ends", "{marks:#?}");
+    assert!(marks.windows(2).all(|w| w[0].seconds <= w[1].seconds));
+    // What the caller marks after the render joins the same timeline.
+    timeline.mark("saved");
+    assert_eq!(timeline.marks().len(), marks.len() + 1);
+
+    // A tracer without a timeline marks nothing.
+    let r = Tracer::new(Backend::Gpu).render(&scene).unwrap();
+    assert!(r.stats.timeline.is_empty());
+}
