@@ -95,7 +95,8 @@ pub use cpu::CpuTracer;
 pub use error::KernelError;
 pub use gpu::{
     BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuScene, GpuTracer, GpuWorkspace,
-    SortCapture, Specialisation, StageTime, TraceStats, WavefrontBuffers, tracer_features,
+    PendingScene, SortCapture, Specialisation, StageTime, TraceStats, WavefrontBuffers,
+    tracer_features,
 };
 pub use scene_data::SceneOptions;
 

@@ -546,17 +546,7 @@ impl SceneData {
         options: &SceneOptions,
         walk: &mut dyn FnMut(&GuideParams) -> Result<EnvironmentGuide, KernelError>,
     ) -> Result<Self, KernelError> {
-        if bvh.triangle_count as usize != scene.triangles.len()
-            || bvh.sphere_count as usize != scene.spheres.len()
-        {
-            return Err(KernelError::InvalidScene(format!(
-                "the BVH was built over {} triangles and {} spheres, but the scene has {} and {}",
-                bvh.triangle_count,
-                bvh.sphere_count,
-                scene.triangles.len(),
-                scene.spheres.len()
-            )));
-        }
+        Self::check_counts(scene, bvh)?;
         Self::with_leaves(scene, Leaves::Primitives(&bvh.primitives), options, walk)
     }
 
@@ -568,6 +558,178 @@ impl SceneData {
         options: &SceneOptions,
         walk: &mut dyn FnMut(&GuideParams) -> Result<EnvironmentGuide, KernelError>,
     ) -> Result<Self, KernelError> {
+        let mut data = Self::before_guide(scene, leaves, options)?;
+        if let Some(g) = data.pending_guide() {
+            let start = std::time::Instant::now();
+            let guide = walk(&g)?;
+            data.add_guide(scene, guide, start.elapsed().as_secs_f64())?;
+        }
+        Ok(data)
+    }
+
+    /// [`SceneData::with_guide_walks`] without the walks: everything but the environment
+    /// guide, which [`SceneData::pending_guide`] then asks for (when `options` wants one and
+    /// the scene has a sky and geometry) and [`SceneData::add_guide`] adds. What a GPU render
+    /// prepares before its device is open: the data is uploaded while the device compiles
+    /// the walks (`crate::gpu::GpuScene::upload_before_guide`). The texel buffer's layout is
+    /// the same as with the guide, whose distributions come last.
+    pub fn before_guide_walks(
+        scene: &Scene,
+        bvh: &GpuBvh,
+        options: &SceneOptions,
+    ) -> Result<Self, KernelError> {
+        Self::check_counts(scene, bvh)?;
+        Self::before_guide(scene, Leaves::Primitives(&bvh.primitives), options)
+    }
+
+    /// The walks' parameters when the data wants a guide not learned yet: the data is then
+    /// incomplete, and [`SceneData::add_guide`] completes it.
+    pub fn pending_guide(&self) -> Option<GuideParams> {
+        (self.environment_guide && self.environment_guide_walks.is_none())
+            .then(|| GuideParams::new(&self.camera, self.scene_min, self.scene_extent))
+    }
+
+    /// Words the guide's distributions will take at the end of `texels` should the walks
+    /// find enough escapes (0 when no guide is pending): a constant sky's
+    /// [`guided_constant_cdf`] per cell of the guide's grid, or a map's
+    /// [`guided_map_cdf`].
+    pub fn pending_guide_words(&self) -> usize {
+        if self.pending_guide().is_none() {
+            return 0;
+        }
+        let rows_and_columns = |w: usize, h: usize| h + w * h;
+        match self.environment_kind {
+            ENVIRONMENT_MAP => rows_and_columns(
+                self.environment_width as usize,
+                self.environment_height as usize,
+            ),
+            _ => {
+                let (grid, _) = crate::env_guide::guide_grid(self.scene_extent);
+                grid.iter().map(|&n| n as usize).product::<usize>()
+                    * rows_and_columns(GUIDE_WIDTH as usize, GUIDE_HEIGHT as usize)
+            }
+        }
+    }
+
+    /// The guide's distributions for `guide` and where they go: at float index `offset` of
+    /// the texel buffer (its length before them). `None` when the walks found too few
+    /// escapes (the unguided distribution is sampled then).
+    pub fn guide_distributions(
+        &self,
+        scene: &Scene,
+        guide: &EnvironmentGuide,
+        offset: u32,
+    ) -> Option<(Vec<f32>, GuidedCdf)> {
+        if !guide.is_useful() {
+            return None;
+        }
+        Some(match &scene.environment {
+            Environment::Map {
+                image, rotation, ..
+            } => {
+                let (weights, _) = environment_weights(image);
+                let (w, h) = (image.width as usize, image.height as usize);
+                (
+                    guided_map_cdf(guide, w, h, rotation / 360.0, &weights),
+                    GuidedCdf {
+                        offset,
+                        width: image.width,
+                        height: image.height,
+                        grid: [1, 1, 1],
+                        grid_scale: Vec3::ZERO,
+                    },
+                )
+            }
+            _ => (
+                guided_constant_cdf(guide),
+                GuidedCdf {
+                    offset,
+                    width: GUIDE_WIDTH,
+                    height: GUIDE_HEIGHT,
+                    grid: guide.grid,
+                    grid_scale: guide.grid_scale,
+                },
+            ),
+        })
+    }
+
+    /// Completes data with a guide pending ([`SceneData::pending_guide`]) with what the walks
+    /// found (`seconds`: how long the preparation waited for them): their distributions are
+    /// appended to `texels` when useful. An error when no guide is pending.
+    pub fn add_guide(
+        &mut self,
+        scene: &Scene,
+        guide: EnvironmentGuide,
+        seconds: f64,
+    ) -> Result<(), KernelError> {
+        let offset = texel_index(&self.texels)?;
+        if let Some(cdf) = self.take_guide(scene, &guide, seconds, offset)? {
+            extend_floats(&mut self.texels, cdf);
+            // The buffer must stay addressable with u32 float indices.
+            texel_index(&self.texels)?;
+        }
+        Ok(())
+    }
+
+    /// [`SceneData::add_guide`] for data whose texels are elsewhere (uploaded): records what
+    /// the walks found and returns the distributions to place at float index `offset` of the
+    /// texel buffer (`None`: too few escapes, nothing to place).
+    pub fn take_guide(
+        &mut self,
+        scene: &Scene,
+        guide: &EnvironmentGuide,
+        seconds: f64,
+        offset: u32,
+    ) -> Result<Option<Vec<f32>>, KernelError> {
+        if self.pending_guide().is_none() {
+            return Err(KernelError::InvalidSettings(
+                "an environment guide added to scene data that asked for none".into(),
+            ));
+        }
+        self.environment_guide_seconds = seconds;
+        self.environment_guide_walks = Some((guide.walks, guide.escapes));
+        Ok(self
+            .guide_distributions(scene, guide, offset)
+            .map(|(cdf, at)| {
+                self.environment_guided_cdf = Some(at);
+                cdf
+            }))
+    }
+
+    /// Completes a pending guide ([`SceneData::pending_guide`]) by walks on the CPU over
+    /// `bvh` (the tree the data was prepared over): data prepared for a GPU render that
+    /// renders on the CPU. Nothing to do when no guide is pending.
+    pub fn learn_pending_guide(&mut self, scene: &Scene, bvh: &GpuBvh) -> Result<(), KernelError> {
+        if let Some(g) = self.pending_guide() {
+            let start = std::time::Instant::now();
+            let guide = learn_environment_guide_with(&g, bvh);
+            self.add_guide(scene, guide, start.elapsed().as_secs_f64())?;
+        }
+        Ok(())
+    }
+
+    /// Fails unless `bvh` was built over as many triangles and spheres as `scene` has.
+    fn check_counts(scene: &Scene, bvh: &GpuBvh) -> Result<(), KernelError> {
+        if bvh.triangle_count as usize != scene.triangles.len()
+            || bvh.sphere_count as usize != scene.spheres.len()
+        {
+            return Err(KernelError::InvalidScene(format!(
+                "the BVH was built over {} triangles and {} spheres, but the scene has {} and {}",
+                bvh.triangle_count,
+                bvh.sphere_count,
+                scene.triangles.len(),
+                scene.spheres.len()
+            )));
+        }
+        Ok(())
+    }
+
+    /// Everything of [`SceneData::with_leaves`] but the guide's walks and distributions.
+    fn before_guide(
+        scene: &Scene,
+        leaves: Leaves<'_>,
+        options: &SceneOptions,
+    ) -> Result<Self, KernelError> {
         if let Leaves::Triangles(order) = leaves
             && order.len() != scene.triangles.len()
         {
@@ -577,8 +739,15 @@ impl SceneData {
                 scene.triangles.len()
             )));
         }
-        let mut texels = Vec::new();
         let decode = options.decode_textures;
+        // The words every texture takes (as `append_texture` lays them out), reserved at once:
+        // growing the buffer texture by texture copied it each time.
+        let words: usize = scene
+            .textures
+            .iter()
+            .map(|t| t.texels.len() * if t.texels.is_srgb8() && !decode { 1 } else { 3 })
+            .sum();
+        let mut texels = Vec::with_capacity(256 + words);
         if !decode && scene.textures.iter().any(|t| t.texels.is_srgb8()) {
             debug_assert_eq!(SRGB8_TABLE, 0, "the table comes first");
             extend_floats(&mut texels, srgb8_table().iter().copied());
@@ -801,51 +970,10 @@ impl SceneData {
             data.scene_min = bounds.min;
             data.scene_extent = bounds.extent();
         }
-        if options.environment_guide && environment_luminance > 0.0 && !leaves.is_empty() {
-            data.environment_guide = true;
-            let start = std::time::Instant::now();
-            let guide = walk(&GuideParams::new(
-                &scene.camera,
-                data.scene_min,
-                data.scene_extent,
-            ))?;
-            data.environment_guide_seconds = start.elapsed().as_secs_f64();
-            data.environment_guide_walks = Some((guide.walks, guide.escapes));
-            if guide.is_useful() {
-                let offset = texel_index(&texels)?;
-                data.environment_guided_cdf = Some(match &scene.environment {
-                    Environment::Map {
-                        image, rotation, ..
-                    } => {
-                        let (weights, _) = environment_weights(image);
-                        let (w, h) = (image.width as usize, image.height as usize);
-                        extend_floats(
-                            &mut texels,
-                            guided_map_cdf(&guide, w, h, rotation / 360.0, &weights),
-                        );
-                        GuidedCdf {
-                            offset,
-                            width: image.width,
-                            height: image.height,
-                            grid: [1, 1, 1],
-                            grid_scale: Vec3::ZERO,
-                        }
-                    }
-                    _ => {
-                        extend_floats(&mut texels, guided_constant_cdf(&guide));
-                        GuidedCdf {
-                            offset,
-                            width: GUIDE_WIDTH,
-                            height: GUIDE_HEIGHT,
-                            grid: guide.grid,
-                            grid_scale: guide.grid_scale,
-                        }
-                    }
-                });
-                // The buffer must stay addressable with u32 float indices.
-                texel_index(&texels)?;
-            }
-        }
+        // The guide is learned after (`pending_guide`, `add_guide`): its distributions come
+        // last in the texel buffer.
+        data.environment_guide =
+            options.environment_guide && environment_luminance > 0.0 && !leaves.is_empty();
         data.texels = texels;
         // pbrt's estimate of an infinite light's power: its radiance over a disc of the
         // scene's bounding radius.

@@ -139,3 +139,82 @@ fn pipelines_adopt_a_learner_of_their_layout_only() {
         &learner
     ));
 }
+
+/// A scene uploaded before its guide was learned (`GpuScene::upload_before_guide`, what a GPU
+/// render does with the data it prepared while the device opened) is, once `finish` has run
+/// the walks and written their distributions into the room kept for them, the scene
+/// `upload_with_learner` makes: the same walks, the same distributions at the same place, the
+/// same texel buffer and the same image (bit for bit), for a constant sky and for a map.
+/// Finished on the CPU (`learn_pending_guide`) the data is the CPU's own preparation.
+#[test]
+fn a_scene_uploaded_before_its_guide_is_the_scene_uploaded_with_it() {
+    use std::sync::Arc;
+    let Some(ctx) = raylume_gpu::testing::context_or_skip(
+        "a_scene_uploaded_before_its_guide_is_the_scene_uploaded_with_it",
+    ) else {
+        return;
+    };
+    let options = SceneOptions {
+        environment_guide: true,
+        ..Default::default()
+    };
+    for (name, scene) in [
+        ("skylight room (constant sky)", skylight_room(0.8)),
+        ("environment lit (map)", environment_lit()),
+    ] {
+        let bvh = bvh(&scene);
+        let learner = GuideLearner::new(ctx, bvh.layout).unwrap();
+        let with =
+            GpuScene::upload_with_learner(ctx, &scene, &bvh, &options, Some(&learner)).unwrap();
+        let before = SceneData::before_guide_walks(&scene, &bvh, &options).unwrap();
+        assert!(before.pending_guide().is_some(), "{name}");
+        assert!(before.pending_guide_words() > 0, "{name}");
+        let features = raylume_kernels::tracer_features(&scene);
+        // Data with a guide pending is refused where a complete one is expected.
+        let refused = GpuScene::upload_data(ctx, features, &bvh, before.clone()).err();
+        assert!(
+            matches!(
+                refused,
+                Some(raylume_kernels::KernelError::InvalidSettings(_))
+            ),
+            "{name}: {refused:?}"
+        );
+        let pending = GpuScene::upload_before_guide(ctx, features, &bvh, before.clone()).unwrap();
+        assert!(pending.pending_guide().is_some());
+        let done = pending.finish(ctx, &scene, &bvh, Some(&learner)).unwrap();
+        let (a, b) = (done.data(), with.data());
+        assert!(a.environment_guided_cdf.is_some(), "{name}: a useful guide");
+        assert_eq!(a.environment_guided_cdf, b.environment_guided_cdf, "{name}");
+        assert_eq!(
+            a.environment_guide_walks, b.environment_guide_walks,
+            "{name}"
+        );
+        assert_eq!(done.texel_bytes(), with.texel_bytes(), "{name}");
+        let s = settings(24, 16, 2, 4, raylume_kernels::Schedule::Megakernel);
+        let image = |uploaded: GpuScene| {
+            let pipelines =
+                raylume_kernels::gpu::TracerPipelines::new(ctx, features, bvh.layout).unwrap();
+            let mut t =
+                raylume_kernels::GpuTracer::with_scene(ctx, Arc::new(uploaded), pipelines).unwrap();
+            t.set_estimator(raylume_kernels::Estimator::Nee);
+            t.set_environment_guide(true);
+            t.render(&s, &mut |_, _| {}).unwrap().radiance
+        };
+        assert_eq!(image(done), image(with), "{name}: the same image");
+
+        let mut on_cpu = before;
+        on_cpu.learn_pending_guide(&scene, &bvh).unwrap();
+        assert!(on_cpu.pending_guide().is_none());
+        let cpu = SceneData::with_options(&scene, &bvh, &options).unwrap();
+        assert_eq!(on_cpu.texels, cpu.texels, "{name}");
+        assert_eq!(on_cpu.environment_guided_cdf, cpu.environment_guided_cdf);
+        assert_eq!(on_cpu.environment_guide_walks, cpu.environment_guide_walks);
+        // A guide is added once.
+        assert!(on_cpu.learn_pending_guide(&scene, &bvh).is_ok());
+        let guide = learn_environment_guide_with(
+            &GuideParams::new(&scene.camera, cpu.scene_min, cpu.scene_extent),
+            &bvh,
+        );
+        assert!(on_cpu.add_guide(&scene, guide, 0.0).is_err());
+    }
+}

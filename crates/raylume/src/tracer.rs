@@ -323,6 +323,35 @@ fn resolve_pipelines(
     }
 }
 
+/// The environment guide's learner for a render's walks: the one compiling ahead as soon as
+/// it is made (the tracer's own pipelines may still compile), else the pipelines' own
+/// (waited for and taken into `ready`).
+fn guide_learner(
+    pipelines: &mut Option<RenderPipelines>,
+    ready: &mut Option<Arc<TracerPipelines>>,
+    ctx: &GpuContext,
+    cache: &mut Vec<Arc<TracerPipelines>>,
+    stats: &mut RenderStats,
+) -> Result<Arc<GuideLearner>, Error> {
+    if let Some(l) = pipelines.as_ref().and_then(RenderPipelines::ahead_learner) {
+        return Ok(l);
+    }
+    let p = match ready.as_ref() {
+        Some(p) => p.clone(),
+        None => {
+            let p = resolve_pipelines(
+                pipelines.take().expect("taken only with `ready` set"),
+                ctx,
+                cache,
+                stats,
+            )?;
+            *ready = Some(p.clone());
+            p
+        }
+    };
+    Ok(p.guide_learner(ctx)?)
+}
+
 /// A finished render: linear HDR radiance per pixel (after bloom, before tone mapping).
 #[derive(Clone, Debug)]
 pub struct Render {
@@ -1350,14 +1379,18 @@ impl Tracer {
             return Ok(());
         };
         let prepared = entry.prepared.of(SceneKey::of(scene, options));
-        // Nothing to do when the data is there, and a GPU render learns its environment
-        // guide on the GPU, after the upload.
+        // Nothing to do when the data is there. A GPU render's data is prepared without its
+        // environment guide, which the GPU learns after the upload (the device compiles the
+        // walks meanwhile).
         let skip = prepared.ahead.is_some()
             || prepared.cpu.is_some()
-            || (gpu.is_some() && (prepared.gpu.is_some() || options.environment_guide));
+            || (gpu.is_some() && prepared.gpu.is_some());
         if !skip {
             let t = Instant::now();
-            let data = SceneData::with_options(scene, bvh, &options)?;
+            let data = match gpu {
+                Some(_) => SceneData::before_guide_walks(scene, bvh, &options)?,
+                None => SceneData::with_options(scene, bvh, &options)?,
+            };
             prepared.ahead = Some((data, t.elapsed().as_secs_f64()));
             mark(&self.timeline, "scene data prepared ahead");
         }
@@ -1916,17 +1949,36 @@ impl Tracer {
                 stats.scene_cached = true;
                 g.clone()
             }
-            // Prepared by `prepare_scene` before the device was open: uploaded now (moved).
+            // Prepared by `prepare_scene` before the device was open: uploaded now (moved),
+            // while the device may still compile the environment guide's walks, which then
+            // run and write the guide's distributions after the rest.
             (None, _, BuiltBvh::Cpu(bvh)) if prepared.ahead.is_some() => {
                 let (data, seconds) = prepared.ahead.take().expect("matched");
                 stats.prepared_ahead = true;
                 stats.seconds.upload += seconds;
-                Arc::new(GpuScene::upload_data(
+                let pending = GpuScene::upload_before_guide(
                     ctx,
                     raylume_kernels::tracer_features(scene),
                     bvh,
                     data,
-                )?)
+                )?;
+                let learner = match pending.pending_guide() {
+                    Some(_) => {
+                        mark(&self.timeline, "upload: all but the guide");
+                        fresh = true;
+                        let l = guide_learner(
+                            &mut pipelines,
+                            &mut ready,
+                            ctx,
+                            &mut self.gpu_pipelines,
+                            stats,
+                        )?;
+                        mark(&self.timeline, "upload: guide learner in hand");
+                        Some(l)
+                    }
+                    None => None,
+                };
+                Arc::new(pending.finish(ctx, scene, bvh, learner.as_deref())?)
             }
             // The CPU's preparation of the same scene (an earlier CPU render), uploaded.
             (None, Some(data), BuiltBvh::Cpu(bvh)) => Arc::new(GpuScene::upload_data(
@@ -1940,26 +1992,18 @@ impl Tracer {
             (None, _, bvh) => {
                 fresh = true;
                 let learner = match options.environment_guide {
+                    // The learner as soon as it is made: the walks run while the tracer's
+                    // pipelines may still compile on the opening's thread.
                     true => {
-                        // The learner as soon as it is made: the walks run while the
-                        // tracer's pipelines may still compile on the opening's thread.
-                        match pipelines.as_ref().and_then(RenderPipelines::ahead_learner) {
-                            Some(l) => {
-                                mark(&self.timeline, "upload: guide learner in hand");
-                                Some(l)
-                            }
-                            None => {
-                                let p = resolve_pipelines(
-                                    pipelines.take().expect("not taken yet"),
-                                    ctx,
-                                    &mut self.gpu_pipelines,
-                                    stats,
-                                )?;
-                                let l = p.guide_learner(ctx)?;
-                                ready = Some(p);
-                                Some(l)
-                            }
-                        }
+                        let l = guide_learner(
+                            &mut pipelines,
+                            &mut ready,
+                            ctx,
+                            &mut self.gpu_pipelines,
+                            stats,
+                        )?;
+                        mark(&self.timeline, "upload: guide learner in hand");
+                        Some(l)
                     }
                     false => None,
                 };
@@ -2102,10 +2146,12 @@ impl Tracer {
                 stats.scene_cached = true;
                 d.clone()
             }
-            // Prepared by `prepare_scene` (for a GPU render that became a CPU one).
-            (None, Some((d, seconds))) => {
+            // Prepared by `prepare_scene` (for a GPU render that became a CPU one: its guide,
+            // left to the GPU, is learned here).
+            (None, Some((mut d, seconds))) => {
                 stats.prepared_ahead = true;
                 stats.seconds.upload += seconds;
+                d.learn_pending_guide(scene, bvh)?;
                 Arc::new(d)
             }
             (None, None) => Arc::new(SceneData::with_options(scene, bvh, &options)?),

@@ -198,6 +198,8 @@ fn a_guided_render_takes_the_learner_before_the_pipelines_are_done() {
     t.start_backend();
     t.prepare_scene(&scene).unwrap();
     let r = t.render(&scene).unwrap();
+    // The data prepared while the device opened, uploaded before the walks ran.
+    assert!(r.stats.prepared_ahead);
     assert!(r.stats.pipelines_ahead && !r.stats.pipelines_cached);
     assert!(r.stats.pipelines_wait >= 0.0 && r.stats.pipelines_wait <= r.stats.seconds.total);
     assert_eq!(r.stats.environment_guide, plain.stats.environment_guide);

@@ -44,6 +44,28 @@ pub(crate) fn upload<T: bytemuck::Pod + Default>(
         .map_err(KernelError::from_upload)
 }
 
+/// [`upload`] with room for `room` more elements after `data` (zeroed), which a later
+/// `write_buffer` fills (the buffer is a copy destination then).
+pub(crate) fn upload_with_room<T: bytemuck::Pod + Default>(
+    ctx: &GpuContext,
+    label: &str,
+    data: &[T],
+    room: usize,
+) -> Result<wgpu::Buffer, KernelError> {
+    if room == 0 {
+        return upload(ctx, label, data);
+    }
+    let bytes = ((data.len() + room) * std::mem::size_of::<T>()) as u64;
+    let buffer = ctx
+        .storage_buffer_zeroed(label, bytes, wgpu::BufferUsages::COPY_DST)
+        .map_err(KernelError::from_upload)?;
+    if !data.is_empty() {
+        ctx.queue
+            .write_buffer(&buffer, 0, bytemuck::cast_slice(data));
+    }
+    Ok(buffer)
+}
+
 /// The layouts of group 0 (the scene: uniforms, then BVH nodes, primitives, materials,
 /// primitive materials, triangle shading, texture headers, texels, lights, plastic tables), group 1 (the work
 /// buffers, see `bindings.wgsl`; binding 8 at a dynamic offset), group 2 of

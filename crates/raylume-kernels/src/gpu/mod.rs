@@ -35,7 +35,7 @@ use crate::env_guide::GuideParams;
 use crate::gpu_types::{GpuLight, GpuMaterial, SceneUniforms, TextureHeader, TriangleShading};
 use crate::scene_data::{Leaves, SceneData, SceneOptions};
 use crate::{KernelError, TraceOutput, TraceSettings};
-use layout::upload;
+use layout::{upload, upload_with_room};
 use policy::Fixed;
 use work::WorkBuffers;
 
@@ -118,6 +118,79 @@ pub struct GpuScene {
     /// Words of the texel buffer (its CPU copy is emptied after the upload).
     texel_words: u64,
     upload_seconds: f64,
+}
+
+/// A scene uploaded before its environment guide was learned
+/// ([`GpuScene::upload_before_guide`]), with room for the guide's distributions.
+pub struct PendingScene {
+    scene: GpuScene,
+    /// Words kept free after the texels for the guide's distributions.
+    room: usize,
+}
+
+impl PendingScene {
+    /// The walks still to run (`None`: the scene is complete).
+    pub fn pending_guide(&self) -> Option<GuideParams> {
+        self.scene.data.pending_guide()
+    }
+
+    /// The scene, its pending guide learned: by `learner` on the GPU over the tree uploaded
+    /// (its layout must be the tree's), or without one on the CPU over `bvh` (the tree the
+    /// scene was uploaded with); the distributions written after the texels, as
+    /// [`GpuScene::upload_with_learner`] places them. A complete scene is returned as it is.
+    pub fn finish(
+        mut self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        bvh: &GpuBvh,
+        learner: Option<&GuideLearner>,
+    ) -> Result<GpuScene, KernelError> {
+        let Some(g) = self.scene.data.pending_guide() else {
+            return Ok(self.scene);
+        };
+        let start = Instant::now();
+        let guide = match learner {
+            Some(l) if l.layout() != self.scene.layout => {
+                return Err(KernelError::InvalidSettings(format!(
+                    "a guide learner for the {} BVH layout given a {} tree",
+                    l.layout().name(),
+                    self.scene.layout.name()
+                )));
+            }
+            Some(l) => l.learn(
+                ctx,
+                &self.scene.buffers.nodes,
+                &self.scene.buffers.primitives,
+                &g,
+            )?,
+            None => crate::env_guide::learn_environment_guide_with(&g, bvh),
+        };
+        let seconds = start.elapsed().as_secs_f64();
+        let offset = u32::try_from(self.scene.texel_words).map_err(|_| {
+            KernelError::InvalidScene(
+                "the textures and the environment's distributions hold more than 2^32 words".into(),
+            )
+        })?;
+        let cdf = self.scene.data.take_guide(scene, &guide, seconds, offset)?;
+        if let Some(cdf) = cdf {
+            if cdf.len() != self.room {
+                return Err(KernelError::InvalidSettings(format!(
+                    "the guide's distributions take {} words, {} were kept for them",
+                    cdf.len(),
+                    self.room
+                )));
+            }
+            ctx.scoped("writing the environment guide", || {
+                ctx.queue.write_buffer(
+                    &self.scene.buffers.texels,
+                    4 * u64::from(offset),
+                    bytemuck::cast_slice(&cdf),
+                );
+            })?;
+            self.scene.texel_words += cdf.len() as u64;
+        }
+        Ok(self.scene)
+    }
 }
 
 /// [`GpuScene`]'s storage buffers, in binding order after the uniforms (bindings 1 to 9).
@@ -331,7 +404,7 @@ impl GpuScene {
         };
         let features = tracer_features(scene);
         let (layout, count) = (on_cpu.layout(), on_cpu.leaves().len());
-        let mut uploaded = Self::upload_data_over(ctx, features, layout, count, data, tree)?;
+        let mut uploaded = Self::upload_data_over(ctx, features, layout, count, data, tree, 0)?;
         uploaded.upload_seconds = start.elapsed().as_secs_f64();
         Ok(uploaded)
     }
@@ -345,9 +418,35 @@ impl GpuScene {
         data: SceneData,
     ) -> Result<Self, KernelError> {
         data.check_bvh(bvh)?;
+        if data.pending_guide().is_some() {
+            return Err(KernelError::InvalidSettings(
+                "scene data with its environment guide still to learn: upload it with \
+                 GpuScene::upload_before_guide"
+                    .into(),
+            ));
+        }
         let tree = upload_tree(ctx, bvh)?;
         let count = bvh.primitives.len();
-        Self::upload_data_over(ctx, features, bvh.layout, count, data, tree)
+        Self::upload_data_over(ctx, features, bvh.layout, count, data, tree, 0)
+    }
+
+    /// [`GpuScene::upload_data`] for data whose environment guide may still be pending
+    /// ([`SceneData::before_guide_walks`]): everything is uploaded now, with room at the end
+    /// of the texel buffer for the guide's distributions, which [`PendingScene::finish`]
+    /// learns and writes there. The device can take the scene while it still compiles the
+    /// walks; the result is the scene [`GpuScene::upload_with_learner`] makes.
+    pub fn upload_before_guide(
+        ctx: &GpuContext,
+        features: Features,
+        bvh: &GpuBvh,
+        data: SceneData,
+    ) -> Result<PendingScene, KernelError> {
+        data.check_bvh(bvh)?;
+        let room = data.pending_guide_words();
+        let tree = upload_tree(ctx, bvh)?;
+        let count = bvh.primitives.len();
+        let scene = Self::upload_data_over(ctx, features, bvh.layout, count, data, tree, room)?;
+        Ok(PendingScene { scene, room })
     }
 
     /// [`GpuScene::upload_data`] with a tree of `layout` over `leaf_count` leaf primitives
@@ -359,6 +458,7 @@ impl GpuScene {
         leaf_count: usize,
         mut data: SceneData,
         (nodes, primitives): (wgpu::Buffer, wgpu::Buffer),
+        texel_room: usize,
     ) -> Result<Self, KernelError> {
         let start = Instant::now();
         let full_shading = !data.triangle_shading.is_empty();
@@ -373,7 +473,12 @@ impl GpuScene {
                 &data.triangle_shading,
             )?,
             headers: upload::<TextureHeader>(ctx, "texture headers", &data.texture_headers)?,
-            texels: upload::<u32>(ctx, "texture and environment-map data", &data.texels)?,
+            texels: upload_with_room::<u32>(
+                ctx,
+                "texture and environment-map data",
+                &data.texels,
+                texel_room,
+            )?,
             lights: upload::<GpuLight>(ctx, "light list", &data.lights)?,
             plastic_tables: upload::<RoughPlasticTable>(
                 ctx,
