@@ -589,6 +589,19 @@ impl SceneData {
             .then(|| GuideParams::new(&self.camera, self.scene_min, self.scene_extent))
     }
 
+    /// Fails when a guide is pending ([`SceneData::pending_guide`]): such data would render
+    /// as if it had no guide (the unguided distribution) while asking for one.
+    pub fn check_complete(&self) -> Result<(), KernelError> {
+        match self.pending_guide() {
+            Some(_) => Err(KernelError::InvalidSettings(
+                "scene data with its environment guide still to learn (SceneData::add_guide, \
+                 learn_pending_guide, or GpuScene::upload_before_guide and PendingScene::finish)"
+                    .into(),
+            )),
+            None => Ok(()),
+        }
+    }
+
     /// Words the guide's distributions will take at the end of `texels` should the walks
     /// find enough escapes (0 when no guide is pending): a constant sky's
     /// [`guided_constant_cdf`] per cell of the guide's grid, or a map's

@@ -202,6 +202,19 @@ fn a_scene_uploaded_before_its_guide_is_the_scene_uploaded_with_it() {
         };
         assert_eq!(image(done), image(with), "{name}: the same image");
 
+        // Nor does the CPU tracer render it.
+        let refused = raylume_kernels::CpuTracer::with_shared(
+            Arc::new(bvh.clone()),
+            Arc::new(before.clone()),
+        )
+        .err();
+        assert!(
+            matches!(
+                refused,
+                Some(raylume_kernels::KernelError::InvalidSettings(_))
+            ),
+            "{name}: {refused:?}"
+        );
         let mut on_cpu = before;
         on_cpu.learn_pending_guide(&scene, &bvh).unwrap();
         assert!(on_cpu.pending_guide().is_none());

@@ -279,3 +279,35 @@ fn the_timeline_holds_the_milestones_in_the_order_they_depend_on() {
     let r = Tracer::new(Backend::Gpu).render(&scene).unwrap();
     assert!(r.stats.timeline.is_empty());
 }
+
+/// Data prepared for a GPU render leaves the environment guide to the GPU
+/// (`SceneData::before_guide_walks`); should the render run on the CPU after all (here the
+/// backend changed between `prepare_scene` and `render`), the CPU learns the guide itself and
+/// the image is a plain CPU render's, bit for bit.
+#[test]
+fn data_prepared_for_the_gpu_completes_its_guide_on_the_cpu() {
+    let Some(_) = raylume_gpu::testing::context_or_skip(
+        "data_prepared_for_the_gpu_completes_its_guide_on_the_cpu",
+    ) else {
+        return;
+    };
+    let mut scene = cornell(16, 16, 2);
+    scene.environment = raylume::scene::Environment::Constant(raylume::glam::Vec3::splat(0.5));
+    let mut plain = Tracer::new(Backend::Cpu);
+    plain.environment_guide = Some(true);
+    let plain = plain.render(&scene).unwrap();
+    assert!(
+        plain.stats.environment_guide.starts_with("guided"),
+        "{}",
+        plain.stats.environment_guide
+    );
+    let mut t = Tracer::new(Backend::Gpu);
+    t.environment_guide = Some(true);
+    t.prepare_scene(&scene).unwrap();
+    t.backend = Backend::Cpu;
+    let r = t.render(&scene).unwrap();
+    assert_eq!(r.stats.backend, "cpu");
+    assert!(r.stats.prepared_ahead, "the GPU's preparation was taken");
+    assert_eq!(r.stats.environment_guide, plain.stats.environment_guide);
+    assert_eq!(r.pixels, plain.pixels);
+}

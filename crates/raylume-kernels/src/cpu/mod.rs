@@ -131,6 +131,7 @@ impl CpuTracer {
     /// settings (`set_estimator`, ...) start from the data's and stay its own.
     pub fn with_shared(bvh: Arc<GpuBvh>, data: Arc<SceneData>) -> Result<Self, KernelError> {
         data.check_bvh(&bvh)?;
+        data.check_complete()?;
         Ok(Self {
             bvh,
             choices: data.choices(),

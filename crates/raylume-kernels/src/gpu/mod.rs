@@ -418,13 +418,7 @@ impl GpuScene {
         data: SceneData,
     ) -> Result<Self, KernelError> {
         data.check_bvh(bvh)?;
-        if data.pending_guide().is_some() {
-            return Err(KernelError::InvalidSettings(
-                "scene data with its environment guide still to learn: upload it with \
-                 GpuScene::upload_before_guide"
-                    .into(),
-            ));
-        }
+        data.check_complete()?;
         let tree = upload_tree(ctx, bvh)?;
         let count = bvh.primitives.len();
         Self::upload_data_over(ctx, features, bvh.layout, count, data, tree, 0)
