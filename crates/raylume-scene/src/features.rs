@@ -2,6 +2,8 @@
 //! the scene does not use is not compiled into its pipeline, and passes it does not need do not
 //! run.
 
+use rayon::prelude::*;
+
 use crate::model::{Environment, MaterialKind, Scene};
 
 /// A set of [`Feature`]s, stored as bits (the same bits the WGSL kernels receive as pipeline
@@ -144,14 +146,32 @@ impl Scene {
     /// unused glass material in the table does not pull glass code into the kernel.
     pub fn features(&self) -> Features {
         let mut f = Features::NONE;
-        let mut used = vec![false; self.materials.len()];
-        for t in &self.triangles {
-            if let Some(u) = used.get_mut(t.material as usize) {
-                *u = true;
-            }
-            if t.normals.is_some() {
-                f.insert(Feature::ShadingNormals);
-            }
+        // The triangles on every core: a render asks several times, and a large scene's
+        // triangles are read whole each time (324 MB for 3M triangles; 30-60 ms a pass on
+        // one core of the 2-core machine).
+        let materials = self.materials.len();
+        let (mut used, normals) = self
+            .triangles
+            .par_iter()
+            .with_min_len(1 << 14)
+            .fold(
+                || (vec![false; materials], false),
+                |(mut used, normals), t| {
+                    if let Some(u) = used.get_mut(t.material as usize) {
+                        *u = true;
+                    }
+                    (used, normals || t.normals.is_some())
+                },
+            )
+            .reduce(
+                || (vec![false; materials], false),
+                |(mut a, an), (b, bn)| {
+                    a.iter_mut().zip(b).for_each(|(a, b)| *a |= b);
+                    (a, an || bn)
+                },
+            );
+        if normals {
+            f.insert(Feature::ShadingNormals);
         }
         for s in &self.spheres {
             if let Some(u) = used.get_mut(s.material as usize) {

@@ -413,6 +413,37 @@ fn features_follow_the_materials_that_are_used() {
     assert!(s.features().contains(Feature::Bloom));
 }
 
+/// On a scene split between threads (`features` scans the triangles on every core): a
+/// material used by one triangle only, and shading normals on one triangle only, count
+/// wherever that triangle is, first, in the middle or last.
+#[test]
+fn features_see_every_triangle_of_a_large_scene() {
+    let n = 200_000;
+    let base = || {
+        with(
+            vec![
+                Material::diffuse("w", Vec3::ONE),
+                Material::metal("m", Vec3::ONE, 0.0),
+            ],
+            (0..n).map(|_| tri(0)).collect(),
+        )
+    };
+    assert!(!base().features().contains(Feature::Metal));
+    for at in [0, n / 2 + 1, n - 1] {
+        let mut s = base();
+        s.triangles[at].material = 1;
+        assert!(s.features().contains(Feature::Metal), "metal at {at}");
+        assert!(!s.features().contains(Feature::ShadingNormals));
+        let mut s = base();
+        s.triangles[at].normals = Some([Vec3::Z; 3]);
+        assert!(
+            s.features().contains(Feature::ShadingNormals),
+            "normals at {at}"
+        );
+        assert!(!s.features().contains(Feature::Metal));
+    }
+}
+
 #[test]
 fn features_of_loaded_scenes() {
     // The TOML loader: spheres + glass + bloom + map; the doctest in lib.rs covers a plain one.
