@@ -325,31 +325,36 @@ fn resolve_pipelines(
 
 /// The environment guide's learner for a render's walks: the one compiling ahead as soon as
 /// it is made (the tracer's own pipelines may still compile), else the pipelines' own
-/// (waited for and taken into `ready`).
+/// (waited for and taken into `ready`). Marked on `timeline` when in hand.
 fn guide_learner(
     pipelines: &mut Option<RenderPipelines>,
     ready: &mut Option<Arc<TracerPipelines>>,
     ctx: &GpuContext,
     cache: &mut Vec<Arc<TracerPipelines>>,
     stats: &mut RenderStats,
+    timeline: &Option<crate::Timeline>,
 ) -> Result<Arc<GuideLearner>, Error> {
-    if let Some(l) = pipelines.as_ref().and_then(RenderPipelines::ahead_learner) {
-        return Ok(l);
-    }
-    let p = match ready.as_ref() {
-        Some(p) => p.clone(),
+    let learner = match pipelines.as_ref().and_then(RenderPipelines::ahead_learner) {
+        Some(l) => l,
         None => {
-            let p = resolve_pipelines(
-                pipelines.take().expect("taken only with `ready` set"),
-                ctx,
-                cache,
-                stats,
-            )?;
-            *ready = Some(p.clone());
-            p
+            let p = match ready.as_ref() {
+                Some(p) => p.clone(),
+                None => {
+                    let p = resolve_pipelines(
+                        pipelines.take().expect("taken only with `ready` set"),
+                        ctx,
+                        cache,
+                        stats,
+                    )?;
+                    *ready = Some(p.clone());
+                    p
+                }
+            };
+            p.guide_learner(ctx)?
         }
     };
-    Ok(p.guide_learner(ctx)?)
+    mark(timeline, "upload: guide learner in hand");
+    Ok(learner)
 }
 
 /// A finished render: linear HDR radiance per pixel (after bloom, before tone mapping).
@@ -1966,15 +1971,14 @@ impl Tracer {
                     Some(_) => {
                         mark(&self.timeline, "upload: all but the guide");
                         fresh = true;
-                        let l = guide_learner(
+                        Some(guide_learner(
                             &mut pipelines,
                             &mut ready,
                             ctx,
                             &mut self.gpu_pipelines,
                             stats,
-                        )?;
-                        mark(&self.timeline, "upload: guide learner in hand");
-                        Some(l)
+                            &self.timeline,
+                        )?)
                     }
                     None => None,
                 };
@@ -1994,17 +1998,14 @@ impl Tracer {
                 let learner = match options.environment_guide {
                     // The learner as soon as it is made: the walks run while the tracer's
                     // pipelines may still compile on the opening's thread.
-                    true => {
-                        let l = guide_learner(
-                            &mut pipelines,
-                            &mut ready,
-                            ctx,
-                            &mut self.gpu_pipelines,
-                            stats,
-                        )?;
-                        mark(&self.timeline, "upload: guide learner in hand");
-                        Some(l)
-                    }
+                    true => Some(guide_learner(
+                        &mut pipelines,
+                        &mut ready,
+                        ctx,
+                        &mut self.gpu_pipelines,
+                        stats,
+                        &self.timeline,
+                    )?),
                     false => None,
                 };
                 Arc::new(match bvh {
