@@ -627,7 +627,7 @@ impl SceneData {
     /// The guide's distributions for `guide` and where they go: at float index `offset` of
     /// the texel buffer (its length before them). `None` when the walks found too few
     /// escapes (the unguided distribution is sampled then).
-    pub fn guide_distributions(
+    fn guide_distributions(
         &self,
         scene: &Scene,
         guide: &EnvironmentGuide,
