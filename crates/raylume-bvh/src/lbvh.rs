@@ -335,7 +335,10 @@ pub(crate) fn build_lbvh(aabbs: &[Aabb]) -> Bvh2 {
 
     // Nodes in a depth-first layout with each node's children side by side: the root at 0,
     // then for an inner node its children's pair, the left child's subtree, the right's.
-    let mut nodes = vec![Bvh2Node::default(); 2 * n - 1];
+    // Zeroed pages from the allocator (a node's default is all zeros): the emission below
+    // writes every node, on every core, so nothing is written twice (3M triangles: 6M
+    // nodes, 192 MB, which `vec![default; n]` wrote on one core first).
+    let mut nodes: Vec<Bvh2Node> = bytemuck::zeroed_vec(2 * n - 1);
     let (root, rest) = nodes.split_at_mut(1);
     let leaf_box = |k: u32| aabbs[prims[k as usize] as usize];
     let e = Emit {

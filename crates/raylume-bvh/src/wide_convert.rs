@@ -89,10 +89,8 @@ pub(crate) fn convert(bvh: &Bvh2, max_prims_per_leaf: u32) -> Converted {
         return obvhs();
     }
     let n = bvh.nodes.len();
-    let zeros = || {
-        use rayon::prelude::*;
-        (0..n).into_par_iter().map(|_| AtomicU64::new(0)).collect()
-    };
+    // Zeroed pages from the allocator, touched first by the passes that write them.
+    let zeros = || bytemuck::zeroed_vec::<AtomicU64>(n);
     let c = Converter {
         bvh,
         decisions: zeros(),
@@ -104,7 +102,9 @@ pub(crate) fn convert(bvh: &Bvh2, max_prims_per_leaf: u32) -> Converted {
     };
     let (wide, counted) = c.count(0);
     debug_assert_eq!(counted, prims);
-    let mut nodes = vec![CwBvhNode::default(); wide as usize];
+    // Zeroed pages from the allocator (a node's default is all zeros), filled by the
+    // emission on every core.
+    let mut nodes: Vec<CwBvhNode> = bytemuck::zeroed_vec(wide as usize);
     let mut primitive_indices = vec![0u32; prims as usize];
     let (root, rest) = nodes.split_at_mut(1);
     c.emit(0, &mut root[0], rest, 1, &mut primitive_indices, 0);
@@ -487,6 +487,17 @@ mod tests {
             .iter()
             .flat_map(|n| bytemuck::bytes_of(n).to_vec())
             .collect()
+    }
+
+    /// The converter and the LBVH allocate their nodes zeroed (`bytemuck::zeroed_vec`) where
+    /// they wrote `vec![Node::default(); n]`: the same only while obvhs' defaults are all
+    /// zero bits.
+    #[test]
+    fn the_nodes_default_is_all_zeros() {
+        let cw = CwBvhNode::default();
+        assert!(bytemuck::bytes_of(&cw).iter().all(|&b| b == 0));
+        let b2 = obvhs::bvh2::node::Bvh2Node::default();
+        assert!(bytemuck::bytes_of(&b2).iter().all(|&b| b == 0));
     }
 
     /// The same nodes, byte for byte, and the same primitive order as obvhs' converter, on
