@@ -282,6 +282,32 @@ fn bvh_is_cached_per_geometry() {
     assert!(!fast.stats.bvh_preset_chosen, "set, not chosen");
 }
 
+/// The geometry's key sees every triangle of a scene hashed in several runs and chains: an
+/// inner vertex moved (the bounds unchanged) in any of the four chains of a middle run, or
+/// two neighbouring triangles swapped, and the tree is rebuilt.
+#[test]
+fn bvh_cache_sees_a_change_anywhere_in_a_large_scene() {
+    let mut scene = cornell(4, 4, 1);
+    common::add_floor_grid(&mut scene); // 20,000 more triangles: past one hashing run
+    // A tracer that has just rendered `scene` (its tree cached) renders `other`: cached?
+    let after_scene = |other: &raylume::Scene| {
+        let mut t = Tracer::new(Backend::Cpu);
+        t.bvh_quality = Some(raylume::BvhQuality::Fastest);
+        assert!(!t.render(&scene).unwrap().stats.bvh_cached);
+        t.render(other).unwrap().stats.bvh_cached
+    };
+    assert!(after_scene(&scene.clone()), "the same scene: cached");
+    let at = scene.triangles.len() - 3_000;
+    for k in at..at + 4 {
+        let mut moved = scene.clone();
+        moved.triangles[k].positions[1].x -= 1e-4;
+        assert!(!after_scene(&moved), "triangle {k} moved: rebuilt");
+    }
+    let mut swapped = scene.clone();
+    swapped.triangles.swap(at, at + 1);
+    assert!(!after_scene(&swapped), "two swapped: rebuilt");
+}
+
 /// Left to choose (`bvh_quality: None`), the tracer builds `Fastest` when the render's rays
 /// cannot repay a better build, `Quality` when they can, and takes a cached `Quality` tree
 /// of the same geometry over building a cheaper one.
