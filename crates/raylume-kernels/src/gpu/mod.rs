@@ -417,11 +417,10 @@ impl GpuScene {
         bvh: &GpuBvh,
         data: SceneData,
     ) -> Result<Self, KernelError> {
+        // Complete data: the pending scene is the scene, with no room kept.
         data.check_bvh(bvh)?;
         data.check_complete()?;
-        let tree = upload_tree(ctx, bvh)?;
-        let count = bvh.primitives.len();
-        Self::upload_data_over(ctx, features, bvh.layout, count, data, tree, 0)
+        Ok(Self::upload_before_guide(ctx, features, bvh, data)?.scene)
     }
 
     /// [`GpuScene::upload_data`] for data whose environment guide may still be pending
