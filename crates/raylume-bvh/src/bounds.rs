@@ -3,6 +3,8 @@
 use glam::Vec3A;
 use obvhs::aabb::Aabb;
 
+use raylume_scene::{Sphere, Triangle};
+
 use crate::{PRIM_SPHERE, Primitive};
 
 /// The box the BVH must enclose for `p`: the exact vertex bounds of a triangle; for a sphere,
@@ -31,4 +33,39 @@ pub(crate) fn contains(outer: &Aabb, inner: &Aabb) -> bool {
 pub(crate) fn half_area(b: &Aabb) -> f32 {
     let d = (b.max - b.min).max(Vec3A::ZERO);
     d.x * d.y + d.y * d.z + d.z * d.x
+}
+
+/// The primitives a build is over, made on demand from the scene's triangles and spheres
+/// (triangles first, then spheres; [`Source::get`]`(i)` is primitive `i`): a large scene's
+/// build holds no copy of them (3M triangles: 144 MB of `Primitive`s, fresh pages that cost
+/// ~0.1 s on the 2-core machine before anything was computed).
+#[derive(Clone, Copy)]
+pub(crate) struct Source<'a> {
+    pub triangles: &'a [Triangle],
+    pub spheres: &'a [Sphere],
+}
+
+impl Source<'_> {
+    /// Primitives: triangles and spheres.
+    pub fn len(&self) -> usize {
+        self.triangles.len() + self.spheres.len()
+    }
+
+    /// Primitive `i` (`i < len()`), its scene index that of its triangle or sphere.
+    pub fn get(&self, i: u32) -> Primitive {
+        let i = i as usize;
+        match self.triangles.get(i) {
+            Some(t) => Primitive::triangle(t.positions.map(|p| p.to_array()), i as u32),
+            None => {
+                let k = i - self.triangles.len();
+                let s = &self.spheres[k];
+                Primitive::sphere(s.center.to_array(), s.radius, k as u32)
+            }
+        }
+    }
+
+    /// [`primitive_aabb`] of primitive `i`.
+    pub fn aabb(&self, i: u32) -> Aabb {
+        primitive_aabb(&self.get(i))
+    }
 }

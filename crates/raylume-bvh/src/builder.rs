@@ -17,7 +17,7 @@ use obvhs::{
 use raylume_scene::{Scene, Sphere, Triangle};
 use rayon::prelude::*;
 
-use crate::bounds::primitive_aabb;
+use crate::bounds::Source;
 use crate::flatten::{Flat, flatten};
 use crate::median::{LEAF_SIZE, build_median};
 use crate::stats::{BvhStats, Fallback};
@@ -109,20 +109,14 @@ impl GpuBvh {
         let mut profile = BuildProfile::default();
         let mut lap = Lap(Instant::now());
         check_input(triangles, spheres)?;
-        let mut source: Vec<Primitive> = Vec::with_capacity(triangles.len() + spheres.len());
-        source.par_extend(
-            triangles
-                .par_iter()
-                .enumerate()
-                .map(|(i, t)| Primitive::triangle(t.positions.map(|p| p.to_array()), i as u32)),
-        );
-        source.extend(
-            spheres
-                .iter()
-                .enumerate()
-                .map(|(i, s)| Primitive::sphere(s.center.to_array(), s.radius, i as u32)),
-        );
-        let aabbs: Vec<Aabb> = source.par_iter().map(primitive_aabb).collect();
+        let source = Source {
+            triangles,
+            spheres,
+        };
+        let aabbs: Vec<Aabb> = (0..source.len() as u32)
+            .into_par_iter()
+            .map(|i| source.aabb(i))
+            .collect();
         for (i, b) in aabbs.iter().enumerate().skip(triangles.len()) {
             if !(b.min.is_finite() && b.max.is_finite()) {
                 let k = i - triangles.len();
@@ -136,18 +130,25 @@ impl GpuBvh {
 
         profile.prepare = lap.next();
 
-        let coincident = largest_coincident_group(&aabbs);
+        // The linear BVH breaks ties between equal Morton codes by index, so coincident boxes
+        // give it a balanced subtree, not PLOC's chain: it needs no check (3M triangles: a
+        // 24 MB sort skipped); the depth checks after the build still stand.
+        let coincident = if builds_lbvh(quality, params) {
+            0
+        } else {
+            largest_coincident_group(&aabbs)
+        };
         profile.coincident_check = lap.next();
         if layout == BvhLayout::Wide {
             return build_wide(
-                triangles, spheres, &source, aabbs, coincident, quality, params, profile, lap,
+                triangles, spheres, source, aabbs, coincident, quality, params, profile, lap,
                 start,
             );
         }
         let mut fallback = None;
         let mut flat = if coincident > MAX_COINCIDENT {
             fallback = Some(Fallback::CoincidentBoxes { count: coincident });
-            flatten(&build_median(&aabbs, LEAF_SIZE), &source)
+            flatten(&build_median(&aabbs, LEAF_SIZE), source)
         } else {
             match build_obvhs(
                 triangles,
@@ -159,13 +160,13 @@ impl GpuBvh {
                 &mut lap,
             )? {
                 Ok(bvh2) => {
-                    let flat = flatten(&bvh2, &source);
+                    let flat = flatten(&bvh2, source);
                     profile.flatten = lap.next();
                     flat
                 }
                 Err(depth) => {
                     fallback = Some(Fallback::TooDeep { depth });
-                    flatten(&build_median(&aabbs, LEAF_SIZE), &source)
+                    flatten(&build_median(&aabbs, LEAF_SIZE), source)
                 }
             }
         };
@@ -173,7 +174,7 @@ impl GpuBvh {
             fallback = Some(Fallback::TooDeep {
                 depth: flat.max_depth,
             });
-            flat = flatten(&build_median(&aabbs, LEAF_SIZE), &source);
+            flat = flatten(&build_median(&aabbs, LEAF_SIZE), source);
         }
         BvhError::check_depth(flat.max_depth)?;
         check_output(&flat)?;
@@ -206,7 +207,7 @@ impl GpuBvh {
 fn build_wide(
     triangles: &[Triangle],
     spheres: &[Sphere],
-    source: &[Primitive],
+    source: Source,
     aabbs: Vec<Aabb>,
     coincident: usize,
     quality: BvhQuality,
@@ -218,7 +219,12 @@ fn build_wide(
     // The boxes are dropped as soon as the tree is built (a large scene's peak memory is the
     // conversion's); the median fallback after a too-deep conversion makes them again.
     let median = |aabbs: &[Aabb]| to_wide(build_median(aabbs, 1), source);
-    let boxes_again = || -> Vec<Aabb> { source.par_iter().map(primitive_aabb).collect() };
+    let boxes_again = || -> Vec<Aabb> {
+        (0..source.len() as u32)
+            .into_par_iter()
+            .map(|i| source.aabb(i))
+            .collect()
+    };
     let mut fallback = None;
     let mut flat = if coincident > MAX_COINCIDENT {
         fallback = Some(Fallback::CoincidentBoxes { count: coincident });
@@ -549,7 +555,7 @@ fn build_obvhs(
 
     // `Fastest` builds the linear BVH (`lbvh.rs`), which runs on every core; the other
     // presets obvhs' PLOC.
-    let mut bvh2 = if quality == BvhQuality::Fastest && !params.pre_split {
+    let mut bvh2 = if builds_lbvh(quality, params) {
         crate::lbvh::build_lbvh(&boxes)
     } else {
         PlocBuilder::with_capacity(boxes.len()).build(
@@ -590,6 +596,11 @@ fn build_obvhs(
     );
     profile.reinsertion_after_collapse = lap.next();
     Ok(Ok(bvh2))
+}
+
+/// Whether the build is the linear BVH's (`Fastest` without pre-splits) rather than PLOC's.
+fn builds_lbvh(quality: BvhQuality, params: BvhBuildParams) -> bool {
+    quality == BvhQuality::Fastest && !params.pre_split
 }
 
 /// More bit-identical primitive boxes than this and the builder goes straight to the median

@@ -5,7 +5,7 @@
 use glam::Vec3A;
 use obvhs::{aabb::Aabb, bvh2::Bvh2};
 
-use crate::bounds::{contains, half_area, primitive_aabb};
+use crate::bounds::{Source, contains, half_area, primitive_aabb};
 use crate::{BvhNode, INVALID_INDEX, Primitive};
 
 /// The flattened tree.
@@ -67,7 +67,7 @@ fn slot_box(node: &BvhNode, side: Side) -> Aabb {
 ///   to the primitives' full bounds. Copies of one triangle inside one leaf are merged.
 /// - Inner boxes are recomputed bottom-up as unions of their children, so every box encloses
 ///   its subtree exactly as stored.
-pub(crate) fn flatten(bvh: &Bvh2, source: &[Primitive]) -> Flat {
+pub(crate) fn flatten(bvh: &Bvh2, source: Source) -> Flat {
     let mut out = Flat {
         nodes: Vec::with_capacity(bvh.nodes.len() / 2 + 1),
         primitives: Vec::with_capacity(source.len()),
@@ -136,7 +136,7 @@ pub(crate) fn flatten(bvh: &Bvh2, source: &[Primitive]) -> Flat {
 fn emit_leaf(
     bvh: &Bvh2,
     id: usize,
-    source: &[Primitive],
+    source: Source,
     primitives: &mut Vec<Primitive>,
 ) -> (Aabb, u32, u32) {
     let leaf = &bvh.nodes[id];
@@ -149,7 +149,7 @@ fn emit_leaf(
         if ids[..k].contains(&p) {
             continue;
         }
-        let prim = source[p as usize];
+        let prim = source.get(p);
         full = full.union(&primitive_aabb(&prim));
         primitives.push(prim);
     }

@@ -120,11 +120,15 @@ pub fn morton_code(centre: Vec3A, params: &LbvhParams) -> u64 {
 /// key of leaf `i` being `(codes[i], i)`: the index breaks ties between equal codes), -1
 /// outside the leaves (WGSL `lbvh_delta`).
 pub fn lbvh_delta(codes: &[u64], i: i64, j: i64) -> i64 {
-    let n = codes.len() as i64;
-    if j < 0 || j >= n {
+    delta_by(codes.len(), |k| codes[k], i, j)
+}
+
+/// [`lbvh_delta`] over `n` sorted codes read through `code`.
+fn delta_by(n: usize, code: impl Fn(usize) -> u64, i: i64, j: i64) -> i64 {
+    if j < 0 || j >= n as i64 {
         return -1;
     }
-    let (a, b) = (codes[i as usize], codes[j as usize]);
+    let (a, b) = (code(i as usize), code(j as usize));
     if a == b {
         64 + i64::from((i as u64 ^ j as u64).leading_zeros())
     } else {
@@ -145,7 +149,12 @@ pub struct LbvhInner {
 
 /// [`LbvhInner`] of inner node `i` (`0 <= i < codes.len() - 1`).
 pub fn lbvh_node(codes: &[u64], i: i64) -> LbvhInner {
-    let delta = |j: i64| lbvh_delta(codes, i, j);
+    node_by(codes.len(), |k| codes[k], i)
+}
+
+/// [`lbvh_node`] over `n` sorted codes read through `code`.
+fn node_by(n: usize, code: impl Fn(usize) -> u64 + Copy, i: i64) -> LbvhInner {
+    let delta = |j: i64| delta_by(n, code, i, j);
     let d: i64 = if delta(i + 1) > delta(i - 1) { 1 } else { -1 };
     let d_min = delta(i - d);
     let mut l_max = 2i64;
@@ -292,26 +301,6 @@ pub fn lbvh_takes(p: &Primitive) -> bool {
     p.kind() == PRIM_TRIANGLE
 }
 
-/// An inner node of the CPU's radix tree: its two children (`(index, is a leaf)`) and the
-/// first and last leaves it covers.
-type Inner = ([(u32, bool); 2], (u32, u32));
-
-/// The sorted keys the CPU's radix tree is built over.
-struct Radix {
-    /// Sorted Morton codes; the key of leaf `i` is `(codes[i], i)`. (Apart from the
-    /// primitives: the δ searches read only these, 8 bytes a leaf.)
-    codes: Vec<u64>,
-}
-
-impl Radix {
-    /// Inner node `i`'s children, `((left, left is a leaf), (right, right is a leaf))`, and
-    /// its range of leaves.
-    fn node(&self, i: i64) -> Inner {
-        let LbvhInner { children, range } = lbvh_node(&self.codes, i);
-        (children, range)
-    }
-}
-
 /// The LBVH over `aabbs` (finite), as an obvhs tree with one primitive a leaf.
 pub(crate) fn build_lbvh(aabbs: &[Aabb]) -> Bvh2 {
     let n = aabbs.len();
@@ -326,76 +315,80 @@ pub(crate) fn build_lbvh(aabbs: &[Aabb]) -> Bvh2 {
         return bvh;
     }
     let params = LbvhParams::of_boxes(aabbs);
-    let (codes, prims) = sorted_codes(aabbs, &params);
-    let radix = Radix { codes };
-    let inner: Vec<Inner> = (0..n as i64 - 1)
-        .into_par_iter()
-        .map(|i| radix.node(i))
+    // The sorted (code, primitive) pairs stay as they are: the δ searches read their codes
+    // in place and the leaves their primitives (no two further arrays of 3M entries).
+    let mut keys: Vec<(u64, u32)> = aabbs
+        .par_iter()
+        .enumerate()
+        .map(|(i, b)| (morton_code(b.center(), &params), i as u32))
         .collect();
+    keys.par_sort_unstable();
 
     // Nodes in a depth-first layout with each node's children side by side: the root at 0,
     // then for an inner node its children's pair, the left child's subtree, the right's.
     // Zeroed pages from the allocator (a node's default is all zeros): the emission below
     // writes every node, on every core, so nothing is written twice (3M triangles: 6M
-    // nodes, 192 MB, which `vec![default; n]` wrote on one core first).
+    // nodes, 288 MB, which `vec![default; n]` wrote on one core first). Each inner node of
+    // the radix tree is found where its parent is emitted, not kept in a table.
     let mut nodes: Vec<Bvh2Node> = bytemuck::zeroed_vec(2 * n - 1);
     let (root, rest) = nodes.split_at_mut(1);
-    let leaf_box = |k: u32| aabbs[prims[k as usize] as usize];
     let e = Emit {
-        inner: &inner,
-        leaf_box: &leaf_box,
+        keys: &keys,
+        aabbs,
     };
-    let (root_box, depth) = e.emit(0, rest, 1);
+    let (root_box, depth) = e.emit(e.node(0), rest, 1);
     root[0] = Bvh2Node::new(root_box, 0, 1);
     bvh.nodes = nodes;
-    bvh.primitive_indices = prims;
+    bvh.primitive_indices = keys.into_par_iter().map(|(_, p)| p).collect();
     bvh.max_depth = depth + 1;
     bvh
 }
 
-struct Emit<'a, F: Fn(u32) -> Aabb + Sync> {
-    inner: &'a [Inner],
-    leaf_box: &'a F,
+struct Emit<'a> {
+    /// Sorted (Morton code, primitive); the key of leaf `k` is `(keys[k].0, k)`.
+    keys: &'a [(u64, u32)],
+    aabbs: &'a [Aabb],
 }
 
-impl<F: Fn(u32) -> Aabb + Sync> Emit<'_, F> {
-    /// Writes inner node `i`'s children pair into `region[0..2]` (global index `start`) and
-    /// their subtrees after it; returns `i`'s box and the depth below it.
-    fn emit(&self, i: u32, region: &mut [Bvh2Node], start: u32) -> (Aabb, usize) {
-        let (children, _) = self.inner[i as usize];
+impl Emit<'_> {
+    /// Inner node `i` of the radix tree.
+    fn node(&self, i: u32) -> LbvhInner {
+        node_by(self.keys.len(), |k| self.keys[k].0, i64::from(i))
+    }
+
+    /// Writes inner node `node`'s children pair into `region[0..2]` (global index `start`)
+    /// and their subtrees after it; returns the node's box and the depth below it.
+    fn emit(&self, node: LbvhInner, region: &mut [Bvh2Node], start: u32) -> (Aabb, usize) {
         let (pair, rest) = region.split_at_mut(2);
-        let size = |(c, leaf): (u32, bool)| -> usize {
-            if leaf {
-                0
-            } else {
-                let (_, (a, b)) = self.inner[c as usize];
-                2 * (b - a) as usize
-            }
-        };
-        let (left_rest, right_rest) = rest.split_at_mut(size(children[0]));
+        let child = |(c, leaf): (u32, bool)| (!leaf).then(|| self.node(c));
+        let (left, right) = (child(node.children[0]), child(node.children[1]));
+        let size = left.map_or(0, |l| 2 * (l.range.1 - l.range.0) as usize);
+        let (left_rest, right_rest) = rest.split_at_mut(size);
         let left_start = start + 2;
         let right_start = left_start + left_rest.len() as u32;
-        let big = {
-            let (_, (a, b)) = self.inner[i as usize];
-            b - a + 1 >= PARALLEL_LEAVES
-        };
-        let one = |(c, leaf): (u32, bool), sub: &mut [Bvh2Node], sub_start: u32| {
-            if leaf {
-                (Bvh2Node::new((self.leaf_box)(c), 1, c), 0)
-            } else {
-                let (b, d) = self.emit(c, sub, sub_start);
-                (Bvh2Node::new(b, 0, sub_start), d)
+        let big = node.range.1 - node.range.0 + 1 >= PARALLEL_LEAVES;
+        let one = |c: u32, inner: Option<LbvhInner>, sub: &mut [Bvh2Node], sub_start: u32| {
+            match inner {
+                None => {
+                    let p = self.keys[c as usize].1;
+                    (Bvh2Node::new(self.aabbs[p as usize], 1, c), 0)
+                }
+                Some(inner) => {
+                    let (b, d) = self.emit(inner, sub, sub_start);
+                    (Bvh2Node::new(b, 0, sub_start), d)
+                }
             }
         };
+        let (l_id, r_id) = (node.children[0].0, node.children[1].0);
         let ((l, dl), (r, dr)) = if big {
             rayon::join(
-                || one(children[0], left_rest, left_start),
-                || one(children[1], right_rest, right_start),
+                || one(l_id, left, left_rest, left_start),
+                || one(r_id, right, right_rest, right_start),
             )
         } else {
             (
-                one(children[0], left_rest, left_start),
-                one(children[1], right_rest, right_start),
+                one(l_id, left, left_rest, left_start),
+                one(r_id, right, right_rest, right_start),
             )
         };
         let b = l.aabb().union(r.aabb());

@@ -9,7 +9,7 @@ use glam::DVec3;
 use obvhs::{aabb::Aabb, bvh2::Bvh2};
 use rayon::prelude::*;
 
-use crate::bounds::primitive_aabb;
+use crate::bounds::{Source, primitive_aabb};
 use crate::flatten::leaf_box;
 use crate::stats::{SAH_NODE_COST, SAH_PRIMITIVE_COST};
 use crate::wide_traverse::WIDE_QUANT_PAD;
@@ -41,7 +41,7 @@ fn empty_root() -> WideNode {
 /// Leaf boxes are first set as the binary flatten sets them (exact primitive bounds, or a
 /// split piece's box widened for rounding; `flatten::leaf_box`) and the inner boxes refitted,
 /// so that obvhs quantises boxes that contain what they must.
-pub(crate) fn to_wide(mut bvh: Bvh2, source: &[Primitive]) -> WideFlat {
+pub(crate) fn to_wide(mut bvh: Bvh2, source: Source) -> WideFlat {
     if bvh.nodes.is_empty() {
         return WideFlat {
             nodes: vec![empty_root()],
@@ -49,18 +49,20 @@ pub(crate) fn to_wide(mut bvh: Bvh2, source: &[Primitive]) -> WideFlat {
             max_depth: 1,
         };
     }
-    // Without spatial splits the leaves already hold their primitives' exact boxes: then
-    // nothing changes and no refit is needed.
+    // Without spatial splits the leaves already hold their primitives' exact boxes (every
+    // builder here gives a leaf of one primitive that primitive's box): nothing to change
+    // and no refit. With them, a leaf of pieces gets its box from the pieces' triangle.
     let indices = &bvh.primitive_indices;
-    let changed = bvh
-        .nodes
+    let changed = bvh.uses_spatial_splits
+        && bvh
+            .nodes
         .par_iter_mut()
         .filter(|n| n.is_leaf())
         .map(|node| {
             let ids =
                 &indices[node.first_index as usize..(node.first_index + node.prim_count) as usize];
             let full = ids.iter().fold(Aabb::empty(), |b, &p| {
-                b.union(&primitive_aabb(&source[p as usize]))
+                b.union(&source.aabb(p))
             });
             let exact = leaf_box(node.aabb(), &full);
             let changed = exact != *node.aabb();
@@ -73,11 +75,14 @@ pub(crate) fn to_wide(mut bvh: Bvh2, source: &[Primitive]) -> WideFlat {
     }
     let cw = crate::wide_convert::convert(&bvh, WIDE_MAX_LEAF);
     drop(bvh); // before the primitives are gathered: a large scene's peak memory
-    let nodes: Vec<WideNode> = cw.nodes.par_iter().map(|n| bytemuck::cast(*n)).collect();
+    // obvhs' node and ours are the same 80 bytes: the allocation is reused when the
+    // alignments agree too (no 40 MB copy at 3M triangles).
+    let nodes: Vec<WideNode> = bytemuck::allocation::try_cast_vec(cw.nodes)
+        .unwrap_or_else(|(_, nodes)| nodes.par_iter().map(|n| bytemuck::cast(*n)).collect());
     let primitives = cw
         .primitive_indices
         .par_iter()
-        .map(|&p| source[p as usize])
+        .map(|&p| source.get(p))
         .collect();
     let max_depth = wide_depth(&nodes);
     WideFlat {

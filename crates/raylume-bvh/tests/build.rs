@@ -182,7 +182,9 @@ fn non_finite_and_bad_radius_are_typed_errors() {
 
 /// Thousands of coincident triangles give clustering nothing to work with; whatever obvhs
 /// makes of them, the result must be a valid tree within the stack depth that traces like
-/// brute force.
+/// brute force. PLOC (`Fast`, `Quality`) would chain them: those presets take the median
+/// fallback. `Fastest`'s linear BVH breaks the ties by index into a balanced tree, and is
+/// kept.
 #[test]
 fn coincident_triangles_give_a_usable_tree() {
     let t = Triangle::flat(
@@ -204,6 +206,15 @@ fn coincident_triangles_give_a_usable_tree() {
         let bvh = build_binary(&f.triangles, &f.spheres, quality).unwrap();
         bvh.validate().unwrap();
         assert!(bvh.stats.max_depth <= MAX_STACK_DEPTH);
+        eprintln!("{quality:?}: {:?}", bvh.stats);
+        if quality == BvhQuality::Fastest {
+            // Equal codes: the index bits split every range in halves, a leaf of at most
+            // `max_prims_per_leaf` after the collapse: no deeper than the halving of 5000.
+            assert_eq!(bvh.stats.fallback, None);
+            assert!(bvh.stats.max_depth <= (5000f64).log2().ceil() as usize);
+            check_against_brute_force(&f, &bvh, &qs, &reference);
+            continue;
+        }
         assert_eq!(
             bvh.stats.fallback,
             Some(Fallback::CoincidentBoxes { count: 5000 })
@@ -440,20 +451,26 @@ fn wide_trees_of_degenerate_input() {
             .collect(),
         spheres: Vec::new(),
     };
-    for (f, fallback) in [
-        (coincident, Some(Fallback::CoincidentBoxes { count: 5000 })),
-        (chains, None),
+    // `Fastest` (the linear BVH) needs no fallback for coincident boxes: its ties go by index.
+    for (f, quality, fallback) in [
+        (
+            &coincident,
+            BvhQuality::Fast,
+            Some(Fallback::CoincidentBoxes { count: 5000 }),
+        ),
+        (&coincident, BvhQuality::Fastest, None),
+        (&chains, BvhQuality::Fast, None),
+        (&chains, BvhQuality::Fastest, None),
     ] {
-        let bvh =
-            GpuBvh::build_with_layout(&f.triangles, &f.spheres, BvhQuality::Fast, BvhLayout::Wide)
-                .unwrap();
+        let bvh = GpuBvh::build_with_layout(&f.triangles, &f.spheres, quality, BvhLayout::Wide)
+            .unwrap();
         bvh.validate().unwrap();
         eprintln!("{}: {:?}", f.name, bvh.stats);
-        assert_eq!(bvh.stats.fallback, fallback, "{}", f.name);
+        assert_eq!(bvh.stats.fallback, fallback, "{} {quality:?}", f.name);
         assert!(bvh.stats.max_depth <= WIDE_STACK_SIZE);
-        let qs = queries(&f, 2000, 16);
-        let reference: Vec<_> = qs.iter().map(|q| brute_force(&f, q)).collect();
-        check_against_brute_force(&f, &bvh, &qs, &reference);
+        let qs = queries(f, 2000, 16);
+        let reference: Vec<_> = qs.iter().map(|q| brute_force(f, q)).collect();
+        check_against_brute_force(f, &bvh, &qs, &reference);
     }
 }
 
