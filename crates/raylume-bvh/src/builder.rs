@@ -109,10 +109,7 @@ impl GpuBvh {
         let mut profile = BuildProfile::default();
         let mut lap = Lap(Instant::now());
         check_input(triangles, spheres)?;
-        let source = Source {
-            triangles,
-            spheres,
-        };
+        let source = Source { triangles, spheres };
         let aabbs: Vec<Aabb> = (0..source.len() as u32)
             .into_par_iter()
             .map(|i| source.aabb(i))
@@ -141,8 +138,7 @@ impl GpuBvh {
         profile.coincident_check = lap.next();
         if layout == BvhLayout::Wide {
             return build_wide(
-                triangles, spheres, source, aabbs, coincident, quality, params, profile, lap,
-                start,
+                triangles, spheres, source, aabbs, coincident, quality, params, profile, lap, start,
             );
         }
         let mut fallback = None;

@@ -332,10 +332,7 @@ pub(crate) fn build_lbvh(aabbs: &[Aabb]) -> Bvh2 {
     // the radix tree is found where its parent is emitted, not kept in a table.
     let mut nodes: Vec<Bvh2Node> = bytemuck::zeroed_vec(2 * n - 1);
     let (root, rest) = nodes.split_at_mut(1);
-    let e = Emit {
-        keys: &keys,
-        aabbs,
-    };
+    let e = Emit { keys: &keys, aabbs };
     let (root_box, depth) = e.emit(e.node(0), rest, 1);
     root[0] = Bvh2Node::new(root_box, 0, 1);
     bvh.nodes = nodes;
@@ -367,8 +364,8 @@ impl Emit<'_> {
         let left_start = start + 2;
         let right_start = left_start + left_rest.len() as u32;
         let big = node.range.1 - node.range.0 + 1 >= PARALLEL_LEAVES;
-        let one = |c: u32, inner: Option<LbvhInner>, sub: &mut [Bvh2Node], sub_start: u32| {
-            match inner {
+        let one =
+            |c: u32, inner: Option<LbvhInner>, sub: &mut [Bvh2Node], sub_start: u32| match inner {
                 None => {
                     let p = self.keys[c as usize].1;
                     (Bvh2Node::new(self.aabbs[p as usize], 1, c), 0)
@@ -377,8 +374,7 @@ impl Emit<'_> {
                     let (b, d) = self.emit(inner, sub, sub_start);
                     (Bvh2Node::new(b, 0, sub_start), d)
                 }
-            }
-        };
+            };
         let (l_id, r_id) = (node.children[0].0, node.children[1].0);
         let ((l, dl), (r, dr)) = if big {
             rayon::join(

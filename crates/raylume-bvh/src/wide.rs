@@ -56,20 +56,20 @@ pub(crate) fn to_wide(mut bvh: Bvh2, source: Source) -> WideFlat {
     let changed = bvh.uses_spatial_splits
         && bvh
             .nodes
-        .par_iter_mut()
-        .filter(|n| n.is_leaf())
-        .map(|node| {
-            let ids =
-                &indices[node.first_index as usize..(node.first_index + node.prim_count) as usize];
-            let full = ids.iter().fold(Aabb::empty(), |b, &p| {
-                b.union(&source.aabb(p))
-            });
-            let exact = leaf_box(node.aabb(), &full);
-            let changed = exact != *node.aabb();
-            node.set_aabb(exact);
-            changed
-        })
-        .reduce(|| false, |a, b| a || b);
+            .par_iter_mut()
+            .filter(|n| n.is_leaf())
+            .map(|node| {
+                let ids = &indices
+                    [node.first_index as usize..(node.first_index + node.prim_count) as usize];
+                let full = ids
+                    .iter()
+                    .fold(Aabb::empty(), |b, &p| b.union(&source.aabb(p)));
+                let exact = leaf_box(node.aabb(), &full);
+                let changed = exact != *node.aabb();
+                node.set_aabb(exact);
+                changed
+            })
+            .reduce(|| false, |a, b| a || b);
     if changed {
         refit(&mut bvh);
     }

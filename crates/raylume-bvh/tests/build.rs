@@ -462,8 +462,8 @@ fn wide_trees_of_degenerate_input() {
         (&chains, BvhQuality::Fast, None),
         (&chains, BvhQuality::Fastest, None),
     ] {
-        let bvh = GpuBvh::build_with_layout(&f.triangles, &f.spheres, quality, BvhLayout::Wide)
-            .unwrap();
+        let bvh =
+            GpuBvh::build_with_layout(&f.triangles, &f.spheres, quality, BvhLayout::Wide).unwrap();
         bvh.validate().unwrap();
         eprintln!("{}: {:?}", f.name, bvh.stats);
         assert_eq!(bvh.stats.fallback, fallback, "{} {quality:?}", f.name);
