@@ -2,6 +2,7 @@
 
 use glam::Vec3A;
 use obvhs::aabb::Aabb;
+use rayon::prelude::*;
 
 use raylume_scene::{Sphere, Triangle};
 
@@ -67,5 +68,22 @@ impl Source<'_> {
     /// [`primitive_aabb`] of primitive `i`.
     pub fn aabb(&self, i: u32) -> Aabb {
         primitive_aabb(&self.get(i))
+    }
+
+    /// Every primitive's box, in order, on every core.
+    pub fn aabbs(&self) -> Vec<Aabb> {
+        (0..self.len() as u32)
+            .into_par_iter()
+            .map(|i| self.aabb(i))
+            .collect()
+    }
+
+    /// `made` when it holds every box (a build that made them), else [`Source::aabbs`].
+    pub fn boxes<'b>(&self, made: &'b [Aabb]) -> std::borrow::Cow<'b, [Aabb]> {
+        if made.len() == self.len() {
+            std::borrow::Cow::Borrowed(made)
+        } else {
+            std::borrow::Cow::Owned(self.aabbs())
+        }
     }
 }

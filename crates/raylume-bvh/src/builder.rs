@@ -110,13 +110,13 @@ impl GpuBvh {
         let mut lap = Lap(Instant::now());
         check_input(triangles, spheres)?;
         let source = Source { triangles, spheres };
-        let aabbs: Vec<Aabb> = (0..source.len() as u32)
-            .into_par_iter()
-            .map(|i| source.aabb(i))
-            .collect();
-        for (i, b) in aabbs.iter().enumerate().skip(triangles.len()) {
+        // The linear BVH reads each box where it needs it (no 96 MB array at 3M triangles);
+        // PLOC, the pre-splits and the coincident check read them as one slice.
+        let lbvh = builds_lbvh(quality, params);
+        let aabbs: Vec<Aabb> = if lbvh { Vec::new() } else { source.aabbs() };
+        for k in 0..spheres.len() {
+            let b = source.aabb((triangles.len() + k) as u32);
             if !(b.min.is_finite() && b.max.is_finite()) {
-                let k = i - triangles.len();
                 return Err(BvhError::NonFinite {
                     kind: "sphere",
                     index: k,
@@ -130,7 +130,7 @@ impl GpuBvh {
         // The linear BVH breaks ties between equal Morton codes by index, so coincident boxes
         // give it a balanced subtree, not PLOC's chain: it needs no check (3M triangles: a
         // 24 MB sort skipped); the depth checks after the build still stand.
-        let coincident = if builds_lbvh(quality, params) {
+        let coincident = if lbvh {
             0
         } else {
             largest_coincident_group(&aabbs)
@@ -147,7 +147,7 @@ impl GpuBvh {
             flatten(&build_median(&aabbs, LEAF_SIZE), source)
         } else {
             match build_obvhs(
-                triangles,
+                source,
                 &aabbs,
                 params,
                 quality,
@@ -162,7 +162,7 @@ impl GpuBvh {
                 }
                 Err(depth) => {
                     fallback = Some(Fallback::TooDeep { depth });
-                    flatten(&build_median(&aabbs, LEAF_SIZE), source)
+                    flatten(&build_median(&source.boxes(&aabbs), LEAF_SIZE), source)
                 }
             }
         };
@@ -170,7 +170,7 @@ impl GpuBvh {
             fallback = Some(Fallback::TooDeep {
                 depth: flat.max_depth,
             });
-            flat = flatten(&build_median(&aabbs, LEAF_SIZE), source);
+            flat = flatten(&build_median(&source.boxes(&aabbs), LEAF_SIZE), source);
         }
         BvhError::check_depth(flat.max_depth)?;
         check_output(&flat)?;
@@ -214,20 +214,14 @@ fn build_wide(
 ) -> Result<(GpuBvh, BuildProfile), BvhError> {
     // The boxes are dropped as soon as the tree is built (a large scene's peak memory is the
     // conversion's); the median fallback after a too-deep conversion makes them again.
-    let median = |aabbs: &[Aabb]| to_wide(build_median(aabbs, 1), source);
-    let boxes_again = || -> Vec<Aabb> {
-        (0..source.len() as u32)
-            .into_par_iter()
-            .map(|i| source.aabb(i))
-            .collect()
-    };
+    let median = |aabbs: &[Aabb]| to_wide(build_median(&source.boxes(aabbs), 1), source);
     let mut fallback = None;
     let mut flat = if coincident > MAX_COINCIDENT {
         fallback = Some(Fallback::CoincidentBoxes { count: coincident });
         median(&aabbs)
     } else {
         match build_obvhs(
-            triangles,
+            source,
             &aabbs,
             params,
             quality,
@@ -251,7 +245,7 @@ fn build_wide(
         fallback = Some(Fallback::TooDeep {
             depth: flat.max_depth,
         });
-        flat = median(&boxes_again());
+        flat = median(&[]);
     }
     if flat.max_depth > WIDE_STACK_SIZE {
         return Err(BvhError::TooDeep {
@@ -496,7 +490,7 @@ const ABANDON_PLOC_DEPTH: usize = 2 * MAX_STACK_DEPTH;
 ///
 /// The inner `Err(depth)`: the PLOC tree is `depth` deep, past [`ABANDON_PLOC_DEPTH`].
 fn build_obvhs(
-    triangles: &[Triangle],
+    source: Source,
     aabbs: &[Aabb],
     params: BvhBuildParams,
     quality: BvhQuality,
@@ -504,6 +498,55 @@ fn build_obvhs(
     profile: &mut BuildProfile,
     lap: &mut Lap,
 ) -> Result<Result<Bvh2, usize>, BvhError> {
+    // `Fastest` builds the linear BVH (`lbvh.rs`), which runs on every core and reads the
+    // boxes from `source` (`aabbs` is empty then); the other presets obvhs' PLOC.
+    let mut bvh2 = if builds_lbvh(quality, params) {
+        profile.pre_split = lap.next();
+        crate::lbvh::build_lbvh_with(source.len(), |i| source.aabb(i))
+    } else {
+        ploc(source.triangles, aabbs, params, profile, lap)?
+    };
+    bvh2.uses_spatial_splits = params.pre_split;
+    profile.ploc = lap.next();
+    // obvhs records a bound on the PLOC tree's depth (its merge rounds plus one, at least
+    // 96: `Bvh2::max_depth`); walk the tree only when that bound is past the threshold.
+    if bvh2.max_depth > ABANDON_PLOC_DEPTH {
+        let depth = tree_depth(&bvh2);
+        if depth > ABANDON_PLOC_DEPTH {
+            return Ok(Err(depth));
+        }
+    }
+    profile.depth_check = lap.next();
+    let mut reinsertion = ReinsertionOptimizer::default();
+    reinsertion.run(&mut bvh2, params.reinsertion_batch_ratio, None);
+    profile.reinsertion = lap.next();
+    if !collapse_leaves {
+        return Ok(Ok(bvh2));
+    }
+    collapse(
+        &mut bvh2,
+        params.max_prims_per_leaf.clamp(1, 255),
+        params.collapse_traversal_cost,
+    );
+    profile.collapse = lap.next();
+    reinsertion.run(
+        &mut bvh2,
+        params.reinsertion_batch_ratio * params.post_collapse_reinsertion_batch_ratio_multiplier,
+        None,
+    );
+    profile.reinsertion_after_collapse = lap.next();
+    Ok(Ok(bvh2))
+}
+
+/// obvhs' PLOC over `aabbs` (the triangles' boxes, then the spheres'), after spatial
+/// pre-splits of the triangles when `params` ask for them.
+fn ploc(
+    triangles: &[Triangle],
+    aabbs: &[Aabb],
+    params: BvhBuildParams,
+    profile: &mut BuildProfile,
+    lap: &mut Lap,
+) -> Result<Bvh2, BvhError> {
     let n_tri = triangles.len();
     let (boxes, indices) = if params.pre_split && n_tri > 0 {
         let tris: Vec<ObvhsTriangle> = triangles
@@ -549,49 +592,13 @@ fn build_obvhs(
         });
     }
 
-    // `Fastest` builds the linear BVH (`lbvh.rs`), which runs on every core; the other
-    // presets obvhs' PLOC.
-    let mut bvh2 = if builds_lbvh(quality, params) {
-        crate::lbvh::build_lbvh(&boxes)
-    } else {
-        PlocBuilder::with_capacity(boxes.len()).build(
-            params.ploc_search_distance,
-            &boxes,
-            indices,
-            params.sort_precision,
-            params.search_depth_threshold,
-        )
-    };
-    bvh2.uses_spatial_splits = params.pre_split;
-    profile.ploc = lap.next();
-    // obvhs records a bound on the PLOC tree's depth (its merge rounds plus one, at least
-    // 96: `Bvh2::max_depth`); walk the tree only when that bound is past the threshold.
-    if bvh2.max_depth > ABANDON_PLOC_DEPTH {
-        let depth = tree_depth(&bvh2);
-        if depth > ABANDON_PLOC_DEPTH {
-            return Ok(Err(depth));
-        }
-    }
-    profile.depth_check = lap.next();
-    let mut reinsertion = ReinsertionOptimizer::default();
-    reinsertion.run(&mut bvh2, params.reinsertion_batch_ratio, None);
-    profile.reinsertion = lap.next();
-    if !collapse_leaves {
-        return Ok(Ok(bvh2));
-    }
-    collapse(
-        &mut bvh2,
-        params.max_prims_per_leaf.clamp(1, 255),
-        params.collapse_traversal_cost,
-    );
-    profile.collapse = lap.next();
-    reinsertion.run(
-        &mut bvh2,
-        params.reinsertion_batch_ratio * params.post_collapse_reinsertion_batch_ratio_multiplier,
-        None,
-    );
-    profile.reinsertion_after_collapse = lap.next();
-    Ok(Ok(bvh2))
+    Ok(PlocBuilder::with_capacity(boxes.len()).build(
+        params.ploc_search_distance,
+        &boxes,
+        indices,
+        params.sort_precision,
+        params.search_depth_threshold,
+    ))
 }
 
 /// Whether the build is the linear BVH's (`Fastest` without pre-splits) rather than PLOC's.

@@ -302,25 +302,32 @@ pub fn lbvh_takes(p: &Primitive) -> bool {
 }
 
 /// The LBVH over `aabbs` (finite), as an obvhs tree with one primitive a leaf.
+#[cfg(test)]
 pub(crate) fn build_lbvh(aabbs: &[Aabb]) -> Bvh2 {
-    let n = aabbs.len();
+    build_lbvh_with(aabbs.len(), |i| aabbs[i as usize])
+}
+
+/// The LBVH over `n` primitives whose boxes (finite) `box_of` gives, as an obvhs tree with
+/// one primitive a leaf. Each box is asked for three times (its centre's bounds, its code,
+/// its leaf), never kept in an array.
+pub(crate) fn build_lbvh_with(n: usize, box_of: impl Fn(u32) -> Aabb + Sync) -> Bvh2 {
     let mut bvh = Bvh2::default();
     if n == 0 {
         return bvh;
     }
     if n == 1 {
-        bvh.nodes = vec![Bvh2Node::new(aabbs[0], 1, 0)];
+        bvh.nodes = vec![Bvh2Node::new(box_of(0), 1, 0)];
         bvh.primitive_indices = vec![0];
         bvh.max_depth = 1;
         return bvh;
     }
-    let params = LbvhParams::of_boxes(aabbs);
+    let ids = || (0..n as u32).into_par_iter();
+    let (lo, hi) = centre_bounds(ids().map(|i| box_of(i).center()));
+    let params = LbvhParams::of_centre_bounds(lo, hi, n);
     // The sorted (code, primitive) pairs stay as they are: the δ searches read their codes
     // in place and the leaves their primitives (no two further arrays of 3M entries).
-    let mut keys: Vec<(u64, u32)> = aabbs
-        .par_iter()
-        .enumerate()
-        .map(|(i, b)| (morton_code(b.center(), &params), i as u32))
+    let mut keys: Vec<(u64, u32)> = ids()
+        .map(|i| (morton_code(box_of(i).center(), &params), i))
         .collect();
     keys.par_sort_unstable();
 
@@ -332,7 +339,10 @@ pub(crate) fn build_lbvh(aabbs: &[Aabb]) -> Bvh2 {
     // the radix tree is found where its parent is emitted, not kept in a table.
     let mut nodes: Vec<Bvh2Node> = bytemuck::zeroed_vec(2 * n - 1);
     let (root, rest) = nodes.split_at_mut(1);
-    let e = Emit { keys: &keys, aabbs };
+    let e = Emit {
+        keys: &keys,
+        box_of: &box_of,
+    };
     let (root_box, depth) = e.emit(e.node(0), rest, 1);
     root[0] = Bvh2Node::new(root_box, 0, 1);
     bvh.nodes = nodes;
@@ -341,13 +351,13 @@ pub(crate) fn build_lbvh(aabbs: &[Aabb]) -> Bvh2 {
     bvh
 }
 
-struct Emit<'a> {
+struct Emit<'a, F: Fn(u32) -> Aabb + Sync> {
     /// Sorted (Morton code, primitive); the key of leaf `k` is `(keys[k].0, k)`.
     keys: &'a [(u64, u32)],
-    aabbs: &'a [Aabb],
+    box_of: &'a F,
 }
 
-impl Emit<'_> {
+impl<F: Fn(u32) -> Aabb + Sync> Emit<'_, F> {
     /// Inner node `i` of the radix tree.
     fn node(&self, i: u32) -> LbvhInner {
         node_by(self.keys.len(), |k| self.keys[k].0, i64::from(i))
@@ -368,7 +378,7 @@ impl Emit<'_> {
             |c: u32, inner: Option<LbvhInner>, sub: &mut [Bvh2Node], sub_start: u32| match inner {
                 None => {
                     let p = self.keys[c as usize].1;
-                    (Bvh2Node::new(self.aabbs[p as usize], 1, c), 0)
+                    (Bvh2Node::new((self.box_of)(p), 1, c), 0)
                 }
                 Some(inner) => {
                     let (b, d) = self.emit(inner, sub, sub_start);
