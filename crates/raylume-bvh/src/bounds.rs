@@ -87,3 +87,48 @@ impl Source<'_> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+    use crate::{PRIM_TRIANGLE, Primitive};
+
+    /// Triangles then spheres, each with its own scene index, boxes as the primitives' own;
+    /// the fallbacks' `boxes` borrows a complete array and makes a missing one.
+    #[test]
+    fn the_source_is_the_scene_in_order() {
+        let triangles: Vec<Triangle> = (0..5)
+            .map(|i| {
+                let o = Vec3::splat(i as f32);
+                Triangle::flat([o, o + Vec3::X, o + Vec3::Y * 2.0], 0)
+            })
+            .collect();
+        let spheres = vec![Sphere {
+            center: Vec3::new(1.0, -2.0, 3.0),
+            radius: 0.5,
+            material: 0,
+        }];
+        let source = Source {
+            triangles: &triangles,
+            spheres: &spheres,
+        };
+        assert_eq!(source.len(), 6);
+        for (i, t) in triangles.iter().enumerate() {
+            let p = source.get(i as u32);
+            assert_eq!((p.kind(), p.scene_index()), (PRIM_TRIANGLE, i as u32));
+            assert_eq!(
+                p,
+                Primitive::triangle(t.positions.map(|v| v.to_array()), i as u32)
+            );
+        }
+        let s = source.get(5);
+        assert_eq!((s.kind(), s.scene_index()), (PRIM_SPHERE, 0));
+        let made = source.aabbs();
+        let by_one: Vec<Aabb> = (0..6).map(|i| primitive_aabb(&source.get(i))).collect();
+        assert_eq!(made, by_one);
+        assert!(matches!(source.boxes(&made), std::borrow::Cow::Borrowed(_)));
+        assert_eq!(*source.boxes(&[]), made[..]);
+    }
+}
