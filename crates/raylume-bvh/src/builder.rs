@@ -138,7 +138,7 @@ impl GpuBvh {
         profile.coincident_check = lap.next();
         if layout == BvhLayout::Wide {
             return build_wide(
-                triangles, spheres, source, aabbs, coincident, quality, params, profile, lap, start,
+                source, aabbs, coincident, quality, params, profile, lap, start,
             );
         }
         let mut fallback = None;
@@ -201,8 +201,6 @@ impl GpuBvh {
 /// PLOC chain, or a wide tree deeper than [`WIDE_STACK_SIZE`].
 #[allow(clippy::too_many_arguments)]
 fn build_wide(
-    triangles: &[Triangle],
-    spheres: &[Sphere],
     source: Source,
     aabbs: Vec<Aabb>,
     coincident: usize,
@@ -290,8 +288,8 @@ fn build_wide(
             nodes: Vec::new(),
             wide_nodes: nodes,
             primitives,
-            triangle_count: triangles.len() as u32,
-            sphere_count: spheres.len() as u32,
+            triangle_count: source.triangles.len() as u32,
+            sphere_count: source.spheres.len() as u32,
             stats,
         },
         profile,

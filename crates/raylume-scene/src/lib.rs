@@ -128,6 +128,10 @@ pub(crate) fn load_mesh_into(
 impl Scene {
     /// Loads a scene file, by extension: `.toml`, `.obj`, `.gltf`, `.glb`, `.json` (Tungsten).
     /// The result is validated; see [`Scene::warnings`] for what had to be approximated.
+    ///
+    /// OBJ files of 16 MiB and more (the file itself or one a scene references) are mapped
+    /// into memory while they are parsed, not read: no other process may change or truncate
+    /// them during the load.
     pub fn load(path: impl AsRef<Path>) -> Result<Scene, SceneError> {
         Self::load_with(path, |_| {})
     }

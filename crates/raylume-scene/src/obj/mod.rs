@@ -29,7 +29,7 @@ use std::path::{Path, PathBuf};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
-use crate::builder::{MeshOptions, SceneBuilder, ShadingNormals, line_of_offset, read_file};
+use crate::builder::{MeshOptions, SceneBuilder, ShadingNormals, line_of_offset};
 use crate::error::{Location, SceneError};
 use crate::model::Triangle;
 use mtl::{Mtl, convert, load_mtl};
@@ -85,14 +85,16 @@ impl ObjText {
         map_from: u64,
     ) -> Result<Self, SceneError> {
         let io = |e| SceneError::io(path.to_path_buf(), referenced_by.map(str::to_string), e);
-        let file = std::fs::File::open(path).map_err(io)?;
+        let mut file = std::fs::File::open(path).map_err(io)?;
         let len = file.metadata().map_err(io)?.len();
         if len < map_from {
-            return Ok(Self::Read(utf8(read_file(path, referenced_by)?, label)?));
+            let mut bytes = Vec::with_capacity(len as usize);
+            std::io::Read::read_to_end(&mut file, &mut bytes).map_err(io)?;
+            return Ok(Self::Read(utf8(bytes, label)?));
         }
         // SAFETY: the map is read-only and private; it is undefined behaviour only if
-        // another process changes or truncates the file while it is mapped, which the loader's
-        // documentation rules out (as every loader that maps its input must).
+        // another process changes or truncates the file while it is mapped, which
+        // `Scene::load`'s documentation rules out (as every loader that maps its input must).
         let map = unsafe { memmap2::MmapOptions::new().populate().map(&file) }.map_err(io)?;
         if let Err(e) = std::str::from_utf8(&map) {
             return Err(not_utf8(&map, e.valid_up_to(), label));
