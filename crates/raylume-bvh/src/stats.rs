@@ -20,7 +20,9 @@ pub enum Fallback {
     /// passes, counted as obvhs does, leaves as nodes.)
     TooDeep { depth: usize },
     /// `count` primitives had bit-identical boxes, more than
-    /// [`MAX_STACK_DEPTH`](crate::MAX_STACK_DEPTH); PLOC would have chained them.
+    /// [`MAX_STACK_DEPTH`](crate::MAX_STACK_DEPTH); PLOC would have chained them. (Never
+    /// for [`BvhQuality::Fastest`](crate::BvhQuality::Fastest): its linear BVH splits equal
+    /// boxes by index, into a balanced subtree.)
     CoincidentBoxes { count: usize },
 }
 
