@@ -21,8 +21,8 @@ pub enum Fallback {
     TooDeep { depth: usize },
     /// `count` primitives had bit-identical boxes, more than
     /// [`MAX_STACK_DEPTH`](crate::MAX_STACK_DEPTH); PLOC would have chained them. (Never
-    /// for [`BvhQuality::Fastest`](crate::BvhQuality::Fastest): its linear BVH splits equal
-    /// boxes by index, into a balanced subtree.)
+    /// for the linear BVH, [`BvhQuality::Fastest`](crate::BvhQuality::Fastest) without
+    /// pre-splits: it splits equal boxes by index, into a balanced subtree.)
     CoincidentBoxes { count: usize },
 }
 
