@@ -87,15 +87,20 @@ impl ObjText {
         let io = |e| SceneError::io(path.to_path_buf(), referenced_by.map(str::to_string), e);
         let mut file = std::fs::File::open(path).map_err(io)?;
         let len = file.metadata().map_err(io)?.len();
-        if len < map_from {
-            let mut bytes = Vec::with_capacity(len as usize);
-            std::io::Read::read_to_end(&mut file, &mut bytes).map_err(io)?;
-            return Ok(Self::Read(utf8(bytes, label)?));
-        }
         // SAFETY: the map is read-only and private; it is undefined behaviour only if
         // another process changes or truncates the file while it is mapped, which
         // `Scene::load`'s documentation rules out (as every loader that maps its input must).
-        let map = unsafe { memmap2::MmapOptions::new().populate().map(&file) }.map_err(io)?;
+        let map =
+            (len >= map_from).then(|| unsafe { memmap2::MmapOptions::new().populate().map(&file) });
+        // A file too small to map, or one whose file system cannot map it, is read.
+        let Some(Ok(map)) = map else {
+            let mut bytes = Vec::new();
+            bytes
+                .try_reserve_exact(len as usize)
+                .map_err(|e| io(std::io::Error::new(std::io::ErrorKind::OutOfMemory, e)))?;
+            std::io::Read::read_to_end(&mut file, &mut bytes).map_err(io)?;
+            return Ok(Self::Read(utf8(bytes, label)?));
+        };
         if let Err(e) = std::str::from_utf8(&map) {
             return Err(not_utf8(&map, e.valid_up_to(), label));
         }
@@ -740,6 +745,24 @@ mod tests {
             assert_eq!(mapped, read);
         }
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// A file its file system cannot map (procfs has no mmap) is read instead: the same
+    /// outcome as reading it, not an I/O error.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn a_file_that_cannot_be_mapped_is_read() {
+        let path = Path::new("/proc/version");
+        let outcome = |map_from: u64| {
+            let mut b = SceneBuilder::new("test");
+            parse_with(path, false, None, true, map_from)
+                .and_then(|p| insert(&mut b, p, &MeshOptions::bare()))
+                .map(|()| b.scene.triangles.len())
+                .map_err(|e| format!("{e:?}"))
+        };
+        let read = outcome(u64::MAX);
+        assert!(!format!("{read:?}").contains("Io"), "{read:?}");
+        assert_eq!(outcome(0), read);
     }
 
     /// A large file cut into many pieces: relative indices across piece borders, and the
