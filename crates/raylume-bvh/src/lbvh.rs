@@ -193,15 +193,19 @@ fn node_by(n: usize, code: impl Fn(usize) -> u64 + Copy, i: i64) -> LbvhInner {
     }
 }
 
-/// Primitive indices sorted by (Morton code of their box centre, index), and the sorted codes.
-fn sorted_codes(boxes: &[Aabb], params: &LbvhParams) -> (Vec<u64>, Vec<u32>) {
-    let mut codes: Vec<(u64, u32)> = boxes
-        .par_iter()
-        .enumerate()
-        .map(|(i, b)| (morton_code(b.center(), params), i as u32))
+/// The `n` primitives' (Morton code of their box centre, index), sorted; `box_of(i)` is
+/// primitive `i`'s box.
+fn sorted_keys(
+    n: usize,
+    box_of: impl Fn(u32) -> Aabb + Sync,
+    params: &LbvhParams,
+) -> Vec<(u64, u32)> {
+    let mut keys: Vec<(u64, u32)> = (0..n as u32)
+        .into_par_iter()
+        .map(|i| (morton_code(box_of(i).center(), params), i))
         .collect();
-    codes.par_sort_unstable();
-    codes.into_par_iter().unzip()
+    keys.par_sort_unstable();
+    keys
 }
 
 /// The tree the GPU build writes ([`lbvh_binary`]).
@@ -241,7 +245,9 @@ pub fn lbvh_binary(primitives: &[Primitive]) -> LbvhTree {
         };
     }
     let params = LbvhParams::of_boxes(&boxes);
-    let (codes, order) = sorted_codes(&boxes, &params);
+    let (codes, order): (Vec<u64>, Vec<u32>) = sorted_keys(n, |i| boxes[i as usize], &params)
+        .into_par_iter()
+        .unzip();
     let inner: Vec<LbvhInner> = (0..n as i64 - 1)
         .into_par_iter()
         .map(|i| lbvh_node(&codes, i))
@@ -321,15 +327,11 @@ pub(crate) fn build_lbvh_with(n: usize, box_of: impl Fn(u32) -> Aabb + Sync) -> 
         bvh.max_depth = 1;
         return bvh;
     }
-    let ids = || (0..n as u32).into_par_iter();
-    let (lo, hi) = centre_bounds(ids().map(|i| box_of(i).center()));
+    let (lo, hi) = centre_bounds((0..n as u32).into_par_iter().map(|i| box_of(i).center()));
     let params = LbvhParams::of_centre_bounds(lo, hi, n);
     // The sorted (code, primitive) pairs stay as they are: the δ searches read their codes
     // in place and the leaves their primitives (no two further arrays of 3M entries).
-    let mut keys: Vec<(u64, u32)> = ids()
-        .map(|i| (morton_code(box_of(i).center(), &params), i))
-        .collect();
-    keys.par_sort_unstable();
+    let keys = sorted_keys(n, &box_of, &params);
 
     // Nodes in a depth-first layout with each node's children side by side: the root at 0,
     // then for an inner node its children's pair, the left child's subtree, the right's.
