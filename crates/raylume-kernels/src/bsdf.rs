@@ -67,8 +67,9 @@
 //!   and `m_internal_reflectance`). [`RoughPlasticTable::new`] computes the same quantities
 //!   in Rust (f64 Gauss-Legendre quadrature over the visible normals, the same definitions
 //!   and the same 64-point grid), once per material; the kernels read it through
-//!   [`rough_transmittance`]. In WGSL the table is passed as `ptr<function,
-//!   RoughPlasticTable>` (copy the material's table from its storage buffer into a `var`).
+//!   [`rough_transmittance`]. In WGSL the functions take the table's index in the
+//!   `plastic_tables` storage array (the module declares it) and read the entries they need
+//!   from there; a copy into a function-space `var` made every hit load and store all 68 words.
 
 // `!(x > 0.0)` is meant: it is true for NaN too (as in the WGSL).
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -1673,8 +1674,9 @@ mod tests {
 
     fn bsdf_module() -> (String, raylume_gpu::wgpu::naga::Module) {
         use raylume_gpu::wgpu::naga;
+        // The tables' storage array, which the tracer declares with its bindings.
         let src = format!(
-            "{}\n{}\n{}",
+            "{}\n{}\n{}\n@group(0) @binding(0) var<storage, read> plastic_tables: array<RoughPlasticTable>;",
             crate::math::MATH_WGSL,
             crate::sampling::SAMPLING_WGSL,
             BSDF_WGSL

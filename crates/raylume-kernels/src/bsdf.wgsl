@@ -246,8 +246,11 @@ fn eval_plastic(dir: vec3<f32>, n: vec3<f32>, wi: vec3<f32>, ior: f32, albedo: v
 
 // ---- roughplastic ----
 
-// Built by RoughPlasticTable::new (Rust) per (alpha, ior); 272 bytes. Pass it as a pointer to
-// a function-space copy: `var tab = tables[i]; sample_rough_plastic(..., &tab, u)`.
+// Built by RoughPlasticTable::new (Rust) per (alpha, ior); 272 bytes. The functions below take
+// its index in the `plastic_tables` storage array (declared with the module's bindings) and
+// read the two entries they interpolate from there: a copy into a function-space `var` (272
+// bytes a thread, indexed dynamically: local memory) cost every rough plastic hit 68 loads and
+// stores and the driver's compiler a larger kernel.
 struct RoughPlasticTable {
     transmittance: array<f32, 64>,
     internal_reflectance: f32,
@@ -257,11 +260,11 @@ struct RoughPlasticTable {
 }
 
 //#if plastic
-fn rough_transmittance(table: ptr<function, RoughPlasticTable>, cos_i: f32) -> f32 {
+fn rough_transmittance(table: u32, cos_i: f32) -> f32 {
     let x = cos_i * f32(ROUGH_TRANSMITTANCE_RES - 1u);
     let i = min(u32(x), ROUGH_TRANSMITTANCE_RES - 2u);
-    let v0 = (*table).transmittance[i];
-    let v1 = (*table).transmittance[i + 1u];
+    let v0 = plastic_tables[table].transmittance[i];
+    let v1 = plastic_tables[table].transmittance[i + 1u];
     let t = x - f32(i);
     return v0 + (v1 - v0) * t;
 }
@@ -274,7 +277,7 @@ fn rough_plastic_local(
     alpha: f32,
     ior: f32,
     albedo: vec3<f32>,
-    table: ptr<function, RoughPlasticTable>,
+    table: u32,
 ) -> BsdfEval {
     let inv_ior = 1.0 / ior;
     let t_i = rough_transmittance(table, min(wo.z, 1.0));
@@ -286,7 +289,7 @@ fn rough_plastic_local(
     let spec_pdf = d * smith_g1(wo, h, alpha) / (4.0 * wo.z);
     let spec = fresnel_dielectric(cos_oh, inv_ior) * spec_pdf * smith_g1(wl, h, alpha);
     let cos_pdf = wl.z * INV_PI;
-    let scale = inv_ior * inv_ior * t_i * t_o / (1.0 - (*table).internal_reflectance);
+    let scale = inv_ior * inv_ior * t_i * t_o / (1.0 - plastic_tables[table].internal_reflectance);
     return BsdfEval(
         albedo * (scale * cos_pdf) + vec3<f32>(spec),
         p_spec * spec_pdf + (1.0 - p_spec) * cos_pdf,
@@ -301,7 +304,7 @@ fn sample_rough_plastic(
     alpha: f32,
     ior: f32,
     albedo: vec3<f32>,
-    table: ptr<function, RoughPlasticTable>,
+    table: u32,
     u: vec3<f32>,
 ) -> BsdfSample {
     let a = max(alpha, GGX_MIN_ALPHA);
@@ -338,7 +341,7 @@ fn eval_rough_plastic(
     alpha: f32,
     ior: f32,
     albedo: vec3<f32>,
-    table: ptr<function, RoughPlasticTable>,
+    table: u32,
 ) -> BsdfEval {
     let a = max(alpha, GGX_MIN_ALPHA);
     let basis = orthonormal_basis(n);

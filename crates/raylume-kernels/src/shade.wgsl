@@ -56,8 +56,7 @@ fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, 
 //#if plastic
     if (HAS_PLASTIC && mat.kind == MATERIAL_PLASTIC) {
         if (mat.alpha > 0.0) {
-            var table = plastic_tables[mat.table];
-            s = sample_rough_plastic((*path).dir, ns_facing, mat.alpha, mat.ior, mat.color, &table, rnd.zxy);
+            s = sample_rough_plastic((*path).dir, ns_facing, mat.alpha, mat.ior, mat.color, mat.table, rnd.zxy);
         } else {
             s = sample_plastic((*path).dir, ns_facing, mat.ior, mat.color, rnd.zxy);
         }
@@ -197,8 +196,7 @@ fn eval_material(mat: GpuMaterial, dir_in: vec3<f32>, n: vec3<f32>, wi: vec3<f32
 //#if plastic
     if (HAS_PLASTIC && mat.kind == MATERIAL_PLASTIC) {
         if (mat.alpha > 0.0) {
-            var table = plastic_tables[mat.table];
-            return eval_rough_plastic(dir_in, n, wi, mat.alpha, mat.ior, mat.color, &table);
+            return eval_rough_plastic(dir_in, n, wi, mat.alpha, mat.ior, mat.color, mat.table);
         }
         return eval_plastic(dir_in, n, wi, mat.ior, mat.color);
     }

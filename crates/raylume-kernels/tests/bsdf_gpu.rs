@@ -19,7 +19,7 @@ const OUT: usize = 12;
 
 const KERNEL: &str = r#"
 @group(0) @binding(0) var<storage, read> inputs: array<f32>;
-@group(0) @binding(1) var<storage, read> tables: array<RoughPlasticTable>;
+@group(0) @binding(1) var<storage, read> plastic_tables: array<RoughPlasticTable>;
 @group(0) @binding(2) var<storage, read_write> out: array<f32>;
 
 fn v3(i: u32) -> vec3<f32> {
@@ -52,9 +52,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         s = sample_plastic(dir, n, ior, color, u);
         e = eval_plastic(dir, n, wi, ior, color);
     } else if (kind == 2u) {
-        var table = tables[0];
-        s = sample_rough_plastic(dir, n, alpha, ior, color, &table, u);
-        e = eval_rough_plastic(dir, n, wi, alpha, ior, color, &table);
+        s = sample_rough_plastic(dir, n, alpha, ior, color, 0u, u);
+        e = eval_rough_plastic(dir, n, wi, alpha, ior, color, 0u);
     } else {
         s = sample_rough_dielectric(dir, n, alpha, ior, color, u);
         e = eval_rough_dielectric(dir, n, wi, alpha, ior, color);
