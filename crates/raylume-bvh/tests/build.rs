@@ -260,6 +260,44 @@ fn quality_splits_long_diagonal_triangles() {
     check_against_brute_force(&f, &quality, &qs, &reference);
 }
 
+/// The same slivers far from the origin, where a split piece's box (the splitter clips the
+/// triangle in floating point) can fall a few ulp short of the piece, and the wide layout's
+/// cells (a node's extent / 255, small against the coordinates' ulp there) no longer round it
+/// out: each piece's leaf must get its box from the whole triangle (`flatten::leaf_box`: the
+/// binary flatten's, and the wide conversion's pass before obvhs quantises), or the traversal
+/// misses grazing hits on the pieces' seams. Both layouts: the split coverage `validate`
+/// checks, and rays against brute force. (Each layout's pass removed alone fails this.)
+#[test]
+fn split_slivers_far_from_the_origin_keep_their_seams() {
+    for (offset, scale) in [(1e4f32, 1.0f32), (1e4, 0.1), (3e4, 0.1)] {
+        let near = support::slivers_in_soup();
+        let shift = Vec3::new(offset, -0.7 * offset, 0.3 * offset);
+        let f = Fixture {
+            name: "slivers far from the origin",
+            triangles: near
+                .triangles
+                .iter()
+                .map(|t| Triangle::flat(t.positions.map(|p| p * scale + shift), 0))
+                .collect(),
+            spheres: Vec::new(),
+        };
+        let qs = queries(&f, 20_000, 10);
+        let reference: Vec<_> = qs.iter().map(|q| brute_force(&f, q)).collect();
+        for layout in [BvhLayout::Binary, BvhLayout::Wide] {
+            let bvh =
+                GpuBvh::build_with_layout(&f.triangles, &f.spheres, BvhQuality::Quality, layout)
+                    .unwrap();
+            assert!(
+                bvh.stats.primitive_refs > f.primitive_count(),
+                "{layout:?} at {offset}: no split copies"
+            );
+            bvh.validate()
+                .unwrap_or_else(|e| panic!("{layout:?} at {offset} x {scale}: {e}"));
+            check_against_brute_force(&f, &bvh, &qs, &reference);
+        }
+    }
+}
+
 #[test]
 fn stats_describe_the_tree() {
     let f = support::icosphere_on_plane();
