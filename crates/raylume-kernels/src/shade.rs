@@ -313,7 +313,10 @@ pub fn trace_ray<const F: u32>(
     let last = depth >= g.scene.max_bounces;
     // An emissive triangle hit by a direction sampled where the lights were sampled too: the
     // shadow ray there could have found this point; weigh the two estimates.
-    // Lights to sample (emitters or a sky) and materials that sample them, or neither.
+    // Lights to sample (emitters or a sky) and materials that sample them, or neither. (The
+    // WGSL also tests its `NEXT_EVENT` override, false in a plain render's pipelines, so that
+    // the driver drops this part there; here a plain render's `light_count` of 0 and `mis_pdf`
+    // of 0 take the same branches.)
     let lit = (has(F, Feature::Emission)
         || has(F, Feature::ConstantEnvironment)
         || has(F, Feature::EnvironmentMap))

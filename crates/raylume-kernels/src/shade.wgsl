@@ -106,7 +106,7 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     if (hit.prim == INVALID_INDEX) {
         // shade.rs: weighed against the shadow ray toward the environment.
         var w_env = 1.0;
-        if ((*path).mis_pdf > 0.0 && scene.environment_select > 0.0) {
+        if (NEXT_EVENT && (*path).mis_pdf > 0.0 && scene.environment_select > 0.0) {
             w_env = mis_weight((*path).mis_pdf, scene.environment_select * environment_pdf((*path).dir, environment_cell((*path).origin)));
         }
         (*path).radiance += (*path).throughput * environment_radiance((*path).dir) * w_env;
@@ -122,7 +122,7 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     var emission_weight = 1.0;
     var sample_here = false;
 //#if emission|constant_environment|environment_map
-    if ((HAS_EMISSION || HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && (HAS_DIFFUSE || HAS_PLASTIC || HAS_ROUGH_METAL || HAS_ROUGH_GLASS)) {
+    if (NEXT_EVENT && (HAS_EMISSION || HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && (HAS_DIFFUSE || HAS_PLASTIC || HAS_ROUGH_METAL || HAS_ROUGH_GLASS)) {
         let prim = bvh_primitives[hit.prim];
         if ((*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_TRIANGLE) {
             let n = cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz);

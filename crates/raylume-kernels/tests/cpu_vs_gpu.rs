@@ -470,3 +470,50 @@ fn guided_environment_matches_cpu() {
         }
     }
 }
+
+/// One tracer rendering with either estimator in turn: a plain render runs pipelines compiled
+/// without next-event estimation's code (the `NEXT_EVENT` override false), a NEE render its
+/// own, and each image is still the CPU mirror's, pixel for pixel within rounding.
+#[test]
+fn estimators_get_their_own_pipelines() {
+    let name = "estimators_get_their_own_pipelines";
+    let Some(ctx) = raylume_gpu::testing::context_or_skip(name) else {
+        return;
+    };
+    let scene = cornell_box();
+    let s = settings(24, 24, 2, 4, Schedule::Megakernel);
+    let bvh = bvh_with_layout(&scene, BvhLayout::Wide);
+    let pipelines =
+        raylume_kernels::gpu::TracerPipelines::new(ctx, scene.features(), bvh.layout).unwrap();
+    let mut gpu = GpuTracer::with_pipelines(ctx, &scene, &bvh, pipelines.clone()).unwrap();
+    let paths = |compiled: Vec<(&str, bool)>| -> Vec<bool> {
+        compiled
+            .into_iter()
+            .filter(|(e, _)| *e == "trace_paths")
+            .map(|(_, nee)| nee)
+            .collect()
+    };
+    for (round, (estimator, expect)) in [
+        (Estimator::Plain, vec![false]),
+        (Estimator::Nee, vec![false, true]),
+        (Estimator::Plain, vec![false, true]),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        gpu.set_estimator(estimator);
+        let g = gpu.render(&s, &mut |_, _| {}).unwrap();
+        let mut cpu = CpuTracer::new(&scene, &bvh).unwrap();
+        cpu.set_estimator(estimator);
+        let c = cpu.render(&s, &mut |_, _| {}).unwrap();
+        let e = relative_rmse(&g.radiance, &c.radiance);
+        eprintln!("{name}: round {round} {estimator:?}: rel RMSE {e:.3e}");
+        // As `compare_guided`: far below these renders' noise (0.1 to 1).
+        assert!(e < 1e-3, "round {round} {estimator:?}: relative RMSE {e}");
+        assert_eq!(
+            paths(pipelines.compiled()),
+            expect,
+            "round {round} {estimator:?}: the megakernels compiled (without, with NEE's code)"
+        );
+    }
+}

@@ -697,13 +697,16 @@ impl RenderPipelines {
 }
 
 /// The pipelines a render will compile: features, layout and specialisation (the cache's
-/// key), the schedule it starts with, and whether it learns an environment guide.
+/// key), the schedule it starts with and the estimator it runs, and whether it learns an
+/// environment guide.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct PipelineRequest {
     features: raylume_scene::Features,
     layout: BvhLayout,
     specialisation: Specialisation,
     schedule: Schedule,
+    /// The render's estimator: a plain render's pipelines leave next-event estimation out.
+    estimator: Estimator,
     guides: bool,
 }
 
@@ -743,7 +746,7 @@ impl PipelineRequest {
             });
             let p =
                 TracerPipelines::specialised(ctx, self.features, self.layout, self.specialisation)?;
-            p.compile(ctx, self.schedule)?;
+            p.compile(ctx, self.schedule, self.estimator)?;
             if let Some(handle) = learner {
                 let l = handle
                     .join()
@@ -1140,6 +1143,7 @@ impl Tracer {
             layout,
             specialisation: self.specialisation,
             schedule,
+            estimator: self.estimator,
             guides: self.guides(scene),
         }
     }

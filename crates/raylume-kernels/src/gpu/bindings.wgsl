@@ -58,3 +58,8 @@ override HAS_TEXTURES: bool = true;
 override HAS_SHADING_NORMALS: bool = true;
 override HAS_CONSTANT_ENVIRONMENT: bool = true;
 override HAS_ENVIRONMENT_MAP: bool = true;
+// Whether the render estimates with next-event estimation (crate::Estimator::Nee): false in
+// the pipelines of plain renders, whose light sampling, shadow rays and MIS weights are then
+// dead code (TracerPipelines compiles one pipeline per value; shade.rs decides the same by
+// `light_count`, 0 in a plain render, and `mis_pdf`, then always 0).
+override NEXT_EVENT: bool = true;

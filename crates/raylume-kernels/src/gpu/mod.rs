@@ -765,9 +765,11 @@ impl<'a> GpuTracer<'a> {
         &self.pipelines
     }
 
-    /// The compute pipeline of entry point `entry`, compiled on first use.
+    /// The compute pipeline of entry point `entry` for the next renders' estimator, compiled
+    /// on first use.
     fn pipeline(&self, entry: &'static str) -> Result<wgpu::ComputePipeline, KernelError> {
-        self.pipelines.pipeline(self.ctx, entry)
+        self.pipelines
+            .pipeline(self.ctx, entry, self.data.estimator)
     }
 
     /// Takes the work buffers and ray sorters out of this tracer (its next render allocates

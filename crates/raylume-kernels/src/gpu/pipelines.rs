@@ -13,7 +13,10 @@ use raylume_scene::Features;
 use super::guide::GuideLearner;
 use super::layout::bind_group_layouts;
 use super::shader::{Specialisation, pipeline_constants, tracer_source_for};
-use crate::{KernelError, Schedule};
+use crate::{Estimator, KernelError, Schedule};
+
+/// The entry points that trace paths (`trace_ray`): compiled per estimator.
+const TRACES_PATHS: [&str; 3] = ["trace_paths", "trace_paths_persistent", "propagate"];
 
 /// The tracer's shader module (every entry point, the traversal of one [`BvhLayout`]), its
 /// bind group and pipeline layouts, and its compute pipelines specialised on a feature set,
@@ -37,7 +40,9 @@ pub struct TracerPipelines {
     /// Groups 0, 1 and 2: `permute_rays`.
     permute_layout: wgpu::PipelineLayout,
     module: wgpu::ShaderModule,
-    compiled: Mutex<HashMap<&'static str, wgpu::ComputePipeline>>,
+    /// By entry point and whether it estimates with next-event estimation (the `NEXT_EVENT`
+    /// override; always true for the entry points that trace no path).
+    compiled: Mutex<HashMap<(&'static str, bool), wgpu::ComputePipeline>>,
     /// The environment guide's walks over trees of this layout, made on first use.
     guide: Mutex<Option<Arc<GuideLearner>>>,
     /// Seconds spent making the module and compiling pipelines so far.
@@ -46,7 +51,7 @@ pub struct TracerPipelines {
 
 impl std::fmt::Debug for TracerPipelines {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let compiled: Vec<&str> = self
+        let compiled: Vec<(&str, bool)> = self
             .compiled
             .lock()
             .map(|c| c.keys().copied().collect())
@@ -166,12 +171,41 @@ impl TracerPipelines {
         *self.seconds.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    /// Compiles the pipelines `schedule` runs (those not compiled yet).
-    pub fn compile(&self, ctx: &GpuContext, schedule: Schedule) -> Result<(), KernelError> {
+    /// Compiles the pipelines `schedule` runs with `estimator` (those not compiled yet): a
+    /// plain render's path tracing pipelines leave next-event estimation's code out (the
+    /// `NEXT_EVENT` override), so each estimator has its own.
+    pub fn compile(
+        &self,
+        ctx: &GpuContext,
+        schedule: Schedule,
+        estimator: Estimator,
+    ) -> Result<(), KernelError> {
         for &entry in Self::entries(schedule) {
-            self.pipeline(ctx, entry)?;
+            self.pipeline(ctx, entry, estimator)?;
         }
         Ok(())
+    }
+
+    /// The pipelines compiled so far, sorted: (entry point, whether it holds next-event
+    /// estimation's code). A plain render's path tracing entry points are compiled without
+    /// it, a render with [`Estimator::Nee`] with it; the other entry points always hold it.
+    pub fn compiled(&self) -> Vec<(&'static str, bool)> {
+        let mut v: Vec<_> = self
+            .compiled
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .keys()
+            .copied()
+            .collect();
+        v.sort_unstable();
+        v
+    }
+
+    /// The `NEXT_EVENT` value `entry`'s pipeline for `estimator` is compiled with: the
+    /// estimator's for the entry points that trace paths, true (the default) for the rest,
+    /// which are then compiled once.
+    fn variant(entry: &str, estimator: Estimator) -> bool {
+        !TRACES_PATHS.contains(&entry) || estimator == Estimator::Nee
     }
 
     /// The environment guide's walks over trees of this module's layout
@@ -216,18 +250,22 @@ impl TracerPipelines {
         &self,
         ctx: &GpuContext,
         entry: &'static str,
+        estimator: Estimator,
     ) -> Result<wgpu::ComputePipeline, KernelError> {
-        let lock = |m: &Mutex<HashMap<&'static str, wgpu::ComputePipeline>>| {
+        let next_event = Self::variant(entry, estimator);
+        let key = (entry, next_event);
+        let lock = |m: &Mutex<HashMap<(&'static str, bool), wgpu::ComputePipeline>>| {
             m.lock()
                 .unwrap_or_else(|e| e.into_inner())
-                .get(entry)
+                .get(&key)
                 .cloned()
         };
         if let Some(p) = lock(&self.compiled) {
             return Ok(p);
         }
         let start = Instant::now();
-        let constants = pipeline_constants(self.features);
+        let mut constants = pipeline_constants(self.features);
+        constants.push(("NEXT_EVENT", if next_event { 1.0 } else { 0.0 }));
         let p = ctx.scoped(&format!("compiling the `{entry}` pipeline"), || {
             ctx.device
                 .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -251,7 +289,7 @@ impl TracerPipelines {
             .compiled
             .lock()
             .unwrap_or_else(|e| e.into_inner())
-            .entry(entry)
+            .entry(key)
             .or_insert(p)
             .clone();
         *self.seconds.lock().unwrap_or_else(|e| e.into_inner()) += start.elapsed().as_secs_f64();
