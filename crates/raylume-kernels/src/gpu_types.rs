@@ -82,6 +82,9 @@ pub const SAMPLER_INDEPENDENT: u32 = 0;
 pub const SAMPLER_ZSOBOL: u32 = 1;
 /// `SceneUniforms::sampler`: ZSobol with Burley's shuffle, `shuffled_sobol4`.
 pub const SAMPLER_SOBOL: u32 = 2;
+/// The tracer's `SAMPLER` override when a pipeline is not compiled for one sampler: the
+/// uniforms' `sampler` decides at run time (every sampler's code in the pipeline).
+pub const SAMPLER_FROM_SCENE: u32 = 0xffff_ffff;
 /// Random-number dimensions (groups of four) a path segment may draw: `DIM_CAMERA` ..
 /// `DIM_ROULETTE`. ZSobol numbers segment `b`'s dimension `d` as pair group
 /// `b * DIMS_PER_BOUNCE + d`.
@@ -395,6 +398,7 @@ pub fn wgsl_constants() -> String {
     s += &u("SAMPLER_INDEPENDENT", SAMPLER_INDEPENDENT);
     s += &u("SAMPLER_ZSOBOL", SAMPLER_ZSOBOL);
     s += &u("SAMPLER_SOBOL", SAMPLER_SOBOL);
+    s += &u("SAMPLER_FROM_SCENE", SAMPLER_FROM_SCENE);
     s += &u("NO_ROULETTE", NO_ROULETTE);
     s += &u("RAY_ALIVE", RAY_ALIVE);
     s += &u("WORKGROUP_SIZE", crate::workgroup_size());

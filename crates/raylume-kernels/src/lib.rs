@@ -147,7 +147,7 @@ fn size_from_env(name: &str) -> Option<u32> {
 pub const MAX_BOUNCES_LIMIT: u32 = 1 << 16;
 
 /// How a path's radiance is estimated (the same on both backends).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Estimator {
     /// The paper's: emission counts where a path hits it; each hit scatters one direction
     /// sampled from its material.
@@ -163,7 +163,7 @@ pub enum Estimator {
 }
 
 /// Where a path's random numbers come from (the same numbers on both backends).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Sampler {
     /// Independent uniform numbers: the `pcg4d` hash of (seed, pixel, sample, bounce,
     /// dimension), [`rng::rand4`].

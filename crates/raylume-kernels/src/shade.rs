@@ -243,7 +243,9 @@ pub fn path_rand4(scene: &SceneUniforms, pixel: u32, sample: u32, bounce: u32, d
 
 /// What the Sobol' samplers share between the random numbers of one pixel sample
 /// ([`SobolPixel`]; all zero for the independent one, which needs none of it): a segment
-/// computes it once for its light, scattering and roulette numbers.
+/// computes it once for its light, scattering and roulette numbers. (The WGSL reads the
+/// sampler through `path_sampler`: its pipeline's `SAMPLER` override, compiled equal to
+/// `scene.sampler`, so that the other samplers' code is dead there.)
 #[inline]
 pub fn sampler_pixel(scene: &SceneUniforms, pixel: u32) -> SobolPixel {
     if scene.sampler == SAMPLER_INDEPENDENT {

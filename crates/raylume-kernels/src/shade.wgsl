@@ -78,9 +78,16 @@ fn path_rand4(pixel: u32, sample: u32, bounce: u32, dim: u32) -> vec4<f32> {
     return path_rand4_at(sampler_pixel(pixel), pixel, sample, bounce, dim);
 }
 
+// The render's sampler: the pipeline's SAMPLER override, which TracerPipelines sets to the
+// uniforms' `sampler` (shade.rs reads `scene.sampler`), so that the other samplers' code is
+// dead; the uniforms' value when the pipeline is compiled for any (SAMPLER_FROM_SCENE).
+fn path_sampler() -> u32 {
+    return select(SAMPLER, scene.sampler, SAMPLER == SAMPLER_FROM_SCENE);
+}
+
 // shade.rs `sampler_pixel`.
 fn sampler_pixel(pixel: u32) -> SobolPixel {
-    if (scene.sampler == SAMPLER_INDEPENDENT) {
+    if (path_sampler() == SAMPLER_INDEPENDENT) {
         return SobolPixel(0u, 0u, 0u);
     }
     let xy = vec2<u32>(pixel % scene.width, pixel / scene.width);
@@ -89,8 +96,9 @@ fn sampler_pixel(pixel: u32) -> SobolPixel {
 
 // shade.rs `path_rand4_at`.
 fn path_rand4_at(sp: SobolPixel, pixel: u32, sample: u32, bounce: u32, dim: u32) -> vec4<f32> {
-    if (scene.sampler != SAMPLER_INDEPENDENT) {
-        let shuffled = select(0u, 1u, scene.sampler == SAMPLER_SOBOL);
+    let sampler = path_sampler();
+    if (sampler != SAMPLER_INDEPENDENT) {
+        let shuffled = select(0u, 1u, sampler == SAMPLER_SOBOL);
         let group = bounce * DIMS_PER_BOUNCE + dim;
         if (dim == DIM_CAMERA || dim == DIM_ROULETTE) {
             let v = sobol2_at(shuffled, sp, sample, group);

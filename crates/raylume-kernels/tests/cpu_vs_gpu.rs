@@ -471,12 +471,14 @@ fn guided_environment_matches_cpu() {
     }
 }
 
-/// One tracer rendering with either estimator in turn: a plain render runs pipelines compiled
-/// without next-event estimation's code (the `NEXT_EVENT` override false), a NEE render its
-/// own, and each image is still the CPU mirror's, pixel for pixel within rounding.
+/// One tracer rendering with either estimator and each sampler in turn: its path tracing
+/// pipelines are compiled per estimator and sampler (`PathVariant`: a plain render's without
+/// next-event estimation's code, an independent one's without the Sobol' samplers'), and each
+/// image is still the CPU mirror's, pixel for pixel within rounding.
 #[test]
-fn estimators_get_their_own_pipelines() {
-    let name = "estimators_get_their_own_pipelines";
+fn estimators_and_samplers_get_their_own_pipelines() {
+    use raylume_kernels::gpu::PathVariant;
+    let name = "estimators_and_samplers_get_their_own_pipelines";
     let Some(ctx) = raylume_gpu::testing::context_or_skip(name) else {
         return;
     };
@@ -486,34 +488,47 @@ fn estimators_get_their_own_pipelines() {
     let pipelines =
         raylume_kernels::gpu::TracerPipelines::new(ctx, scene.features(), bvh.layout).unwrap();
     let mut gpu = GpuTracer::with_pipelines(ctx, &scene, &bvh, pipelines.clone()).unwrap();
-    let paths = |compiled: Vec<(&str, bool)>| -> Vec<bool> {
-        compiled
+    let megakernels = || -> Vec<PathVariant> {
+        pipelines
+            .compiled()
             .into_iter()
             .filter(|(e, _)| *e == "trace_paths")
-            .map(|(_, nee)| nee)
+            .map(|(_, v)| v)
             .collect()
     };
-    for (round, (estimator, expect)) in [
-        (Estimator::Plain, vec![false]),
-        (Estimator::Nee, vec![false, true]),
-        (Estimator::Plain, vec![false, true]),
-    ]
-    .into_iter()
-    .enumerate()
-    {
+    let rounds = [
+        (Estimator::Plain, Sampler::Independent),
+        (Estimator::Nee, Sampler::Independent),
+        (Estimator::Plain, Sampler::Sobol),
+        (Estimator::Nee, Sampler::ZSobol),
+        (Estimator::Plain, Sampler::Independent),
+    ];
+    for (round, &(estimator, sampler)) in rounds.iter().enumerate() {
         gpu.set_estimator(estimator);
+        gpu.set_sampler(sampler);
         let g = gpu.render(&s, &mut |_, _| {}).unwrap();
         let mut cpu = CpuTracer::new(&scene, &bvh).unwrap();
         cpu.set_estimator(estimator);
+        cpu.set_sampler(sampler);
         let c = cpu.render(&s, &mut |_, _| {}).unwrap();
         let e = relative_rmse(&g.radiance, &c.radiance);
-        eprintln!("{name}: round {round} {estimator:?}: rel RMSE {e:.3e}");
+        eprintln!("{name}: round {round} {estimator:?} {sampler:?}: rel RMSE {e:.3e}");
         // As `compare_guided`: far below these renders' noise (0.1 to 1).
-        assert!(e < 1e-3, "round {round} {estimator:?}: relative RMSE {e}");
+        assert!(
+            e < 1e-3,
+            "round {round} {estimator:?} {sampler:?}: relative RMSE {e}"
+        );
+        // Every variant rendered so far, each compiled once.
+        let mut want: Vec<PathVariant> = rounds[..=round]
+            .iter()
+            .map(|&(e, s)| PathVariant::of(e, s))
+            .collect();
+        want.sort_unstable();
+        want.dedup();
         assert_eq!(
-            paths(pipelines.compiled()),
-            expect,
-            "round {round} {estimator:?}: the megakernels compiled (without, with NEE's code)"
+            megakernels(),
+            want,
+            "round {round}: the megakernels compiled"
         );
     }
 }

@@ -14,7 +14,7 @@ use raylume_kernels::batches::{RoundHook, RoundSums};
 use raylume_kernels::{
     BatchPlan, CpuTracer, Estimator, GpuScene, GpuTracer, GpuWorkspace, Reorder, ReorderMode,
     Sampler, Schedule, Specialisation, TraceSettings, TraceStats,
-    gpu::{GuideLearner, LbvhBuilder, ResidentBvh, TracerPipelines},
+    gpu::{GuideLearner, LbvhBuilder, PathVariant, ResidentBvh, TracerPipelines},
     scene_data::SceneData,
 };
 use raylume_scene::Scene;
@@ -697,16 +697,16 @@ impl RenderPipelines {
 }
 
 /// The pipelines a render will compile: features, layout and specialisation (the cache's
-/// key), the schedule it starts with and the estimator it runs, and whether it learns an
-/// environment guide.
+/// key), the schedule it starts with and the estimator and sampler it runs, and whether it
+/// learns an environment guide.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct PipelineRequest {
     features: raylume_scene::Features,
     layout: BvhLayout,
     specialisation: Specialisation,
     schedule: Schedule,
-    /// The render's estimator: a plain render's pipelines leave next-event estimation out.
-    estimator: Estimator,
+    /// The render's estimator and sampler: its path tracing pipelines hold only their code.
+    variant: PathVariant,
     guides: bool,
 }
 
@@ -746,7 +746,7 @@ impl PipelineRequest {
             });
             let p =
                 TracerPipelines::specialised(ctx, self.features, self.layout, self.specialisation)?;
-            p.compile(ctx, self.schedule, self.estimator)?;
+            p.compile(ctx, self.schedule, self.variant)?;
             if let Some(handle) = learner {
                 let l = handle
                     .join()
@@ -1143,7 +1143,7 @@ impl Tracer {
             layout,
             specialisation: self.specialisation,
             schedule,
-            estimator: self.estimator,
+            variant: PathVariant::of(self.estimator, self.sampler),
             guides: self.guides(scene),
         }
     }

@@ -63,3 +63,7 @@ override HAS_ENVIRONMENT_MAP: bool = true;
 // dead code (TracerPipelines compiles one pipeline per value; shade.rs decides the same by
 // `light_count`, 0 in a plain render, and `mis_pdf`, then always 0).
 override NEXT_EVENT: bool = true;
+// The sampler the pipeline is compiled for (SAMPLER_INDEPENDENT, _ZSOBOL or _SOBOL; the
+// others' code is then dead), or SAMPLER_FROM_SCENE: the uniforms' `sampler` decides.
+// TracerPipelines compiles the path tracing pipelines per sampler; see `path_sampler`.
+override SAMPLER: u32 = SAMPLER_FROM_SCENE;

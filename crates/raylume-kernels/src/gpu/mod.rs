@@ -17,7 +17,7 @@ mod work;
 pub use capture::SortCapture;
 pub use guide::{GUIDE_WORKGROUP_SIZE, GuideLearner, PendingGuide, guide_source};
 pub use lbvh::{LBVH_WORKGROUP_SIZE, LbvhBuilder, ResidentBvh, lbvh_source};
-pub use pipelines::TracerPipelines;
+pub use pipelines::{PathVariant, TracerPipelines};
 pub use policy::{BatchPlan, BatchPolicy, BatchTiming, DepthTiming, StageTime};
 pub use shader::{Specialisation, compose, pipeline_constants, tracer_source, tracer_source_for};
 
@@ -765,11 +765,11 @@ impl<'a> GpuTracer<'a> {
         &self.pipelines
     }
 
-    /// The compute pipeline of entry point `entry` for the next renders' estimator, compiled
-    /// on first use.
+    /// The compute pipeline of entry point `entry` for the next renders' estimator and
+    /// sampler ([`PathVariant`]), compiled on first use.
     fn pipeline(&self, entry: &'static str) -> Result<wgpu::ComputePipeline, KernelError> {
-        self.pipelines
-            .pipeline(self.ctx, entry, self.data.estimator)
+        let variant = PathVariant::of(self.data.estimator, self.data.sampler);
+        self.pipelines.pipeline(self.ctx, entry, variant)
     }
 
     /// Takes the work buffers and ray sorters out of this tracer (its next render allocates

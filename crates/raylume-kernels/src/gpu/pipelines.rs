@@ -13,9 +13,55 @@ use raylume_scene::Features;
 use super::guide::GuideLearner;
 use super::layout::bind_group_layouts;
 use super::shader::{Specialisation, pipeline_constants, tracer_source_for};
-use crate::{Estimator, KernelError, Schedule};
+use crate::gpu_types::SAMPLER_FROM_SCENE;
+use crate::{Estimator, KernelError, Sampler, Schedule};
 
-/// The entry points that trace paths (`trace_ray`): compiled per estimator.
+/// What a path tracing pipeline is compiled for besides the scene's features: the render's
+/// estimator and sampler, as the WGSL overrides `NEXT_EVENT` and `SAMPLER`. The code of the
+/// other estimator and samplers is then dead (a plain render carries no light sampling, an
+/// independent one no Sobol' points): the same images, fewer instructions for the driver.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct PathVariant {
+    /// `Some` for one estimator; `None` holds every estimator's code.
+    pub estimator: Option<Estimator>,
+    /// `Some` for one sampler; `None` holds every sampler's code.
+    pub sampler: Option<Sampler>,
+}
+
+impl PathVariant {
+    /// Every estimator's and sampler's code: the uniforms decide at run time.
+    pub const ANY: PathVariant = PathVariant {
+        estimator: None,
+        sampler: None,
+    };
+
+    /// The variant of renders with `estimator` and `sampler`.
+    pub fn of(estimator: Estimator, sampler: Sampler) -> Self {
+        PathVariant {
+            estimator: Some(estimator),
+            sampler: Some(sampler),
+        }
+    }
+
+    /// Its override constants.
+    fn constants(self) -> [(&'static str, f64); 2] {
+        [
+            (
+                "NEXT_EVENT",
+                match self.estimator {
+                    Some(Estimator::Plain) => 0.0,
+                    _ => 1.0,
+                },
+            ),
+            (
+                "SAMPLER",
+                f64::from(self.sampler.map_or(SAMPLER_FROM_SCENE, Sampler::uniform)),
+            ),
+        ]
+    }
+}
+
+/// The entry points that trace paths (`trace_ray`): compiled per [`PathVariant`].
 const TRACES_PATHS: [&str; 3] = ["trace_paths", "trace_paths_persistent", "propagate"];
 
 /// The tracer's shader module (every entry point, the traversal of one [`BvhLayout`]), its
@@ -40,9 +86,8 @@ pub struct TracerPipelines {
     /// Groups 0, 1 and 2: `permute_rays`.
     permute_layout: wgpu::PipelineLayout,
     module: wgpu::ShaderModule,
-    /// By entry point and whether it estimates with next-event estimation (the `NEXT_EVENT`
-    /// override; always true for the entry points that trace no path).
-    compiled: Mutex<HashMap<(&'static str, bool), wgpu::ComputePipeline>>,
+    /// By entry point and [`PathVariant`] (the entry points that trace no path have one).
+    compiled: Mutex<HashMap<(&'static str, PathVariant), wgpu::ComputePipeline>>,
     /// The environment guide's walks over trees of this layout, made on first use.
     guide: Mutex<Option<Arc<GuideLearner>>>,
     /// Seconds spent making the module and compiling pipelines so far.
@@ -51,7 +96,7 @@ pub struct TracerPipelines {
 
 impl std::fmt::Debug for TracerPipelines {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let compiled: Vec<(&str, bool)> = self
+        let compiled: Vec<(&str, PathVariant)> = self
             .compiled
             .lock()
             .map(|c| c.keys().copied().collect())
@@ -171,25 +216,24 @@ impl TracerPipelines {
         *self.seconds.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    /// Compiles the pipelines `schedule` runs with `estimator` (those not compiled yet): a
-    /// plain render's path tracing pipelines leave next-event estimation's code out (the
-    /// `NEXT_EVENT` override), so each estimator has its own.
+    /// Compiles the pipelines `schedule` runs for renders of `variant` (those not compiled
+    /// yet): the path tracing entry points are compiled per estimator and sampler
+    /// ([`PathVariant`]).
     pub fn compile(
         &self,
         ctx: &GpuContext,
         schedule: Schedule,
-        estimator: Estimator,
+        variant: PathVariant,
     ) -> Result<(), KernelError> {
         for &entry in Self::entries(schedule) {
-            self.pipeline(ctx, entry, estimator)?;
+            self.pipeline(ctx, entry, variant)?;
         }
         Ok(())
     }
 
-    /// The pipelines compiled so far, sorted: (entry point, whether it holds next-event
-    /// estimation's code). A plain render's path tracing entry points are compiled without
-    /// it, a render with [`Estimator::Nee`] with it; the other entry points always hold it.
-    pub fn compiled(&self) -> Vec<(&'static str, bool)> {
+    /// The pipelines compiled so far, sorted: (entry point, the variant it was compiled
+    /// for; [`PathVariant::ANY`] for the entry points that trace no path).
+    pub fn compiled(&self) -> Vec<(&'static str, PathVariant)> {
         let mut v: Vec<_> = self
             .compiled
             .lock()
@@ -201,11 +245,13 @@ impl TracerPipelines {
         v
     }
 
-    /// The `NEXT_EVENT` value `entry`'s pipeline for `estimator` is compiled with: the
-    /// estimator's for the entry points that trace paths, true (the default) for the rest,
-    /// which are then compiled once.
-    fn variant(entry: &str, estimator: Estimator) -> bool {
-        !TRACES_PATHS.contains(&entry) || estimator == Estimator::Nee
+    /// What `entry`'s pipeline for renders of `variant` is compiled for: `variant` for the
+    /// entry points that trace paths, [`PathVariant::ANY`] for the rest (compiled once).
+    fn variant(entry: &str, variant: PathVariant) -> PathVariant {
+        match TRACES_PATHS.contains(&entry) {
+            true => variant,
+            false => PathVariant::ANY,
+        }
     }
 
     /// The environment guide's walks over trees of this module's layout
@@ -250,11 +296,11 @@ impl TracerPipelines {
         &self,
         ctx: &GpuContext,
         entry: &'static str,
-        estimator: Estimator,
+        variant: PathVariant,
     ) -> Result<wgpu::ComputePipeline, KernelError> {
-        let next_event = Self::variant(entry, estimator);
-        let key = (entry, next_event);
-        let lock = |m: &Mutex<HashMap<(&'static str, bool), wgpu::ComputePipeline>>| {
+        let variant = Self::variant(entry, variant);
+        let key = (entry, variant);
+        let lock = |m: &Mutex<HashMap<(&'static str, PathVariant), wgpu::ComputePipeline>>| {
             m.lock()
                 .unwrap_or_else(|e| e.into_inner())
                 .get(&key)
@@ -265,7 +311,7 @@ impl TracerPipelines {
         }
         let start = Instant::now();
         let mut constants = pipeline_constants(self.features);
-        constants.push(("NEXT_EVENT", if next_event { 1.0 } else { 0.0 }));
+        constants.extend(variant.constants());
         let p = ctx.scoped(&format!("compiling the `{entry}` pipeline"), || {
             ctx.device
                 .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
