@@ -130,23 +130,27 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     var emission_weight = 1.0;
     var sample_here = false;
 //#if emission|constant_environment|environment_map
-    if (NEXT_EVENT && (HAS_EMISSION || HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && (HAS_DIFFUSE || HAS_PLASTIC || HAS_ROUGH_METAL || HAS_ROUGH_GLASS)) {
-        let prim = bvh_primitives[hit.prim];
-        if ((*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_TRIANGLE) {
-            let n = cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz);
-            let cos_l = abs(dot(n, (*path).dir)) / length(n);
-            emission_weight = mis_weight((*path).mis_pdf, light_pdf(mat.emission, hit.t * hit.t, cos_l));
-        }
+    // A plain render's pipelines (NEXT_EVENT false, gpu::PathVariant) hold none of this: its
+    // own `if`, which the override makes constant (tests/compose.rs follows it).
+    if (NEXT_EVENT) {
+        if ((HAS_EMISSION || HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && (HAS_DIFFUSE || HAS_PLASTIC || HAS_ROUGH_METAL || HAS_ROUGH_GLASS)) {
+            let prim = bvh_primitives[hit.prim];
+            if ((*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_TRIANGLE) {
+                let n = cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz);
+                let cos_l = abs(dot(n, (*path).dir)) / length(n);
+                emission_weight = mis_weight((*path).mis_pdf, light_pdf(mat.emission, hit.t * hit.t, cos_l));
+            }
 //#if spheres
-        if (HAS_SPHERES && (*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_SPHERE) {
-            let cap_pdf = sphere_cap_pdf(prim.a.xyz, prim.a.w, (*path).origin);
-            emission_weight = mis_weight((*path).mis_pdf, sphere_light_pdf(mat.emission, prim.a.w, cap_pdf));
-        }
+            if (HAS_SPHERES && (*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_SPHERE) {
+                let cap_pdf = sphere_cap_pdf(prim.a.xyz, prim.a.w, (*path).origin);
+                emission_weight = mis_weight((*path).mis_pdf, sphere_light_pdf(mat.emission, prim.a.w, cap_pdf));
+            }
 //#endif
-        sample_here = scene.light_count > 0u && samples_lights(mat) && !last;
-        if (sample_here) {
-            let rnd_light = path_rand4_at(sp, pixel, sample, depth, DIM_LIGHT);
-            (*path).radiance += (*path).throughput * sample_lights(surface, mat, (*path).dir, rnd_light);
+            sample_here = scene.light_count > 0u && samples_lights(mat) && !last;
+            if (sample_here) {
+                let rnd_light = path_rand4_at(sp, pixel, sample, depth, DIM_LIGHT);
+                (*path).radiance += (*path).throughput * sample_lights(surface, mat, (*path).dir, rnd_light);
+            }
         }
     }
 //#endif

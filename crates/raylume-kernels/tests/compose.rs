@@ -161,3 +161,122 @@ fn compose_rejects_unknown_features() {
 fn compose_rejects_open_blocks() {
     compose("//#if glass\nx\n", Features::all());
 }
+
+/// The functions `entry` can reach once the overrides are set to `constants` (naga's own
+/// processing, as wgpu does it at pipeline creation): calls in the branches of an `if` whose
+/// condition the overrides make a constant are followed into the taken branch only. (A
+/// condition combined with run-time values by `&&` is lowered through a local variable and
+/// counts as unknown: the WGSL gives `NEXT_EVENT` an `if` of its own.)
+fn reachable(
+    module: &naga::Module,
+    constants: &[(&str, f64)],
+    entry: &str,
+) -> std::collections::BTreeSet<String> {
+    let info = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    )
+    .validate(module)
+    .unwrap();
+    let constants: naga::back::PipelineConstants =
+        constants.iter().map(|(k, v)| (k.to_string(), *v)).collect();
+    let (module, _) = naga::back::pipeline_constants::process_overrides(
+        module,
+        &info,
+        Some((naga::ShaderStage::Compute, entry)),
+        &constants,
+    )
+    .unwrap();
+    let known = |f: &naga::Function, e: naga::Handle<naga::Expression>| -> Option<bool> {
+        let literal = |l: &naga::Literal| match l {
+            naga::Literal::Bool(b) => Some(*b),
+            _ => None,
+        };
+        match &f.expressions[e] {
+            naga::Expression::Literal(l) => literal(l),
+            naga::Expression::Constant(c) => {
+                match &module.global_expressions[module.constants[*c].init] {
+                    naga::Expression::Literal(l) => literal(l),
+                    _ => None,
+                }
+            }
+            _ => None,
+        }
+    };
+    fn walk(
+        module: &naga::Module,
+        f: &naga::Function,
+        block: &naga::Block,
+        known: &dyn Fn(&naga::Function, naga::Handle<naga::Expression>) -> Option<bool>,
+        seen: &mut std::collections::BTreeSet<String>,
+    ) {
+        for s in block.iter() {
+            match s {
+                naga::Statement::Block(b) => walk(module, f, b, known, seen),
+                naga::Statement::If {
+                    condition,
+                    accept,
+                    reject,
+                } => match known(f, *condition) {
+                    Some(true) => walk(module, f, accept, known, seen),
+                    Some(false) => walk(module, f, reject, known, seen),
+                    None => {
+                        walk(module, f, accept, known, seen);
+                        walk(module, f, reject, known, seen);
+                    }
+                },
+                naga::Statement::Switch { cases, .. } => {
+                    for c in cases {
+                        walk(module, f, &c.body, known, seen);
+                    }
+                }
+                naga::Statement::Loop {
+                    body, continuing, ..
+                } => {
+                    walk(module, f, body, known, seen);
+                    walk(module, f, continuing, known, seen);
+                }
+                naga::Statement::Call { function, .. } => {
+                    let g = &module.functions[*function];
+                    let name = g.name.clone().unwrap_or_default();
+                    if seen.insert(name) {
+                        walk(module, g, &g.body, known, seen);
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+    let ep = module
+        .entry_points
+        .iter()
+        .find(|ep| ep.name == entry)
+        .unwrap();
+    let mut seen = std::collections::BTreeSet::new();
+    walk(&module, &ep.function, &ep.function.body, &known, &mut seen);
+    seen
+}
+
+/// A plain render's path tracing pipelines (`NEXT_EVENT` false: `gpu::PathVariant`) cannot
+/// reach next-event estimation's functions once the overrides are set, and a NEE render's
+/// can: the code the driver compiles for a plain render holds no light sampling.
+#[test]
+fn plain_pipelines_reach_no_light_sampling() {
+    let module = validate(Features::all(), BvhLayout::Wide);
+    let base = raylume_kernels::gpu::pipeline_constants(Features::all());
+    for entry in ["trace_paths", "trace_paths_persistent", "propagate"] {
+        for (next_event, want) in [(0.0, false), (1.0, true)] {
+            let mut constants = base.clone();
+            constants.push(("NEXT_EVENT", next_event));
+            let seen = reachable(&module, &constants, entry);
+            assert!(seen.contains("shade_hit"), "{entry}: {seen:?}");
+            for f in ["sample_lights", "eval_material", "light_pdf"] {
+                assert_eq!(
+                    seen.contains(f),
+                    want,
+                    "{entry} with NEXT_EVENT = {next_event}: `{f}` reachable: {seen:?}"
+                );
+            }
+        }
+    }
+}
