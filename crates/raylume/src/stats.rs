@@ -104,8 +104,8 @@ pub struct RenderStats {
     /// How the code that traced was specialised: `"composed"`, `"overrides"` or `"generic"`
     /// (on the CPU the first two run the same variant).
     pub specialisation: String,
-    /// `megakernel` or `wavefront` (`megakernel + wavefront (auto trials)` when
-    /// `--reorder auto` measured both in this render).
+    /// `megakernel`, `persistent` or `wavefront` (e.g. `megakernel + wavefront (auto
+    /// trials)` when `--reorder auto` measured several in this render).
     pub schedule: String,
     /// `plain` (the paper's estimator) or `nee` (next-event estimation with MIS).
     pub estimator: String,

@@ -2220,12 +2220,18 @@ impl Tracer {
     }
 }
 
-/// The schedule the batches ran: one name, or both when `Auto` tried both in this render.
+/// The schedule the batches ran: one name, or those `Auto` tried in this render joined by
+/// ` + ` (`megakernel + wavefront (auto trials)`); `megakernel` when no batch ran (the CPU
+/// runs none through these plans).
 fn schedules_run(out: &TraceStats) -> String {
-    let ran = |s: Schedule| out.batches.iter().any(|b| b.plan.schedule == s);
-    match (ran(Schedule::Megakernel), ran(Schedule::Wavefront)) {
-        (true, true) => "megakernel + wavefront (auto trials)".into(),
-        (false, true) => "wavefront".into(),
-        _ => "megakernel".into(),
+    let ran: Vec<&str> = Schedule::ALL
+        .into_iter()
+        .filter(|&s| out.batches.iter().any(|b| b.plan.schedule == s))
+        .map(Schedule::name)
+        .collect();
+    match ran.as_slice() {
+        [] => "megakernel".into(),
+        [one] => (*one).into(),
+        many => format!("{} (auto trials)", many.join(" + ")),
     }
 }

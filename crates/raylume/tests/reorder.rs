@@ -134,16 +134,17 @@ fn auto_measures_whole_renders_then_keeps_the_fastest() {
         );
         assert_eq!(last.stats.rays_traced, off.stats.rays_traced);
         assert!(
-            ["megakernel", "wavefront"].contains(&last.stats.schedule.as_str()),
+            ["megakernel", "persistent", "wavefront"].contains(&last.stats.schedule.as_str()),
             "one schedule per render: {}",
             last.stats.schedule
         );
         renders += 1;
-        // 4 candidates and a mask, in at most 4 rounds, then the leader: at most 24.
+        // 5 candidates (the three schedules, the wavefront sorted two ways) and a mask, in at
+        // most 4 rounds, then the leader: at most 24.
         assert!(renders <= 24, "undecided after {renders} renders");
     }
     assert!(
-        renders >= 4 + 2,
+        renders >= 5 + 2,
         "every candidate measured, the leader thrice: {renders}"
     );
     let decision = t.auto_decision(&s).expect("decided").clone();
@@ -151,6 +152,7 @@ fn auto_measures_whole_renders_then_keeps_the_fastest() {
     // The summary lists what was measured: every candidate with its time.
     for c in [
         "megakernel ",
+        "persistent ",
         "wavefront ",
         "wavefront, sort-index before depths 1..=4 ",
         "wavefront, sort-permute before depths 1..=4 ",
@@ -351,5 +353,21 @@ fn a_tracer_reusing_its_gpu_buffers_renders_what_fresh_tracers_render() {
             // Freed, then allocated afresh by the next step.
             kept.release_memory();
         }
+    }
+}
+
+/// The stats name the schedule that ran, each of the three (the persistent schedule was
+/// reported as the megakernel before).
+#[test]
+fn stats_name_the_schedule_that_ran() {
+    if raylume_gpu::testing::context_or_skip("stats_name_the_schedule_that_ran").is_none() {
+        return;
+    }
+    let s = scene("cornell-box.toml", 8, 8, 2, 3);
+    for schedule in Schedule::ALL {
+        let r = gpu_tracer(schedule, ReorderPolicy::Off, 1)
+            .render(&s)
+            .unwrap();
+        assert_eq!(r.stats.schedule, schedule.name());
     }
 }
