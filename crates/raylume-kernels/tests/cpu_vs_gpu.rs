@@ -532,3 +532,43 @@ fn estimators_and_samplers_get_their_own_pipelines() {
         );
     }
 }
+
+/// The generic pipelines (`Specialisation::Generic`, the baseline specialisation is measured
+/// against) hold every estimator's and sampler's code too: one path tracing pipeline for any
+/// render, and the CPU mirror's image from it.
+#[test]
+fn generic_pipelines_hold_every_estimator_and_sampler() {
+    use raylume_kernels::gpu::{PathVariant, Specialisation, TracerPipelines};
+    let name = "generic_pipelines_hold_every_estimator_and_sampler";
+    let Some(ctx) = raylume_gpu::testing::context_or_skip(name) else {
+        return;
+    };
+    let scene = cornell_box();
+    let s = settings(16, 16, 2, 3, Schedule::Megakernel);
+    let bvh = bvh_with_layout(&scene, BvhLayout::Wide);
+    let pipelines =
+        TracerPipelines::specialised(ctx, scene.features(), bvh.layout, Specialisation::Generic)
+            .unwrap();
+    let mut gpu = GpuTracer::with_pipelines(ctx, &scene, &bvh, pipelines.clone()).unwrap();
+    for (estimator, sampler) in [
+        (Estimator::Plain, Sampler::Independent),
+        (Estimator::Nee, Sampler::Sobol),
+    ] {
+        gpu.set_estimator(estimator);
+        gpu.set_sampler(sampler);
+        let g = gpu.render(&s, &mut |_, _| {}).unwrap();
+        let mut cpu = CpuTracer::new(&scene, &bvh).unwrap();
+        cpu.set_estimator(estimator);
+        cpu.set_sampler(sampler);
+        let c = cpu.render(&s, &mut |_, _| {}).unwrap();
+        let e = relative_rmse(&g.radiance, &c.radiance);
+        assert!(e < 1e-3, "{estimator:?} {sampler:?}: relative RMSE {e}");
+    }
+    let paths: Vec<PathVariant> = pipelines
+        .compiled()
+        .into_iter()
+        .filter(|(e, _)| *e == "trace_paths")
+        .map(|(_, v)| v)
+        .collect();
+    assert_eq!(paths, vec![PathVariant::ANY]);
+}

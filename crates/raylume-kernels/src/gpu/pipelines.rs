@@ -232,7 +232,8 @@ impl TracerPipelines {
     }
 
     /// The pipelines compiled so far, sorted: (entry point, the variant it was compiled
-    /// for; [`PathVariant::ANY`] for the entry points that trace no path).
+    /// for; [`PathVariant::ANY`] for the entry points that trace no path and for generic
+    /// pipelines).
     pub fn compiled(&self) -> Vec<(&'static str, PathVariant)> {
         let mut v: Vec<_> = self
             .compiled
@@ -246,9 +247,11 @@ impl TracerPipelines {
     }
 
     /// What `entry`'s pipeline for renders of `variant` is compiled for: `variant` for the
-    /// entry points that trace paths, [`PathVariant::ANY`] for the rest (compiled once).
-    fn variant(entry: &str, variant: PathVariant) -> PathVariant {
-        match TRACES_PATHS.contains(&entry) {
+    /// entry points that trace paths, [`PathVariant::ANY`] for the rest (compiled once) and
+    /// for every entry point of [`Specialisation::Generic`] pipelines (the baseline holds
+    /// every estimator's and sampler's code too).
+    fn variant(&self, entry: &str, variant: PathVariant) -> PathVariant {
+        match TRACES_PATHS.contains(&entry) && self.specialisation != Specialisation::Generic {
             true => variant,
             false => PathVariant::ANY,
         }
@@ -298,7 +301,7 @@ impl TracerPipelines {
         entry: &'static str,
         variant: PathVariant,
     ) -> Result<wgpu::ComputePipeline, KernelError> {
-        let variant = Self::variant(entry, variant);
+        let variant = self.variant(entry, variant);
         let key = (entry, variant);
         let lock = |m: &Mutex<HashMap<(&'static str, PathVariant), wgpu::ComputePipeline>>| {
             m.lock()
