@@ -471,6 +471,37 @@ fn guided_environment_matches_cpu() {
     }
 }
 
+/// The megakernels `pipelines` compiled so far, by variant.
+fn megakernels(
+    pipelines: &raylume_kernels::gpu::TracerPipelines,
+) -> Vec<raylume_kernels::gpu::PathVariant> {
+    pipelines
+        .compiled()
+        .into_iter()
+        .filter(|(e, _)| *e == "trace_paths")
+        .map(|(_, v)| v)
+        .collect()
+}
+
+/// `gpu`'s render of `scene` with `estimator` and `sampler` against the CPU mirror's: their
+/// relative RMSE.
+fn render_against_cpu(
+    gpu: &mut GpuTracer,
+    scene: &raylume_scene::Scene,
+    bvh: &raylume_bvh::GpuBvh,
+    s: &TraceSettings,
+    (estimator, sampler): (Estimator, Sampler),
+) -> f64 {
+    gpu.set_estimator(estimator);
+    gpu.set_sampler(sampler);
+    let g = gpu.render(s, &mut |_, _| {}).unwrap();
+    let mut cpu = CpuTracer::new(scene, bvh).unwrap();
+    cpu.set_estimator(estimator);
+    cpu.set_sampler(sampler);
+    let c = cpu.render(s, &mut |_, _| {}).unwrap();
+    relative_rmse(&g.radiance, &c.radiance)
+}
+
 /// One tracer rendering with either estimator and each sampler in turn: its path tracing
 /// pipelines are compiled per estimator and sampler (`PathVariant`: a plain render's without
 /// next-event estimation's code, an independent one's without the Sobol' samplers'), and each
@@ -488,14 +519,6 @@ fn estimators_and_samplers_get_their_own_pipelines() {
     let pipelines =
         raylume_kernels::gpu::TracerPipelines::new(ctx, scene.features(), bvh.layout).unwrap();
     let mut gpu = GpuTracer::with_pipelines(ctx, &scene, &bvh, pipelines.clone()).unwrap();
-    let megakernels = || -> Vec<PathVariant> {
-        pipelines
-            .compiled()
-            .into_iter()
-            .filter(|(e, _)| *e == "trace_paths")
-            .map(|(_, v)| v)
-            .collect()
-    };
     let rounds = [
         (Estimator::Plain, Sampler::Independent),
         (Estimator::Nee, Sampler::Independent),
@@ -504,14 +527,7 @@ fn estimators_and_samplers_get_their_own_pipelines() {
         (Estimator::Plain, Sampler::Independent),
     ];
     for (round, &(estimator, sampler)) in rounds.iter().enumerate() {
-        gpu.set_estimator(estimator);
-        gpu.set_sampler(sampler);
-        let g = gpu.render(&s, &mut |_, _| {}).unwrap();
-        let mut cpu = CpuTracer::new(&scene, &bvh).unwrap();
-        cpu.set_estimator(estimator);
-        cpu.set_sampler(sampler);
-        let c = cpu.render(&s, &mut |_, _| {}).unwrap();
-        let e = relative_rmse(&g.radiance, &c.radiance);
+        let e = render_against_cpu(&mut gpu, &scene, &bvh, &s, (estimator, sampler));
         eprintln!("{name}: round {round} {estimator:?} {sampler:?}: rel RMSE {e:.3e}");
         // As `compare_guided`: far below these renders' noise (0.1 to 1).
         assert!(
@@ -526,7 +542,7 @@ fn estimators_and_samplers_get_their_own_pipelines() {
         want.sort_unstable();
         want.dedup();
         assert_eq!(
-            megakernels(),
+            megakernels(&pipelines),
             want,
             "round {round}: the megakernels compiled"
         );
@@ -550,25 +566,12 @@ fn generic_pipelines_hold_every_estimator_and_sampler() {
         TracerPipelines::specialised(ctx, scene.features(), bvh.layout, Specialisation::Generic)
             .unwrap();
     let mut gpu = GpuTracer::with_pipelines(ctx, &scene, &bvh, pipelines.clone()).unwrap();
-    for (estimator, sampler) in [
+    for variant in [
         (Estimator::Plain, Sampler::Independent),
         (Estimator::Nee, Sampler::Sobol),
     ] {
-        gpu.set_estimator(estimator);
-        gpu.set_sampler(sampler);
-        let g = gpu.render(&s, &mut |_, _| {}).unwrap();
-        let mut cpu = CpuTracer::new(&scene, &bvh).unwrap();
-        cpu.set_estimator(estimator);
-        cpu.set_sampler(sampler);
-        let c = cpu.render(&s, &mut |_, _| {}).unwrap();
-        let e = relative_rmse(&g.radiance, &c.radiance);
-        assert!(e < 1e-3, "{estimator:?} {sampler:?}: relative RMSE {e}");
+        let e = render_against_cpu(&mut gpu, &scene, &bvh, &s, variant);
+        assert!(e < 1e-3, "{variant:?}: relative RMSE {e}");
     }
-    let paths: Vec<PathVariant> = pipelines
-        .compiled()
-        .into_iter()
-        .filter(|(e, _)| *e == "trace_paths")
-        .map(|(_, v)| v)
-        .collect();
-    assert_eq!(paths, vec![PathVariant::ANY]);
+    assert_eq!(megakernels(&pipelines), vec![PathVariant::ANY]);
 }
