@@ -645,7 +645,8 @@ fn print_pivot(rows: &[Row], configs: &[Config]) {
 }
 
 /// For every `on` run at each scene's largest spp: per depth, the unsorted wavefront's
-/// `propagate` against the sorted one plus its sort (and permute): where sorting pays.
+/// `propagate` (with `next_event`, when the render samples lights) against the sorted one
+/// plus its sort (and permute): where sorting pays.
 fn print_depths(rows: &[Row]) {
     let on: Vec<&Row> = rows
         .iter()
@@ -674,17 +675,26 @@ fn print_depths(rows: &[Row]) {
         for d in &r.depths {
             let off = unsorted
                 .and_then(|u| u.depths.iter().find(|x| x.depth == d.depth))
-                .map(|x| x.propagate);
+                .map(|x| x.propagate + x.next_event);
             let (off_s, saved) = match off {
                 Some(o) => (
                     format!("{o:.5}"),
-                    format!("{:+.5}", o - (d.propagate + d.sort + d.permute)),
+                    format!(
+                        "{:+.5}",
+                        o - (d.propagate + d.next_event + d.sort + d.permute)
+                    ),
                 ),
                 None => ("-".into(), "-".into()),
             };
             println!(
                 "| {} | {} | {} | {} | {off_s} | {:.5} | {:.5} | {:.5} | {saved} |",
-                r.scene, r.spp, r.config, d.depth, d.propagate, d.sort, d.permute
+                r.scene,
+                r.spp,
+                r.config,
+                d.depth,
+                d.propagate + d.next_event,
+                d.sort,
+                d.permute
             );
         }
     }

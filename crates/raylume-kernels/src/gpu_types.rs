@@ -312,6 +312,41 @@ pub struct RayState {
     pub alive: u32,
 }
 
+/// `NeeRecord::state`: no light sample waits for this ray.
+pub const NEE_NONE: u32 = 0;
+/// `NeeRecord::state`: a light sample waits, the path goes on.
+pub const NEE_PENDING: u32 = 1;
+/// `NeeRecord::state`: a light sample waits, the path ended at this vertex (`next_event`
+/// writes its sample once the sample's contribution is in).
+pub const NEE_ENDED: u32 = 2;
+
+/// Next-event estimation at one vertex of a wavefront ray, deferred by `propagate` to the
+/// `next_event` stage that runs after it (its own pipeline, compiled beside `propagate`'s):
+/// what `sample_lights` reads of the hit (`SurfaceHit` without its uv), the material's
+/// textured color, the incoming direction, the throughput before the vertex scatters and the
+/// light's random numbers. Indexed like [`RayState`].
+///
+/// `repr(C)`, `Pod`, 112 bytes. WGSL: `NeeRecord`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct NeeRecord {
+    pub position: [f32; 3],
+    pub offset: f32,
+    pub geometric_normal: [f32; 3],
+    pub back_offset: f32,
+    pub shading_normal: [f32; 3],
+    pub material: u32,
+    /// The material's color at the hit (textured).
+    pub color: [f32; 3],
+    /// [`NEE_NONE`], [`NEE_PENDING`] or [`NEE_ENDED`].
+    pub state: u32,
+    pub dir_in: [f32; 3],
+    pub _pad0: u32,
+    pub throughput: [f32; 3],
+    pub _pad1: u32,
+    pub rnd: [f32; 4],
+}
+
 /// The wavefront's per-bounce uniforms: one entry per bounce, each read at its own dynamic
 /// offset, so that one submission can run every bounce.
 ///
@@ -332,6 +367,10 @@ pub struct BounceUniforms {
 }
 
 const _: () = assert!(size_of::<BounceUniforms>() == 16);
+const _: () = assert!(size_of::<NeeRecord>() == 112);
+const _: () = assert!(offset_of!(NeeRecord, color) == 48);
+const _: () = assert!(offset_of!(NeeRecord, state) == 60);
+const _: () = assert!(offset_of!(NeeRecord, rnd) == 96);
 const _: () = assert!(size_of::<SceneUniforms>() == 224);
 const _: () = assert!(offset_of!(SceneUniforms, environment_grid_scale) == 192);
 const _: () = assert!(offset_of!(SceneUniforms, environment_grid) == 208);
@@ -401,6 +440,9 @@ pub fn wgsl_constants() -> String {
     s += &u("SAMPLER_FROM_SCENE", SAMPLER_FROM_SCENE);
     s += &u("NO_ROULETTE", NO_ROULETTE);
     s += &u("RAY_ALIVE", RAY_ALIVE);
+    s += &u("NEE_NONE", NEE_NONE);
+    s += &u("NEE_PENDING", NEE_PENDING);
+    s += &u("NEE_ENDED", NEE_ENDED);
     s += &u("WORKGROUP_SIZE", crate::workgroup_size());
     s += &u(
         "MEGAKERNEL_WORKGROUP_SIZE",

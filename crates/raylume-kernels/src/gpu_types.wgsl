@@ -99,6 +99,22 @@ struct RayState {
     alive: u32,
 }
 
+struct NeeRecord {
+    position: vec3<f32>,
+    offset: f32,
+    geometric_normal: vec3<f32>,
+    back_offset: f32,
+    shading_normal: vec3<f32>,
+    material: u32,
+    color: vec3<f32>,
+    state: u32,
+    dir_in: vec3<f32>,
+    _pad0: u32,
+    throughput: vec3<f32>,
+    _pad1: u32,
+    rnd: vec4<f32>,
+}
+
 struct BounceUniforms {
     depth: u32,
     sort_next: u32,

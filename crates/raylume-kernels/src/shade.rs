@@ -349,13 +349,19 @@ pub fn trace_ray<const F: u32>(
     };
     let sample_here = lit && g.scene.light_count > 0 && samples_lights::<F>(&mat) && !last;
     let sp = sampler_pixel(g.scene, pixel);
-    if sample_here {
+    // The lights' contribution here, added after the emission `shade_hit` adds: the order
+    // in which the wavefront's `next_event` stage, which runs after `propagate`, adds it.
+    let direct = if sample_here {
         let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT);
-        path.radiance +=
-            path.throughput * sample_lights::<F>(g, bvh, &surface, &mat, path.dir, rnd);
-    }
+        path.throughput * sample_lights::<F>(g, bvh, &surface, &mat, path.dir, rnd)
+    } else {
+        Vec3::ZERO
+    };
     let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_SCATTER);
     let pdf = shade_hit::<F>(g, path, &surface, &mat, rnd, last, emission_weight);
+    if sample_here {
+        path.radiance += direct;
+    }
     path.mis_pdf = if sample_here { pdf } else { 0.0 };
     if path.alive && depth >= g.scene.rr_depth {
         russian_roulette(

@@ -109,7 +109,9 @@ fn path_rand4_at(sp: SobolPixel, pixel: u32, sample: u32, bounce: u32, dim: u32)
     return rand4(scene.seed, pixel, sample, bounce, dim);
 }
 
-fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32) {
+// Returns true when the vertex's light sample was left in nee_records[slot] for `next_event`
+// (DEFER_NEE); `slot` is unused otherwise.
+fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32, slot: u32) -> bool {
     let hit = trace_closest(Ray((*path).origin, (*path).dir), 0.0, T_MAX);
     if (hit.prim == INVALID_INDEX) {
         // shade.rs: weighed against the shadow ray toward the environment.
@@ -119,7 +121,7 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
         }
         (*path).radiance += (*path).throughput * environment_radiance((*path).dir) * w_env;
         (*path).alive = false;
-        return;
+        return false;
     }
     let surface = surface_at(hit, (*path).origin, (*path).dir);
     let mat = material_at(surface);
@@ -129,6 +131,8 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     // weigh the scattered ray's estimate against the shadow ray's (shade.rs).
     var emission_weight = 1.0;
     var sample_here = false;
+    // The lights' contribution, added after the emission shade_hit adds (shade.rs).
+    var direct = vec3<f32>(0.0);
 //#if emission|constant_environment|environment_map
     // A plain render's pipelines (NEXT_EVENT false, gpu::PathVariant) hold none of this: its
     // own `if`, which the override makes constant (tests/compose.rs follows it).
@@ -149,17 +153,38 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
             sample_here = scene.light_count > 0u && samples_lights(mat) && !last;
             if (sample_here) {
                 let rnd_light = path_rand4_at(sp, pixel, sample, depth, DIM_LIGHT);
-                (*path).radiance += (*path).throughput * sample_lights(surface, mat, (*path).dir, rnd_light);
+                if (DEFER_NEE) {
+                    nee_records[slot] = NeeRecord(surface.position, surface.offset, surface.geometric_normal,
+                        surface.back_offset, surface.shading_normal, surface.material, mat.color, NEE_PENDING,
+                        (*path).dir, 0u, (*path).throughput, 0u, rnd_light);
+                } else {
+                    direct = (*path).throughput * sample_lights(surface, mat, (*path).dir, rnd_light);
+                }
             }
         }
     }
 //#endif
     let rnd = path_rand4_at(sp, pixel, sample, depth, DIM_SCATTER);
     let pdf = shade_hit(path, surface, mat, rnd, last, emission_weight);
+    if (sample_here && !DEFER_NEE) {
+        (*path).radiance += direct;
+    }
     (*path).mis_pdf = select(0.0, pdf, sample_here);
     if ((*path).alive && depth >= scene.rr_depth) {
         russian_roulette(path, path_rand4_at(sp, pixel, sample, depth, DIM_ROULETTE).x);
     }
+    return sample_here && DEFER_NEE;
+}
+
+// The `next_event` stage's part (wavefront.wgsl): the light sample trace_ray left in
+// nee_records[slot] at a vertex, taken as trace_ray takes it in the other schedules. Returns
+// the contribution (the throughput at the vertex times sample_lights).
+fn deferred_light_sample(rec: NeeRecord) -> vec3<f32> {
+    let surface = SurfaceHit(rec.position, rec.geometric_normal, rec.shading_normal, vec2<f32>(0.0),
+                             rec.material, rec.offset, rec.back_offset);
+    var mat = materials[rec.material];
+    mat.color = rec.color;
+    return rec.throughput * sample_lights(surface, mat, rec.dir_in, rec.rnd);
 }
 
 // shade.rs `russian_roulette`.

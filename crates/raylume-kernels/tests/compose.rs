@@ -4,7 +4,10 @@
 
 use raylume_bvh::BvhLayout;
 use raylume_gpu::wgpu::naga;
-use raylume_kernels::gpu::{compose, tracer_source_for};
+use raylume_kernels::gpu::{
+    PathVariant, TracerPipelines, compose, entry_constants, tracer_source_for,
+};
+use raylume_kernels::{Estimator, Sampler, Schedule};
 use raylume_scene::{Feature, Features};
 
 /// The composed source without its comments.
@@ -258,25 +261,67 @@ fn reachable(
 }
 
 /// A plain render's path tracing pipelines (`NEXT_EVENT` false: `gpu::PathVariant`) cannot
-/// reach next-event estimation's functions once the overrides are set, and a NEE render's
-/// can: the code the driver compiles for a plain render holds no light sampling.
+/// reach next-event estimation's functions once their overrides are set (as `TracerPipelines`
+/// sets them: `entry_constants`), and a NEE render's megakernels can: the code the driver
+/// compiles for a plain render holds no light sampling.
 #[test]
 fn plain_pipelines_reach_no_light_sampling() {
     let module = validate(Features::all(), BvhLayout::Wide);
-    let base = raylume_kernels::gpu::pipeline_constants(Features::all());
     for entry in ["trace_paths", "trace_paths_persistent", "propagate"] {
-        for (next_event, want) in [(0.0, false), (1.0, true)] {
-            let mut constants = base.clone();
-            constants.push(("NEXT_EVENT", next_event));
+        for (estimator, want) in [(Estimator::Plain, false), (Estimator::Nee, true)] {
+            let variant = PathVariant::of(estimator, Sampler::Sobol);
+            let constants = entry_constants(Features::all(), entry, variant);
             let seen = reachable(&module, &constants, entry);
             assert!(seen.contains("shade_hit"), "{entry}: {seen:?}");
-            for f in ["sample_lights", "eval_material", "light_pdf"] {
+            // The wavefront's propagate leaves the light samples to next_event (below);
+            // the MIS weight of the emission it hits stays.
+            let deferred = entry == "propagate";
+            for f in ["sample_lights", "eval_material"] {
                 assert_eq!(
                     seen.contains(f),
-                    want,
-                    "{entry} with NEXT_EVENT = {next_event}: `{f}` reachable: {seen:?}"
+                    want && !deferred,
+                    "{entry} for {variant:?}: `{f}` reachable: {seen:?}"
                 );
             }
+            assert_eq!(seen.contains("light_pdf"), want, "{entry}: {seen:?}");
         }
+    }
+}
+
+/// The wavefront's two halves of a NEE render: `propagate` (its pipeline's `DEFER_NEE`)
+/// reaches the closest-hit walk and the materials' sampling but no light sampling, shadow ray
+/// or BSDF evaluation; `next_event` reaches those and no path tracing: the driver compiles
+/// them as two pipelines, side by side.
+#[test]
+fn the_wavefront_compiles_light_sampling_apart() {
+    let module = validate(Features::all(), BvhLayout::Wide);
+    let variant = PathVariant::of(Estimator::Nee, Sampler::Sobol);
+    let entries = TracerPipelines::entries(Schedule::Wavefront, variant);
+    assert!(entries.contains(&"next_event"), "{entries:?}");
+    let plain = PathVariant::of(Estimator::Plain, Sampler::Sobol);
+    assert!(
+        !TracerPipelines::entries(Schedule::Wavefront, plain).contains(&"next_event"),
+        "a plain render runs no next_event stage"
+    );
+    let seen = |entry| {
+        reachable(
+            &module,
+            &entry_constants(Features::all(), entry, variant),
+            entry,
+        )
+    };
+    let (propagate, next_event) = (seen("propagate"), seen("next_event"));
+    for f in ["trace_closest", "shade_hit", "sample_rough_plastic"] {
+        assert!(propagate.contains(f), "propagate: `{f}`: {propagate:?}");
+        assert!(!next_event.contains(f), "next_event: `{f}`: {next_event:?}");
+    }
+    for f in [
+        "sample_lights",
+        "trace_any",
+        "eval_material",
+        "eval_rough_plastic",
+    ] {
+        assert!(next_event.contains(f), "next_event: `{f}`: {next_event:?}");
+        assert!(!propagate.contains(f), "propagate: `{f}`: {propagate:?}");
     }
 }

@@ -10,7 +10,7 @@ use glam::Vec3;
 use raylume_bvh::GpuBvh;
 use raylume_gpu::wgpu;
 use raylume_kernels::gpu_types::DEAD_RAY_KEY;
-use raylume_kernels::{CpuTracer, GpuTracer, KernelError, Schedule, TraceSettings};
+use raylume_kernels::{CpuTracer, Estimator, GpuTracer, KernelError, Schedule, TraceSettings};
 use raylume_scene::{Environment, Features, Texture};
 use support::*;
 
@@ -395,4 +395,48 @@ fn a_prepared_scene_serves_many_tracers_and_only_its_own_tree() {
     let pipelines = TracerPipelines::new(ctx, Features::NONE, tree.layout).unwrap();
     let err = GpuTracer::with_scene(ctx, uploaded, pipelines).err();
     assert!(matches!(err, Some(KernelError::InvalidScene(_))), "{err:?}");
+}
+
+/// One tracer renders one image size with every schedule in turn, NEE included, on a device
+/// whose storage bindings are small: the work buffers it keeps between renders are the union
+/// of what the renders needed only while that union fits a binding (a megakernel render's
+/// large batches of 12-byte sample slots against the wavefront's 112-byte light-sample
+/// records per ray would not), else they are made for the render at hand. Each image is the
+/// one a fresh tracer renders.
+#[test]
+fn one_tracer_alternates_schedules_within_the_binding_limit() {
+    let Some(ctx) = raylume_gpu::testing::context_with_binding_limit_or_skip(
+        "one_tracer_alternates_schedules_within_the_binding_limit",
+        64 << 10,
+    ) else {
+        return;
+    };
+    let scene = cornell_box();
+    let bvh = bvh(&scene);
+    // 30 x 20 pixels at 8 spp: 4,800 rays, one megakernel batch (64 KiB / 12 bytes = 5,461
+    // rays), nine wavefront batches of at most 585 (64 KiB / 112 bytes).
+    let base = TraceSettings {
+        batch_spp: 8,
+        ..settings(30, 20, 8, 4, Schedule::Megakernel)
+    };
+    let fresh = |schedule| {
+        let mut t = GpuTracer::new(&ctx, &scene, &bvh).unwrap();
+        t.set_estimator(Estimator::Nee);
+        t.render(&TraceSettings { schedule, ..base }, &mut |_, _| {})
+            .unwrap()
+    };
+    let mut tracer = GpuTracer::new(&ctx, &scene, &bvh).unwrap();
+    tracer.set_estimator(Estimator::Nee);
+    for schedule in [
+        Schedule::Megakernel,
+        Schedule::Wavefront,
+        Schedule::Persistent,
+        Schedule::Megakernel,
+        Schedule::Wavefront,
+    ] {
+        let out = tracer
+            .render(&TraceSettings { schedule, ..base }, &mut |_, _| {})
+            .unwrap_or_else(|e| panic!("{schedule:?}: {e}"));
+        assert_eq!(out.radiance, fresh(schedule).radiance, "{schedule:?}");
+    }
 }

@@ -292,6 +292,9 @@ pub struct DepthSeconds {
     pub depth: u32,
     /// `propagate` at this depth.
     pub propagate: f64,
+    /// `next_event` at this depth: the light samples `propagate` left (renders that sample
+    /// lights).
+    pub next_event: f64,
     /// Sorting the rays before this depth (`sort_keys`).
     pub sort: f64,
     /// Moving their states into key order (`permute_rays`, `sort-permute` only).

@@ -2100,6 +2100,7 @@ impl Tracer {
             .map(|d| DepthSeconds {
                 depth: d.depth,
                 propagate: d.propagate,
+                next_event: d.next_event,
                 sort: d.sort,
                 permute: d.permute,
             })

@@ -156,15 +156,24 @@ impl<'r> BatchRecorder<'r> {
                 out.push(stage);
             }
             let s = states;
-            let mut stage = Stage::pass("propagate", Some(depth), move |pass| {
+            out.push(Stage::pass("propagate", Some(depth), move |pass| {
                 self.prepare(pass, depth, s);
                 self.bind(pass, "propagate", depth, s);
                 pass.dispatch_workgroups_indirect(&w.dispatch_args, 0);
-            });
+            }));
+            if self.pipes.contains_key("next_event") {
+                // The light samples propagate left, over the same rays (the dispatch size
+                // prepare_propagate wrote for it).
+                out.push(Stage::pass("next_event", Some(depth), move |pass| {
+                    self.bind(pass, "next_event", depth, s);
+                    pass.dispatch_workgroups_indirect(&w.dispatch_args, 0);
+                }));
+            }
             // When the next bounce sorts, let the GPU trace this one while the sort is
             // recorded.
-            stage.submit_after = plan.reorder.sorts_before(depth + 1);
-            out.push(stage);
+            if let Some(last) = out.last_mut() {
+                last.submit_after = plan.reorder.sorts_before(depth + 1);
+            }
         }
         out.push(Stage::pass("resolve", None, resolve));
         out

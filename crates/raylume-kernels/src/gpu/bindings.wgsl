@@ -36,6 +36,9 @@
 // Per batch: rays traced (low word, high word), samples dropped, unused.
 @group(1) @binding(7) var<storage, read_write> batch_stats: array<atomic<u32>>;
 @group(1) @binding(8) var<uniform> bounce: BounceUniforms;
+// Next-event estimation deferred by `propagate` to `next_event`, per ray (indexed like
+// ray_states); a placeholder entry unless the render's wavefront samples lights.
+@group(1) @binding(9) var<storage, read_write> nee_records: array<NeeRecord>;
 
 // Group 2, only in `prepare_propagate`'s layout: the indirect dispatch size of the next
 // `propagate` (a buffer used for an indirect dispatch must not be bound in that dispatch).
@@ -63,6 +66,11 @@ override HAS_ENVIRONMENT_MAP: bool = true;
 // dead code (TracerPipelines compiles one pipeline per value; shade.rs decides the same by
 // `light_count`, 0 in a plain render, and `mis_pdf`, then always 0).
 override NEXT_EVENT: bool = true;
+// True in `propagate`'s pipelines alone: trace_ray leaves a light sample in `nee_records` for
+// the `next_event` stage instead of taking it (the light sampling, its shadow ray's traversal
+// and the BSDF evaluation toward the light are then dead code there, and live in
+// `next_event`'s pipeline, which the driver compiles beside it).
+override DEFER_NEE: bool = false;
 // The sampler the pipeline is compiled for (SAMPLER_INDEPENDENT, _ZSOBOL or _SOBOL; the
 // others' code is then dead), or SAMPLER_FROM_SCENE: the uniforms' `sampler` decides.
 // TracerPipelines compiles the path tracing pipelines per sampler; see `path_sampler`.

@@ -36,7 +36,7 @@ fn trace_path(pixel: u32, sample: u32) -> PathResult {
     var path = camera_path(pixel, sample);
     var traced = 0u;
     for (var depth = 0u; depth <= scene.max_bounces && path.alive; depth++) {
-        trace_ray(&path, pixel, sample, depth);
+        trace_ray(&path, pixel, sample, depth, 0u);
         traced += 1u;
     }
     return PathResult(path.radiance, traced);

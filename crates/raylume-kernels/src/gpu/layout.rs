@@ -98,6 +98,7 @@ pub(crate) fn bind_group_layouts(device: &wgpu::Device) -> [wgpu::BindGroupLayou
             storage_entry(5, false),
             storage_entry(6, false),
             storage_entry(7, false),
+            storage_entry(9, false),
             uniform_entry(8, true),
         ],
     });

@@ -49,7 +49,7 @@ fn trace_paths_persistent(
         if (depth == 0u) {
             path = camera_path(ps.x, ps.y);
         }
-        trace_ray(&path, ps.x, ps.y, depth);
+        trace_ray(&path, ps.x, ps.y, depth, 0u);
         traced += 1u;
         depth += 1u;
         if (!path.alive || depth > scene.max_bounces) {

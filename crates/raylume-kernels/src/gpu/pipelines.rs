@@ -43,6 +43,12 @@ impl PathVariant {
         }
     }
 
+    /// Whether renders of this variant may sample lights (NEE, or any estimator): the
+    /// wavefront then runs its `next_event` stage.
+    pub fn samples_lights(self) -> bool {
+        self.estimator != Some(Estimator::Plain)
+    }
+
     /// Its override constants.
     fn constants(self) -> [(&'static str, f64); 2] {
         [
@@ -61,8 +67,31 @@ impl PathVariant {
     }
 }
 
-/// The entry points that trace paths (`trace_ray`): compiled per [`PathVariant`].
-const TRACES_PATHS: [&str; 3] = ["trace_paths", "trace_paths_persistent", "propagate"];
+/// The override constants of `entry`'s pipeline for a scene with `features` and renders of
+/// `variant` (as compiled: `TracerPipelines` passes [`PathVariant::ANY`] for the entry points
+/// that trace no path): the features', the variant's, and `DEFER_NEE` for `propagate`, which
+/// leaves its light samples to `next_event`.
+pub fn entry_constants(
+    features: Features,
+    entry: &str,
+    variant: PathVariant,
+) -> Vec<(&'static str, f64)> {
+    let mut constants = pipeline_constants(features);
+    constants.extend(variant.constants());
+    if entry == "propagate" {
+        constants.push(("DEFER_NEE", 1.0));
+    }
+    constants
+}
+
+/// The entry points that trace paths (`trace_ray`) or take their light samples: compiled per
+/// [`PathVariant`].
+const TRACES_PATHS: [&str; 4] = [
+    "trace_paths",
+    "trace_paths_persistent",
+    "propagate",
+    "next_event",
+];
 
 /// The tracer's shader module (every entry point, the traversal of one [`BvhLayout`]), its
 /// bind group and pipeline layouts, and its compute pipelines specialised on a feature set,
@@ -110,11 +139,21 @@ impl std::fmt::Debug for TracerPipelines {
 }
 
 impl TracerPipelines {
-    /// The entry points a schedule runs.
-    pub fn entries(schedule: Schedule) -> &'static [&'static str] {
+    /// The entry points a schedule runs for renders of `variant`: the wavefront's
+    /// `propagate` leaves light samples to a `next_event` stage of their own (compiled beside
+    /// it: the driver compiles the two halves of the path's code at once), run after it at
+    /// every bounce when the render may sample lights.
+    pub fn entries(schedule: Schedule, variant: PathVariant) -> &'static [&'static str] {
         match schedule {
             Schedule::Megakernel => &["trace_paths", "resolve"],
             Schedule::Persistent => &["trace_paths_persistent", "resolve"],
+            Schedule::Wavefront if variant.samples_lights() => &[
+                "raygen",
+                "prepare_propagate",
+                "propagate",
+                "next_event",
+                "resolve",
+            ],
             Schedule::Wavefront => &["raygen", "prepare_propagate", "propagate", "resolve"],
         }
     }
@@ -217,7 +256,9 @@ impl TracerPipelines {
     }
 
     /// Compiles the pipelines `schedule` runs for renders of `variant` (those not compiled
-    /// yet): the path tracing entry points are compiled per estimator and sampler
+    /// yet), side by side, a thread each (the driver compiles one pipeline on one thread;
+    /// the wavefront's halves, `propagate` and `next_event`, then take as long as the larger
+    /// of them): the path tracing entry points are compiled per estimator and sampler
     /// ([`PathVariant`]).
     pub fn compile(
         &self,
@@ -225,10 +266,28 @@ impl TracerPipelines {
         schedule: Schedule,
         variant: PathVariant,
     ) -> Result<(), KernelError> {
-        for &entry in Self::entries(schedule) {
-            self.pipeline(ctx, entry, variant)?;
-        }
-        Ok(())
+        let missing: Vec<&'static str> = {
+            let compiled = self.compiled.lock().unwrap_or_else(|e| e.into_inner());
+            Self::entries(schedule, variant)
+                .iter()
+                .copied()
+                .filter(|&e| !compiled.contains_key(&(e, self.variant(e, variant))))
+                .collect()
+        };
+        std::thread::scope(|s| {
+            let others: Vec<_> = missing
+                .iter()
+                .skip(1)
+                .map(|&entry| s.spawn(move || self.pipeline(ctx, entry, variant).map(drop)))
+                .collect();
+            let first = missing.first().map_or(Ok(()), |&entry| {
+                self.pipeline(ctx, entry, variant).map(drop)
+            });
+            others.into_iter().fold(first, |done, h| {
+                let r = h.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
+                done.and(r)
+            })
+        })
     }
 
     /// The pipelines compiled so far, sorted: (entry point, the variant it was compiled
@@ -313,8 +372,7 @@ impl TracerPipelines {
             return Ok(p);
         }
         let start = Instant::now();
-        let mut constants = pipeline_constants(self.features);
-        constants.extend(variant.constants());
+        let constants = entry_constants(self.features, entry, variant);
         let p = ctx.scoped(&format!("compiling the `{entry}` pipeline"), || {
             ctx.device
                 .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {

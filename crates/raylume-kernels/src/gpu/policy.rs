@@ -76,6 +76,8 @@ pub struct DepthTiming {
     pub depth: u32,
     /// `propagate` (with its `prepare_propagate`) at this depth.
     pub propagate: f64,
+    /// `next_event`: the light samples `propagate` left, when the render samples lights.
+    pub next_event: f64,
     /// `sort_keys`: sorting the rays of this depth before they are traced.
     pub sort: f64,
     /// `permute_rays`: moving their states into key order.

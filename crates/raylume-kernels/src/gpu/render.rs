@@ -11,12 +11,13 @@ use super::batch::BatchRecorder;
 use super::clock::{StageClock, StageTime};
 use super::work::{self, WorkBuffers, WorkLayouts};
 use super::{
-    BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, TraceStats, TracerPipelines,
+    BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, PathVariant, TraceStats,
+    TracerPipelines,
 };
 use crate::batches::{
     Batch, RoundFlow, RoundHook, RoundSums, dispatch_size, ends_round, into_rounds, mean_of_sum,
 };
-use crate::gpu_types::{RayState, SceneUniforms};
+use crate::gpu_types::SceneUniforms;
 use crate::{KernelError, ReorderMode, Schedule, TraceSettings, workgroup_size};
 
 /// What a render holds from its preparation ([`GpuTracer::prepare`]) to its last batch.
@@ -179,13 +180,12 @@ impl GpuTracer<'_> {
             .iter()
             .any(|c| c.sorts(max_bounces) && c.reorder.mode == ReorderMode::SortPermute);
 
+        let variant = PathVariant::of(self.data.estimator, self.data.sampler);
+        let next_event = wavefront && variant.samples_lights();
         let pixels = settings.width * settings.height;
-        // Every schedule a batch may run must fit: the wavefront's 64-byte states bound it.
-        let per_ray = if wavefront {
-            size_of::<RayState>() as u64
-        } else {
-            12
-        };
+        // Every schedule a batch may run must fit: the wavefront's 64-byte states (and, when
+        // it samples lights, its 112-byte light-sample records) bound it.
+        let per_ray = work::WorkKey::per_ray_bytes(wavefront, next_event);
         let max_rays =
             (ctx.max_binding_bytes() / per_ray).min(self.batch_ray_limit.unwrap_or(u64::MAX));
         let mut batches = crate::batches::plan_render(
@@ -201,16 +201,24 @@ impl GpuTracer<'_> {
         let need = work::WorkKey {
             wavefront,
             permute,
+            next_event,
             capacity,
             pixels,
             batches: batches.len() as u32,
             bounces: max_bounces + 1,
         };
         // Buffers that can run this render are kept (they may be larger); otherwise they are
-        // reallocated to cover both the old need and this one, if the image is the same.
+        // reallocated to cover both the old need and this one, if the image is the same and
+        // the union still fits a binding (a megakernel render's large batches and a
+        // wavefront's per-ray buffers may not), else to this need alone.
         let key = match self.work.as_ref() {
             Some(w) if w.key.covers(&need) => w.key,
-            Some(w) if w.key.pixels == need.pixels => w.key.union(&need),
+            Some(w)
+                if w.key.pixels == need.pixels
+                    && w.key.union(&need).largest_binding() <= ctx.max_binding_bytes() =>
+            {
+                w.key.union(&need)
+            }
             _ => need,
         };
         if self.work.as_ref().is_none_or(|w| w.key != key) {
@@ -227,7 +235,7 @@ impl GpuTracer<'_> {
         }
         let mut stages: Vec<&'static str> = Vec::new();
         for c in &candidates {
-            stages.extend_from_slice(TracerPipelines::entries(c.schedule));
+            stages.extend_from_slice(TracerPipelines::entries(c.schedule, variant));
         }
         if permute {
             stages.push("permute_rays");
@@ -388,6 +396,7 @@ impl GpuTracer<'_> {
         for (label, name) in [
             ("raygen", "raygen"),
             ("propagate", "propagate"),
+            ("next_event", "next_event"),
             ("sort_keys", "sort"),
             ("permute_rays", "permute_rays"),
             ("trace_paths", "trace_paths"),
@@ -490,7 +499,8 @@ impl GpuTracer<'_> {
     }
 }
 
-/// Adds the bounce-stage times of one batch (`propagate`, `sort_keys`, `permute_rays`, each
+/// Adds the bounce-stage times of one batch (`propagate`, `next_event`, `sort_keys`,
+/// `permute_rays`, each
 /// with its depth) to the render's per-depth totals.
 fn add_depth_times(depths: &mut Vec<DepthTiming>, times: &[StageTime]) {
     for st in times {
@@ -502,6 +512,7 @@ fn add_depth_times(depths: &mut Vec<DepthTiming>, times: &[StageTime]) {
         e.depth = d;
         match st.label {
             "propagate" => e.propagate += st.seconds,
+            "next_event" => e.next_event += st.seconds,
             "sort_keys" => e.sort += st.seconds,
             "permute_rays" => e.permute += st.seconds,
             _ => {}

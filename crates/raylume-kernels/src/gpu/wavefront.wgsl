@@ -61,7 +61,7 @@ fn propagate(
         r = ray_queue_in[t];
         var ray = ray_states[r];
         var path = PathState(ray.origin, ray.dir, ray.throughput, ray.radiance, true, select(0.0, bitcast<f32>(ray.alive), ray.alive > RAY_ALIVE));
-        trace_ray(&path, ray.pixel, ray.sample, bounce.depth);
+        let deferred = trace_ray(&path, ray.pixel, ray.sample, bounce.depth, r);
         traced = 1u;
         live = path.alive;
         ray.origin = path.origin;
@@ -74,6 +74,9 @@ fn propagate(
         if (live) {
             // SORT KEY (raylume-sort's MORTON_WGSL): the paper's 30-bit origin-direction key.
             key = ray_sort_key(path.origin, path.dir, scene.scene_min, scene.scene_extent);
+        } else if (deferred) {
+            // next_event adds the vertex's light sample, then writes the sample.
+            nee_records[r].state = NEE_ENDED;
         } else {
             // The sample's own slot, not `r`: permute_rays may have moved its state.
             dropped = write_sample(sample_slot(ray.pixel, ray.sample), path.radiance);
@@ -106,6 +109,37 @@ fn propagate(
             ray_keys[out] = key >> bounce.sort_shift;
         }
     }
+}
+
+// Next-event estimation of bounce `bounce.depth`, after its `propagate` (whose pipeline
+// defers it: DEFER_NEE): each ray of the bounce's queue that left a light sample in
+// nee_records gets its contribution added to its radiance, in the order trace_ray adds it
+// in the other schedules (after the vertex's emission); a path that ended there has its
+// sample written. Dispatched by the same dispatch size as that `propagate`.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn next_event(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+    @builtin(local_invocation_index) local: u32,
+) {
+    let t = thread_index(wg, nwg, local);
+    let n = atomicLoad(&queue_counts[bounce.depth & 1u]);
+    var dropped = 0u;
+    if (t < n) {
+        let r = ray_queue_in[t];
+        let rec = nee_records[r];
+        if (rec.state != NEE_NONE) {
+            nee_records[r].state = NEE_NONE;
+            let radiance = ray_states[r].radiance + deferred_light_sample(rec);
+            if (rec.state == NEE_ENDED) {
+                let ray = ray_states[r];
+                dropped = write_sample(sample_slot(ray.pixel, ray.sample), radiance);
+            } else {
+                ray_states[r].radiance = radiance;
+            }
+        }
+    }
+    flush_stats(local, 0u, dropped);
 }
 
 // After the sort before bounce `bounce.depth` (ReorderMode::SortPermute): gathers the states

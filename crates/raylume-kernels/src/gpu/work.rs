@@ -6,7 +6,7 @@ use raylume_gpu::{GpuContext, wgpu};
 
 use crate::KernelError;
 use crate::Reorder;
-use crate::gpu_types::{BounceUniforms, RayState};
+use crate::gpu_types::{BounceUniforms, NeeRecord, RayState};
 
 /// What the buffers were sized for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -15,6 +15,9 @@ pub(crate) struct WorkKey {
     pub wavefront: bool,
     /// Some batch may run `ReorderMode::SortPermute`: a second state buffer is allocated.
     pub permute: bool,
+    /// The wavefront samples lights (`next_event`): per-ray light-sample records are
+    /// allocated.
+    pub next_event: bool,
     /// Rays in the largest batch.
     pub capacity: u32,
     pub pixels: u32,
@@ -33,6 +36,24 @@ impl WorkKey {
             && self.bounces >= need.bounces
             && (self.wavefront || !need.wavefront)
             && (self.permute || !need.permute)
+            && (self.next_event || !need.next_event)
+    }
+
+    /// Bytes per ray of the largest per-ray buffer: the light-sample records, else the ray
+    /// states, else the sample slots (12 bytes).
+    pub fn per_ray_bytes(wavefront: bool, next_event: bool) -> u64 {
+        if wavefront && next_event {
+            size_of::<NeeRecord>() as u64
+        } else if wavefront {
+            size_of::<RayState>() as u64
+        } else {
+            12
+        }
+    }
+
+    /// Bytes of the largest buffer allocated for this key, which must fit one storage binding.
+    pub fn largest_binding(&self) -> u64 {
+        u64::from(self.capacity) * Self::per_ray_bytes(self.wavefront, self.next_event)
     }
 
     /// The smallest key covering both `self` and `need` (which must have the same image):
@@ -44,6 +65,7 @@ impl WorkKey {
         WorkKey {
             wavefront: self.wavefront || need.wavefront,
             permute: self.permute || need.permute,
+            next_event: self.next_event || need.next_event,
             capacity: self.capacity.max(need.capacity),
             pixels: need.pixels,
             batches: self.batches.max(need.batches),
@@ -121,6 +143,13 @@ impl WorkBuffers {
             ctx.storage_buffer_zeroed("ray queue 1", per_ray(wavefront, 4), copy)?,
         ];
         let ray_keys = ctx.storage_buffer_zeroed("ray sort keys", per_ray(wavefront, 4), copy)?;
+        // The wavefront's deferred light samples (`next_event`; a placeholder without it),
+        // kept alive by the bind groups.
+        let nee_records = ctx.storage_buffer_zeroed(
+            "deferred light samples",
+            per_ray(wavefront && key.next_event, size_of::<NeeRecord>() as u64),
+            copy,
+        )?;
         let queue_counts = ctx.storage_buffer_zeroed("queue counts", 16, copy)?;
         let dispatch_args =
             ctx.storage_buffer_zeroed("propagate dispatch size", 16, wgpu::BufferUsages::INDIRECT)?;
@@ -163,6 +192,7 @@ impl WorkBuffers {
                                 entry(5, &ray_queues[1 - parity]),
                                 entry(6, &accumulation),
                                 entry(7, &batch_stats),
+                                entry(9, &nee_records),
                                 wgpu::BindGroupEntry {
                                     binding: 8,
                                     resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
@@ -201,6 +231,7 @@ impl WorkBuffers {
             for b in ray_states.iter().chain(&ray_queues).chain([
                 &ray_keys,
                 &queue_counts,
+                &nee_records,
                 &sample_radiance,
                 &accumulation,
                 &batch_stats,
