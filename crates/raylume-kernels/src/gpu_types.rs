@@ -324,9 +324,10 @@ pub const NEE_ENDED: u32 = 2;
 /// `next_event` stage that runs after it (its own pipeline, compiled beside `propagate`'s):
 /// what `sample_lights` reads of the hit (`SurfaceHit` without its uv), the material's
 /// textured color, the incoming direction, the throughput before the vertex scatters and the
-/// light's random numbers. Indexed like [`RayState`].
+/// light's random numbers, and the vertex's emission term, which the stage adds after the
+/// light sample (the order of the other schedules' sums). Indexed like [`RayState`].
 ///
-/// `repr(C)`, `Pod`, 112 bytes. WGSL: `NeeRecord`.
+/// `repr(C)`, `Pod`, 128 bytes. WGSL: `NeeRecord`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct NeeRecord {
@@ -345,6 +346,9 @@ pub struct NeeRecord {
     pub throughput: [f32; 3],
     pub _pad1: u32,
     pub rnd: [f32; 4],
+    /// The vertex's emission term (`shade::emitted`), added after the light sample.
+    pub emitted: [f32; 3],
+    pub _pad2: u32,
 }
 
 /// The wavefront's per-bounce uniforms: one entry per bounce, each read at its own dynamic
@@ -367,10 +371,11 @@ pub struct BounceUniforms {
 }
 
 const _: () = assert!(size_of::<BounceUniforms>() == 16);
-const _: () = assert!(size_of::<NeeRecord>() == 112);
+const _: () = assert!(size_of::<NeeRecord>() == 128);
 const _: () = assert!(offset_of!(NeeRecord, color) == 48);
 const _: () = assert!(offset_of!(NeeRecord, state) == 60);
 const _: () = assert!(offset_of!(NeeRecord, rnd) == 96);
+const _: () = assert!(offset_of!(NeeRecord, emitted) == 112);
 const _: () = assert!(size_of::<SceneUniforms>() == 224);
 const _: () = assert!(offset_of!(SceneUniforms, environment_grid_scale) == 192);
 const _: () = assert!(offset_of!(SceneUniforms, environment_grid) == 208);

@@ -113,6 +113,8 @@ struct NeeRecord {
     throughput: vec3<f32>,
     _pad1: u32,
     rnd: vec4<f32>,
+    emitted: vec3<f32>,
+    _pad2: u32,
 }
 
 struct BounceUniforms {

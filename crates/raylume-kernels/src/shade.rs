@@ -109,11 +109,27 @@ impl PathState {
     }
 }
 
-/// Adds the surface's emission (times the throughput and `emission_weight`) to the path;
-/// then, unless this is the path's `last` segment, samples the material with the random
-/// numbers `rnd` and sets up the next ray, or ends the path when it is absorbed. Returns the
-/// solid-angle pdf of the scattered direction (0 for a delta lobe: a smooth mirror, glass or
-/// coat).
+/// What the surface's emission adds to the path arriving at `hit`: the emission times the
+/// throughput and `emission_weight`, or zero (no emission, or the back of a one-sided
+/// emitter). [`trace_ray`] adds it before [`shade_hit`] scatters the path.
+#[inline]
+pub fn emitted<const F: u32>(
+    path: &PathState,
+    hit: &SurfaceHit,
+    mat: &GpuMaterial,
+    emission_weight: f32,
+) -> Vec3 {
+    let front = path.dir.dot(hit.geometric_normal) < 0.0;
+    if has(F, Feature::Emission) && (front || mat.flags & MATERIAL_TWO_SIDED != 0) {
+        return path.throughput * Vec3::from(mat.emission) * emission_weight;
+    }
+    Vec3::ZERO
+}
+
+/// Unless this is the path's `last` segment, samples the material with the random numbers
+/// `rnd` and sets up the next ray, or ends the path when it is absorbed (the path ends at
+/// its `last` segment). Returns the solid-angle pdf of the scattered direction (0 for a delta
+/// lobe: a smooth mirror, glass or coat).
 #[inline]
 pub fn shade_hit<const F: u32>(
     g: &Globals,
@@ -122,13 +138,9 @@ pub fn shade_hit<const F: u32>(
     mat: &GpuMaterial,
     rnd: Vec4,
     last: bool,
-    emission_weight: f32,
 ) -> f32 {
     let ng = hit.geometric_normal;
     let front = path.dir.dot(ng) < 0.0;
-    if has(F, Feature::Emission) && (front || mat.flags & MATERIAL_TWO_SIDED != 0) {
-        path.radiance += path.throughput * Vec3::from(mat.emission) * emission_weight;
-    }
     if last {
         path.alive = false;
         return 0.0;
@@ -349,19 +361,16 @@ pub fn trace_ray<const F: u32>(
     };
     let sample_here = lit && g.scene.light_count > 0 && samples_lights::<F>(&mat) && !last;
     let sp = sampler_pixel(g.scene, pixel);
-    // The lights' contribution here, added after the emission `shade_hit` adds: the order
-    // in which the wavefront's `next_event` stage, which runs after `propagate`, adds it.
-    let direct = if sample_here {
-        let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT);
-        path.throughput * sample_lights::<F>(g, bvh, &surface, &mat, path.dir, rnd)
-    } else {
-        Vec3::ZERO
-    };
-    let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_SCATTER);
-    let pdf = shade_hit::<F>(g, path, &surface, &mat, rnd, last, emission_weight);
+    // The lights' contribution, then the emission: the order in which the wavefront's
+    // `next_event` stage adds the two when its `propagate` left them to it.
     if sample_here {
-        path.radiance += direct;
+        let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT);
+        path.radiance +=
+            path.throughput * sample_lights::<F>(g, bvh, &surface, &mat, path.dir, rnd);
     }
+    path.radiance += emitted::<F>(path, &surface, &mat, emission_weight);
+    let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_SCATTER);
+    let pdf = shade_hit::<F>(g, path, &surface, &mat, rnd, last);
     path.mis_pdf = if sample_here { pdf } else { 0.0 };
     if path.alive && depth >= g.scene.rr_depth {
         russian_roulette(

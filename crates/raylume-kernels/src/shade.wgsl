@@ -11,14 +11,20 @@ struct PathState {
     mis_pdf: f32,
 }
 
-fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, rnd: vec4<f32>, last: bool, emission_weight: f32) -> f32 {
-    let ng = hit.geometric_normal;
-    let front = dot((*path).dir, ng) < 0.0;
+// shade.rs `emitted`.
+fn emitted(path: PathState, hit: SurfaceHit, mat: GpuMaterial, emission_weight: f32) -> vec3<f32> {
 //#if emission
+    let front = dot(path.dir, hit.geometric_normal) < 0.0;
     if (HAS_EMISSION && (front || (mat.flags & MATERIAL_TWO_SIDED) != 0u)) {
-        (*path).radiance += (*path).throughput * mat.emission * emission_weight;
+        return path.throughput * mat.emission * emission_weight;
     }
 //#endif
+    return vec3<f32>(0.0);
+}
+
+fn shade_hit(path: ptr<function, PathState>, hit: SurfaceHit, mat: GpuMaterial, rnd: vec4<f32>, last: bool) -> f32 {
+    let ng = hit.geometric_normal;
+    let front = dot((*path).dir, ng) < 0.0;
     if (last) {
         (*path).alive = false;
         return 0.0;
@@ -131,8 +137,6 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     // weigh the scattered ray's estimate against the shadow ray's (shade.rs).
     var emission_weight = 1.0;
     var sample_here = false;
-    // The lights' contribution, added after the emission shade_hit adds (shade.rs).
-    var direct = vec3<f32>(0.0);
 //#if emission|constant_environment|environment_map
     // A plain render's pipelines (NEXT_EVENT false, gpu::PathVariant) hold none of this: its
     // own `if`, which the override makes constant (tests/compose.rs follows it).
@@ -153,22 +157,25 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
             sample_here = scene.light_count > 0u && samples_lights(mat) && !last;
             if (sample_here) {
                 let rnd_light = path_rand4_at(sp, pixel, sample, depth, DIM_LIGHT);
-                if (DEFER_NEE) {
+                if (!DEFER_NEE) {
+                    (*path).radiance += (*path).throughput * sample_lights(surface, mat, (*path).dir, rnd_light);
+                } else {
+                    // next_event adds the light sample, then the emission (below), to the
+                    // radiance as it is now: the sums of the other schedules, in their order.
                     nee_records[slot] = NeeRecord(surface.position, surface.offset, surface.geometric_normal,
                         surface.back_offset, surface.shading_normal, surface.material, mat.color, NEE_PENDING,
-                        (*path).dir, 0u, (*path).throughput, 0u, rnd_light);
-                } else {
-                    direct = (*path).throughput * sample_lights(surface, mat, (*path).dir, rnd_light);
+                        (*path).dir, 0u, (*path).throughput, 0u, rnd_light,
+                        emitted(*path, surface, mat, emission_weight), 0u);
                 }
             }
         }
     }
 //#endif
-    let rnd = path_rand4_at(sp, pixel, sample, depth, DIM_SCATTER);
-    let pdf = shade_hit(path, surface, mat, rnd, last, emission_weight);
-    if (sample_here && !DEFER_NEE) {
-        (*path).radiance += direct;
+    if (!(DEFER_NEE && sample_here)) {
+        (*path).radiance += emitted(*path, surface, mat, emission_weight);
     }
+    let rnd = path_rand4_at(sp, pixel, sample, depth, DIM_SCATTER);
+    let pdf = shade_hit(path, surface, mat, rnd, last);
     (*path).mis_pdf = select(0.0, pdf, sample_here);
     if ((*path).alive && depth >= scene.rr_depth) {
         russian_roulette(path, path_rand4_at(sp, pixel, sample, depth, DIM_ROULETTE).x);
@@ -178,7 +185,8 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
 
 // The `next_event` stage's part (wavefront.wgsl): the light sample trace_ray left in
 // nee_records[slot] at a vertex, taken as trace_ray takes it in the other schedules. Returns
-// the contribution (the throughput at the vertex times sample_lights).
+// its contribution (the throughput at the vertex times sample_lights); the caller adds it,
+// then `rec.emitted`.
 fn deferred_light_sample(rec: NeeRecord) -> vec3<f32> {
     let surface = SurfaceHit(rec.position, rec.geometric_normal, rec.shading_normal, vec2<f32>(0.0),
                              rec.material, rec.offset, rec.back_offset);

@@ -400,7 +400,7 @@ fn a_prepared_scene_serves_many_tracers_and_only_its_own_tree() {
 /// One tracer renders one image size with every schedule in turn, NEE included, on a device
 /// whose storage bindings are small: the work buffers it keeps between renders are the union
 /// of what the renders needed only while that union fits a binding (a megakernel render's
-/// large batches of 12-byte sample slots against the wavefront's 112-byte light-sample
+/// large batches of 12-byte sample slots against the wavefront's 128-byte light-sample
 /// records per ray would not), else they are made for the render at hand. Each image is the
 /// one a fresh tracer renders.
 #[test]
@@ -414,7 +414,7 @@ fn one_tracer_alternates_schedules_within_the_binding_limit() {
     let scene = cornell_box();
     let bvh = bvh(&scene);
     // 30 x 20 pixels at 8 spp: 4,800 rays, one megakernel batch (64 KiB / 12 bytes = 5,461
-    // rays), nine wavefront batches of at most 585 (64 KiB / 112 bytes).
+    // rays), ten wavefront batches of at most 512 (64 KiB / 128 bytes).
     let base = TraceSettings {
         batch_spp: 8,
         ..settings(30, 20, 8, 4, Schedule::Megakernel)

@@ -184,7 +184,7 @@ impl GpuTracer<'_> {
         let next_event = wavefront && variant.samples_lights();
         let pixels = settings.width * settings.height;
         // Every schedule a batch may run must fit: the wavefront's 64-byte states (and, when
-        // it samples lights, its 112-byte light-sample records) bound it.
+        // it samples lights, its 128-byte light-sample records) bound it.
         let per_ray = work::WorkKey::per_ray_bytes(wavefront, next_event);
         let max_rays =
             (ctx.max_binding_bytes() / per_ray).min(self.batch_ray_limit.unwrap_or(u64::MAX));

@@ -113,9 +113,9 @@ fn propagate(
 
 // Next-event estimation of bounce `bounce.depth`, after its `propagate` (whose pipeline
 // defers it: DEFER_NEE): each ray of the bounce's queue that left a light sample in
-// nee_records gets its contribution added to its radiance, in the order trace_ray adds it
-// in the other schedules (after the vertex's emission); a path that ended there has its
-// sample written. Dispatched by the same dispatch size as that `propagate`.
+// nee_records gets its contribution, then the vertex's emission, added to its radiance, in the
+// order trace_ray adds them in the other schedules; a path that ended there has its sample
+// written. Dispatched by the same dispatch size as that `propagate`.
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn next_event(
     @builtin(workgroup_id) wg: vec3<u32>,
@@ -130,7 +130,7 @@ fn next_event(
         let rec = nee_records[r];
         if (rec.state != NEE_NONE) {
             nee_records[r].state = NEE_NONE;
-            let radiance = ray_states[r].radiance + deferred_light_sample(rec);
+            let radiance = (ray_states[r].radiance + deferred_light_sample(rec)) + rec.emitted;
             if (rec.state == NEE_ENDED) {
                 let ray = ray_states[r];
                 dropped = write_sample(sample_slot(ray.pixel, ray.sample), radiance);
