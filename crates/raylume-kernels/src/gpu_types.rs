@@ -327,7 +327,8 @@ pub const NEE_ENDED: u32 = 2;
 /// light's random numbers, and the vertex's emission term, which the stage adds after the
 /// light sample (the order of the other schedules' sums). Indexed like [`RayState`].
 ///
-/// `repr(C)`, `Pod`, 128 bytes. WGSL: `NeeRecord`.
+/// `repr(C)`, `Pod`, 128 bytes. WGSL: `NeeRecord`, stored as its eight 16-byte words in a
+/// structure of arrays (word `k` of ray `r` at `k * queue_capacity + r`: `store_nee_record`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct NeeRecord {

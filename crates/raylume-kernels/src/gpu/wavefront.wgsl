@@ -76,7 +76,7 @@ fn propagate(
             key = ray_sort_key(path.origin, path.dir, scene.scene_min, scene.scene_extent);
         } else if (deferred) {
             // next_event adds the vertex's light sample, then writes the sample.
-            nee_records[r].state = NEE_ENDED;
+            set_nee_record_state(r, NEE_ENDED);
         } else {
             // The sample's own slot, not `r`: permute_rays may have moved its state.
             dropped = write_sample(sample_slot(ray.pixel, ray.sample), path.radiance);
@@ -127,11 +127,12 @@ fn next_event(
     var dropped = 0u;
     if (t < n) {
         let r = ray_queue_in[t];
-        let rec = nee_records[r];
-        if (rec.state != NEE_NONE) {
-            nee_records[r].state = NEE_NONE;
+        let state = nee_record_state(r);
+        if (state != NEE_NONE) {
+            set_nee_record_state(r, NEE_NONE);
+            let rec = load_nee_record(r);
             let radiance = (ray_states[r].radiance + deferred_light_sample(rec)) + rec.emitted;
-            if (rec.state == NEE_ENDED) {
+            if (state == NEE_ENDED) {
                 let ray = ray_states[r];
                 dropped = write_sample(sample_slot(ray.pixel, ray.sample), radiance);
             } else {
