@@ -98,6 +98,10 @@ struct Args {
     /// Random numbers: independent (the paper's, the default here), sobol or zsobol.
     #[arg(long, default_value = "independent")]
     sampler: raylume::Sampler,
+    /// The wavefront's light samples in a `next_event` stage of their own (with NEE; see
+    /// `Tracer::next_event_stage`).
+    #[arg(long)]
+    next_event_stage: bool,
     /// Russian roulette from this path segment on (Mitsuba 3's `path` starts at 5), or off
     /// (the paper's, the default here).
     #[arg(long, default_value = "off", value_parser = parse_rr_depth)]
@@ -377,6 +381,7 @@ fn run(args: Args) -> Result<(), String> {
     tracer.paper_estimator();
     tracer.estimator = args.estimator;
     tracer.sampler = args.sampler;
+    tracer.next_event_stage = args.next_event_stage;
     tracer.russian_roulette = args.rr_depth.0;
     tracer.environment_guide = Some(args.environment_guide);
     tracer.decode_textures = Some(args.decode_textures);

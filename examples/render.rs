@@ -96,6 +96,11 @@ struct Args {
     /// GPU) or independent (the paper's).
     #[arg(long, default_value = "sobol")]
     sampler: Sampler,
+    /// With `--schedule wavefront` and NEE: take the light samples in a stage of their own
+    /// after each bounce, two pipelines the driver compiles side by side (a cold first run's
+    /// wait is shorter; a small scene traces slower). See `Tracer::next_event_stage`.
+    #[arg(long)]
+    next_event_stage: bool,
     /// Russian roulette from this path segment on (default 5, as Mitsuba 3's `path`), or off.
     #[arg(long, default_value = "5", value_parser = parse_rr_depth)]
     rr_depth: RrDepth,
@@ -257,6 +262,7 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
     }
     tracer.estimator = args.estimator;
     tracer.sampler = args.sampler;
+    tracer.next_event_stage = args.next_event_stage;
     tracer.russian_roulette = args.rr_depth.0;
     tracer.environment_guide = args.environment_guide.0;
     tracer.target_error = args.target_error;

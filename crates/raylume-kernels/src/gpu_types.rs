@@ -325,10 +325,11 @@ pub const NEE_ENDED: u32 = 2;
 /// what `sample_lights` reads of the hit (`SurfaceHit` without its uv), the material's
 /// textured color, the incoming direction, the throughput before the vertex scatters and the
 /// light's random numbers, and the vertex's emission term, which the stage adds after the
-/// light sample (the order of the other schedules' sums). Indexed like [`RayState`].
+/// light sample (the order of the other schedules' sums). One per slot of the bounce's ray queue.
 ///
 /// `repr(C)`, `Pod`, 128 bytes. WGSL: `NeeRecord`, stored as its eight 16-byte words in a
-/// structure of arrays (word `k` of ray `r` at `k * queue_capacity + r`: `store_nee_record`).
+/// structure of arrays by slot of the bounce's ray queue (word `k` of slot `t` at
+/// `k * queue_capacity + t`: `store_nee_record`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct NeeRecord {

@@ -183,10 +183,11 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     return sample_here && DEFER_NEE;
 }
 
-// Word k of ray `slot`'s NeeRecord in nee_records: the records are a structure of arrays, so
-// that a warp's stores of one word are contiguous (a 128-byte struct per ray made each of its
-// 4-byte fields a transaction of its own: on the H200 the Cornell box's camera rays took 3x
-// as long in propagate).
+// Word k of the NeeRecord of queue slot `slot` in nee_records: the records are a structure of
+// arrays indexed by queue slot, so that a warp's stores of one word are contiguous whatever
+// order the queue's rays are in (a 128-byte struct per ray made each of its 4-byte fields a
+// transaction of its own: on the H200 the Cornell box's camera rays took 3x as long in
+// propagate; indexed by ray, a sorted queue scattered them).
 fn nee_word(k: u32, slot: u32) -> u32 {
     return k * scene.queue_capacity + slot;
 }

@@ -268,14 +268,18 @@ fn reachable(
 fn plain_pipelines_reach_no_light_sampling() {
     let module = validate(Features::all(), BvhLayout::Wide);
     for entry in ["trace_paths", "trace_paths_persistent", "propagate"] {
-        for (estimator, want) in [(Estimator::Plain, false), (Estimator::Nee, true)] {
-            let variant = PathVariant::of(estimator, Sampler::Sobol);
+        for (estimator, want, stage) in [
+            (Estimator::Plain, false, false),
+            (Estimator::Nee, true, false),
+            (Estimator::Nee, true, true),
+        ] {
+            let variant = PathVariant::of(estimator, Sampler::Sobol).with_next_event_stage(stage);
             let constants = entry_constants(Features::all(), entry, variant);
             let seen = reachable(&module, &constants, entry);
             assert!(seen.contains("shade_hit"), "{entry}: {seen:?}");
-            // The wavefront's propagate leaves the light samples to next_event (below);
-            // the MIS weight of the emission it hits stays.
-            let deferred = entry == "propagate";
+            // With the next_event stage the wavefront's propagate leaves the light samples to
+            // it (below); the MIS weight of the emission it hits stays.
+            let deferred = entry == "propagate" && stage;
             for f in ["sample_lights", "eval_material"] {
                 assert_eq!(
                     seen.contains(f),
@@ -288,21 +292,32 @@ fn plain_pipelines_reach_no_light_sampling() {
     }
 }
 
-/// The wavefront's two halves of a NEE render: `propagate` (its pipeline's `DEFER_NEE`)
+/// The wavefront's two halves of a NEE render with the `next_event` stage (`PathVariant::
+/// next_event_stage`): `propagate` (its pipeline's `DEFER_NEE`)
 /// reaches the closest-hit walk and the materials' sampling but no light sampling, shadow ray
 /// or BSDF evaluation; `next_event` reaches those and no path tracing: the driver compiles
 /// them as two pipelines, side by side.
 #[test]
 fn the_wavefront_compiles_light_sampling_apart() {
     let module = validate(Features::all(), BvhLayout::Wide);
-    let variant = PathVariant::of(Estimator::Nee, Sampler::Sobol);
+    let variant = PathVariant::of(Estimator::Nee, Sampler::Sobol).with_next_event_stage(true);
     let entries = TracerPipelines::entries(Schedule::Wavefront, variant);
     assert!(entries.contains(&"next_event"), "{entries:?}");
-    let plain = PathVariant::of(Estimator::Plain, Sampler::Sobol);
-    assert!(
-        !TracerPipelines::entries(Schedule::Wavefront, plain).contains(&"next_event"),
-        "a plain render runs no next_event stage"
-    );
+    for (v, why) in [
+        (
+            PathVariant::of(Estimator::Plain, Sampler::Sobol).with_next_event_stage(true),
+            "a plain render",
+        ),
+        (
+            PathVariant::of(Estimator::Nee, Sampler::Sobol),
+            "the default",
+        ),
+    ] {
+        assert!(
+            !TracerPipelines::entries(Schedule::Wavefront, v).contains(&"next_event"),
+            "{why} runs no next_event stage"
+        );
+    }
     let seen = |entry| {
         reachable(
             &module,

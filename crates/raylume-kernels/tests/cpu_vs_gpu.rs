@@ -97,74 +97,86 @@ fn compare_guided(
     let cpu = cpu_with().render(&s, &mut |_, _| {}).unwrap();
     let features = scene.features();
     let pipelines = raylume_kernels::gpu::TracerPipelines::new(ctx, features, bvh.layout).unwrap();
-    let mut gpu_tracer = GpuTracer::with_options(ctx, scene, &bvh, pipelines, &options).unwrap();
-    // The persistent schedule with half the samples' threads: each takes two, the second
-    // started at whatever depth the others are (not more: with the ZSobol sampler's digit
-    // loops and NEE, lavapipe's loop limit (GpuTracer::set_persistent_threads) cut threads of
-    // 8 samples short).
-    gpu_tracer.set_persistent_threads(Some((w * h * spp / 2).max(1)));
-    gpu_tracer.set_estimator(estimator);
-    gpu_tracer.set_russian_roulette(roulette);
-    gpu_tracer.set_sampler(sampler);
-    let gpu = gpu_tracer.render(&s, &mut |_, _| {}).unwrap();
-    let (batch, samples) = gpu_tracer.last_batch_samples().unwrap().unwrap();
-    assert_eq!(batch.rays(), w * h * spp, "one batch holds every sample");
-    let mut diverged = 0;
-    let mut worst = (0.0f32, 0u32, 0u32);
-    for (slot, g) in samples.iter().enumerate() {
-        let (p, smp) = (slot as u32 % (w * h), slot as u32 / (w * h));
-        let c = cpu_tracer.sample_radiance(&s, p, smp);
-        let d = (0..3)
-            .map(|k| (g[k] - c[k]).abs() / (1.0 + c[k].abs()))
-            .fold(0.0, f32::max);
-        if d > 1e-4 {
-            diverged += 1;
+    // A NEE wavefront is compared twice: light samples inside propagate (the default) and in
+    // the next_event stage of their own.
+    let stages: &[bool] = match (schedule, estimator) {
+        (Schedule::Wavefront, Estimator::Nee) => &[false, true],
+        _ => &[false],
+    };
+    for &stage in stages {
+        let mut gpu_tracer =
+            GpuTracer::with_options(ctx, scene, &bvh, pipelines.clone(), &options).unwrap();
+        gpu_tracer.set_next_event_stage(stage);
+        let name = format!("{name}{}", if stage { " (next_event stage)" } else { "" });
+        let name = name.as_str();
+        // The persistent schedule with half the samples' threads: each takes two, the second
+        // started at whatever depth the others are (not more: with the ZSobol sampler's digit
+        // loops and NEE, lavapipe's loop limit (GpuTracer::set_persistent_threads) cut threads of
+        // 8 samples short).
+        gpu_tracer.set_persistent_threads(Some((w * h * spp / 2).max(1)));
+        gpu_tracer.set_estimator(estimator);
+        gpu_tracer.set_russian_roulette(roulette);
+        gpu_tracer.set_sampler(sampler);
+        let gpu = gpu_tracer.render(&s, &mut |_, _| {}).unwrap();
+        let (batch, samples) = gpu_tracer.last_batch_samples().unwrap().unwrap();
+        assert_eq!(batch.rays(), w * h * spp, "one batch holds every sample");
+        let mut diverged = 0;
+        let mut worst = (0.0f32, 0u32, 0u32);
+        for (slot, g) in samples.iter().enumerate() {
+            let (p, smp) = (slot as u32 % (w * h), slot as u32 / (w * h));
+            let c = cpu_tracer.sample_radiance(&s, p, smp);
+            let d = (0..3)
+                .map(|k| (g[k] - c[k]).abs() / (1.0 + c[k].abs()))
+                .fold(0.0, f32::max);
+            if d > 1e-4 {
+                diverged += 1;
+            }
+            if d > worst.0 {
+                worst = (d, p, smp);
+            }
         }
-        if d > worst.0 {
-            worst = (d, p, smp);
-        }
-    }
-    let e = relative_rmse(&gpu.radiance, &cpu.radiance);
-    // The noise scale: two CPU renders that differ only in their seed.
-    let other_seed = cpu_with()
-        .render(
-            &TraceSettings {
-                seed: s.seed + 1,
-                ..s
-            },
-            &mut |_, _| {},
-        )
-        .unwrap();
-    let noise = relative_rmse(&other_seed.radiance, &cpu.radiance);
-    eprintln!(
-        "{name}: rel RMSE {e:.3e} (independent renders: {noise:.3e}), {diverged} of {} samples \
+        let e = relative_rmse(&gpu.radiance, &cpu.radiance);
+        // The noise scale: two CPU renders that differ only in their seed.
+        let other_seed = cpu_with()
+            .render(
+                &TraceSettings {
+                    seed: s.seed + 1,
+                    ..s
+                },
+                &mut |_, _| {},
+            )
+            .unwrap();
+        let noise = relative_rmse(&other_seed.radiance, &cpu.radiance);
+        eprintln!(
+            "{name}: rel RMSE {e:.3e} (independent renders: {noise:.3e}), {diverged} of {} samples \
          differ by > 1e-4 (worst {worst:?}); rays {} / {}",
-        samples.len(),
-        cpu.rays_traced,
-        gpu.rays_traced
-    );
-    // Same random numbers, same functions: a sample differs only by float rounding (1e-7
-    // relative: different libm sin/cos/sqrt, fused multiply-adds), unless rounding flips a
-    // decision (a Fresnel choice, an edge hit, a side test) and the path goes elsewhere,
-    // which changes that sample entirely. We allow such divergence in 1% of the samples
-    // (none is seen on lavapipe) and bound the image difference at 1e-3, two orders of
-    // magnitude below the Monte Carlo noise of these renders (`noise`, 0.1 to 1): images that
-    // merely agree on average could not pass.
-    assert!(
-        diverged * 100 <= samples.len(),
-        "{name}: {diverged} samples diverged"
-    );
-    let max_rays_apart = diverged as u64 * u64::from(bounces + 1);
-    assert!(
-        cpu.rays_traced.abs_diff(gpu.rays_traced) <= max_rays_apart,
-        "{name}: ray counts"
-    );
-    assert!(e < 1e-3, "{name}: relative RMSE {e}");
-    assert!(
-        noise > 30.0 * e.max(1e-4),
-        "{name}: the comparison is not sharper than the noise"
-    );
-    assert_eq!(cpu.dropped_samples + gpu.dropped_samples, 0);
+            samples.len(),
+            cpu.rays_traced,
+            gpu.rays_traced
+        );
+        // Same random numbers, same functions: a sample differs only by float rounding (1e-7
+        // relative: different libm sin/cos/sqrt, fused multiply-adds), unless rounding flips a
+        // decision (a Fresnel choice, an edge hit, a side test) and the path goes elsewhere,
+        // which changes that sample entirely. We allow such divergence in 1% of the samples
+        // (none is seen on lavapipe) and bound the image difference at 1e-3, two orders of
+        // magnitude below the Monte Carlo noise of these renders (`noise`, 0.1 to 1): images that
+        // merely agree on average could not pass.
+        assert!(
+            diverged * 100 <= samples.len(),
+            "{name}: {diverged} samples diverged"
+        );
+        let max_rays_apart = diverged as u64 * u64::from(bounces + 1);
+        assert!(
+            cpu.rays_traced.abs_diff(gpu.rays_traced) <= max_rays_apart,
+            "{name}: ray counts"
+        );
+        assert!(e < 1e-3, "{name}: relative RMSE {e}");
+        assert!(
+            noise > 30.0 * e.max(1e-4),
+            "{name}: the comparison is not sharper than the noise"
+        );
+        assert_eq!(cpu.dropped_samples + gpu.dropped_samples, 0);
+    }
 }
 
 #[test]

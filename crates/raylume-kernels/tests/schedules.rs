@@ -397,7 +397,8 @@ fn a_prepared_scene_serves_many_tracers_and_only_its_own_tree() {
     assert!(matches!(err, Some(KernelError::InvalidScene(_))), "{err:?}");
 }
 
-/// One tracer renders one image size with every schedule in turn, NEE included, on a device
+/// One tracer renders one image size with every schedule in turn, NEE and the wavefront's
+/// `next_event` stage included, on a device
 /// whose storage bindings are small: the work buffers it keeps between renders are the union
 /// of what the renders needed only while that union fits a binding (a megakernel render's
 /// large batches of 12-byte sample slots against the wavefront's 128-byte light-sample
@@ -422,11 +423,13 @@ fn one_tracer_alternates_schedules_within_the_binding_limit() {
     let fresh = |schedule| {
         let mut t = GpuTracer::new(&ctx, &scene, &bvh).unwrap();
         t.set_estimator(Estimator::Nee);
+        t.set_next_event_stage(true);
         t.render(&TraceSettings { schedule, ..base }, &mut |_, _| {})
             .unwrap()
     };
     let mut tracer = GpuTracer::new(&ctx, &scene, &bvh).unwrap();
     tracer.set_estimator(Estimator::Nee);
+    tracer.set_next_event_stage(true);
     for schedule in [
         Schedule::Megakernel,
         Schedule::Wavefront,

@@ -448,6 +448,14 @@ pub struct Tracer {
     /// The GPU schedule (default [`Schedule::Megakernel`]: all bounces in registers;
     /// [`Schedule::Wavefront`]: the paper's kernels, one per bounce). The CPU ignores it.
     pub schedule: Schedule,
+    /// Whether the wavefront takes its light samples (NEE) in a `next_event` stage of their
+    /// own after each bounce's `propagate`, two pipelines the driver compiles side by side
+    /// (default: off). It shortens a cold process's wait for its pipelines (the living room's
+    /// first image on the H200: 0.59-0.64 s against the megakernel's 0.64-0.75 s) and sped
+    /// the living room's unsorted NEE wavefront at 100 spp (0.489 -> 0.457 s), but costs a
+    /// small scene a stage's overhead (the Cornell box's 0.114 -> 0.229 s);
+    /// [`raylume_kernels::gpu::PathVariant::next_event_stage`].
+    pub next_event_stage: bool,
     /// The estimator: next-event estimation with multiple importance sampling
     /// ([`Estimator::Nee`], the default: far less noise per sample where emitters light the
     /// scene; each reflecting hit also casts a shadow ray), or the paper's plain one
@@ -858,6 +866,7 @@ impl std::fmt::Debug for Tracer {
             .field("schedule", &self.schedule)
             .field("estimator", &self.estimator)
             .field("sampler", &self.sampler)
+            .field("next_event_stage", &self.next_event_stage)
             .field("russian_roulette", &self.russian_roulette)
             .field("target_error", &self.target_error)
             .field("bloom", &self.bloom)
@@ -941,6 +950,7 @@ impl Tracer {
             reorder_mode: ReorderMode::SortIndex,
             reorder_key_bits: raylume_sort::RAY_KEY_BITS,
             schedule: Schedule::default(),
+            next_event_stage: false,
             estimator: Estimator::Nee,
             sampler: Sampler::Sobol,
             russian_roulette: Some(Self::DEFAULT_RUSSIAN_ROULETTE),
@@ -1143,7 +1153,8 @@ impl Tracer {
             layout,
             specialisation: self.specialisation,
             schedule,
-            variant: PathVariant::of(self.estimator, self.sampler),
+            variant: PathVariant::of(self.estimator, self.sampler)
+                .with_next_event_stage(self.next_event_stage),
             guides: self.guides(scene),
         }
     }
@@ -2060,6 +2071,7 @@ impl Tracer {
         };
         mark(&self.timeline, "render: pipelines in hand");
         let mut tracer = GpuTracer::with_scene(ctx, uploaded, pipelines)?;
+        tracer.set_next_event_stage(self.next_event_stage);
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
         let guides = self.guides(scene);

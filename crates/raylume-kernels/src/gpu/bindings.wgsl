@@ -36,8 +36,8 @@
 // Per batch: rays traced (low word, high word), samples dropped, unused.
 @group(1) @binding(7) var<storage, read_write> batch_stats: array<atomic<u32>>;
 @group(1) @binding(8) var<uniform> bounce: BounceUniforms;
-// Next-event estimation deferred by `propagate` to `next_event`, per ray (indexed like
-// ray_states): each NeeRecord as NEE_RECORD_WORDS words of 16 bytes in a structure of arrays
+// Next-event estimation deferred by `propagate` to `next_event`, per slot of the bounce's ray
+// queue: each NeeRecord as NEE_RECORD_WORDS words of 16 bytes in a structure of arrays
 // (shade.wgsl `store_nee_record`); a placeholder unless the render's wavefront samples lights.
 @group(1) @binding(9) var<storage, read_write> nee_records: array<vec4<u32>>;
 

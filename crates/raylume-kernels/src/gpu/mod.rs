@@ -541,6 +541,8 @@ pub struct GpuTracer<'a> {
     last_batch: Option<Batch>,
     /// A cap on rays per batch below the adapter's own ([`GpuTracer::set_batch_ray_limit`]).
     batch_ray_limit: Option<u64>,
+    /// [`GpuTracer::set_next_event_stage`].
+    next_event_stage: bool,
     /// See [`GpuTracer::set_persistent_threads`].
     persistent_threads: Option<u32>,
     upload_seconds: f64,
@@ -689,6 +691,7 @@ impl<'a> GpuTracer<'a> {
             capture: None,
             last_batch: None,
             batch_ray_limit: None,
+            next_event_stage: false,
             persistent_threads: None,
             upload_seconds: start.elapsed().as_secs_f64(),
         })
@@ -715,6 +718,19 @@ impl<'a> GpuTracer<'a> {
     /// depend on it.
     pub fn set_persistent_threads(&mut self, threads: Option<u32>) {
         self.persistent_threads = threads.map(|t| t.max(1));
+    }
+
+    /// Whether the wavefront's light samples are taken by a `next_event` stage of their own
+    /// (default: off; [`PathVariant::next_event_stage`] says what it costs and saves).
+    pub fn set_next_event_stage(&mut self, on: bool) {
+        self.next_event_stage = on;
+    }
+
+    /// The path variant of the next renders: their estimator and sampler, and whether the
+    /// wavefront has its `next_event` stage.
+    pub(crate) fn path_variant(&self) -> PathVariant {
+        PathVariant::of(self.data.estimator, self.data.sampler)
+            .with_next_event_stage(self.next_event_stage)
     }
 
     /// The estimator of the next renders (default: the paper's plain one).
@@ -768,8 +784,8 @@ impl<'a> GpuTracer<'a> {
     /// The compute pipeline of entry point `entry` for the next renders' estimator and
     /// sampler ([`PathVariant`]), compiled on first use.
     fn pipeline(&self, entry: &'static str) -> Result<wgpu::ComputePipeline, KernelError> {
-        let variant = PathVariant::of(self.data.estimator, self.data.sampler);
-        self.pipelines.pipeline(self.ctx, entry, variant)
+        self.pipelines
+            .pipeline(self.ctx, entry, self.path_variant())
     }
 
     /// Takes the work buffers and ray sorters out of this tracer (its next render allocates

@@ -26,6 +26,13 @@ pub struct PathVariant {
     pub estimator: Option<Estimator>,
     /// `Some` for one sampler; `None` holds every sampler's code.
     pub sampler: Option<Sampler>,
+    /// The wavefront's light samples taken by a `next_event` stage of their own after
+    /// `propagate` (whose pipeline then holds no light sampling, shadow ray or BSDF
+    /// evaluation: the driver compiles the two halves side by side, a first image's wait),
+    /// instead of inside it. Off by default: on the H200 it made the living room's unsorted
+    /// NEE wavefront faster (0.489 -> 0.457 s at 100 spp) and the Cornell box's slower (0.114
+    /// -> 0.229 s), a stage's overhead a small scene does not repay (docs/RESULTS.md).
+    pub next_event_stage: bool,
 }
 
 impl PathVariant {
@@ -33,20 +40,30 @@ impl PathVariant {
     pub const ANY: PathVariant = PathVariant {
         estimator: None,
         sampler: None,
+        next_event_stage: false,
     };
 
-    /// The variant of renders with `estimator` and `sampler`.
+    /// The variant of renders with `estimator` and `sampler` (no `next_event` stage).
     pub fn of(estimator: Estimator, sampler: Sampler) -> Self {
         PathVariant {
             estimator: Some(estimator),
             sampler: Some(sampler),
+            next_event_stage: false,
         }
     }
 
-    /// Whether renders of this variant may sample lights (NEE, or any estimator): the
-    /// wavefront then runs its `next_event` stage.
-    pub fn samples_lights(self) -> bool {
-        self.estimator != Some(Estimator::Plain)
+    /// This variant with the wavefront's `next_event` stage on or off.
+    pub fn with_next_event_stage(self, on: bool) -> Self {
+        PathVariant {
+            next_event_stage: on,
+            ..self
+        }
+    }
+
+    /// Whether a wavefront render of this variant runs the `next_event` stage: it asks for
+    /// it and may sample lights (NEE, or any estimator).
+    pub fn defers_light_samples(self) -> bool {
+        self.next_event_stage && self.estimator != Some(Estimator::Plain)
     }
 
     /// Its override constants.
@@ -69,8 +86,8 @@ impl PathVariant {
 
 /// The override constants of `entry`'s pipeline for a scene with `features` and renders of
 /// `variant` (as compiled: `TracerPipelines` passes [`PathVariant::ANY`] for the entry points
-/// that trace no path): the features', the variant's, and `DEFER_NEE` for `propagate`, which
-/// leaves its light samples to `next_event`.
+/// that trace no path): the features', the variant's, and `DEFER_NEE` for `propagate` when
+/// the variant leaves its light samples to `next_event`.
 pub fn entry_constants(
     features: Features,
     entry: &str,
@@ -78,7 +95,7 @@ pub fn entry_constants(
 ) -> Vec<(&'static str, f64)> {
     let mut constants = pipeline_constants(features);
     constants.extend(variant.constants());
-    if entry == "propagate" {
+    if entry == "propagate" && variant.defers_light_samples() {
         constants.push(("DEFER_NEE", 1.0));
     }
     constants
@@ -139,15 +156,15 @@ impl std::fmt::Debug for TracerPipelines {
 }
 
 impl TracerPipelines {
-    /// The entry points a schedule runs for renders of `variant`: the wavefront's
-    /// `propagate` leaves light samples to a `next_event` stage of their own (compiled beside
-    /// it: the driver compiles the two halves of the path's code at once), run after it at
-    /// every bounce when the render may sample lights.
+    /// The entry points a schedule runs for renders of `variant`: with its `next_event_stage`
+    /// the wavefront's `propagate` leaves light samples to a `next_event` stage of their own
+    /// (compiled beside it: the driver compiles the two halves of the path's code at once),
+    /// run after it at every bounce.
     pub fn entries(schedule: Schedule, variant: PathVariant) -> &'static [&'static str] {
         match schedule {
             Schedule::Megakernel => &["trace_paths", "resolve"],
             Schedule::Persistent => &["trace_paths_persistent", "resolve"],
-            Schedule::Wavefront if variant.samples_lights() => &[
+            Schedule::Wavefront if variant.defers_light_samples() => &[
                 "raygen",
                 "prepare_propagate",
                 "propagate",
@@ -308,10 +325,12 @@ impl TracerPipelines {
     /// What `entry`'s pipeline for renders of `variant` is compiled for: `variant` for the
     /// entry points that trace paths, [`PathVariant::ANY`] for the rest (compiled once) and
     /// for every entry point of [`Specialisation::Generic`] pipelines (the baseline holds
-    /// every estimator's and sampler's code too).
+    /// every estimator's and sampler's code too); the `next_event` stage matters to
+    /// `propagate` alone.
     fn variant(&self, entry: &str, variant: PathVariant) -> PathVariant {
         match TRACES_PATHS.contains(&entry) && self.specialisation != Specialisation::Generic {
-            true => variant,
+            true if matches!(entry, "propagate" | "next_event") => variant,
+            true => variant.with_next_event_stage(false),
             false => PathVariant::ANY,
         }
     }

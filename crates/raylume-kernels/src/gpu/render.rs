@@ -11,8 +11,7 @@ use super::batch::BatchRecorder;
 use super::clock::{StageClock, StageTime};
 use super::work::{self, WorkBuffers, WorkLayouts};
 use super::{
-    BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, PathVariant, TraceStats,
-    TracerPipelines,
+    BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuTracer, TraceStats, TracerPipelines,
 };
 use crate::batches::{
     Batch, RoundFlow, RoundHook, RoundSums, dispatch_size, ends_round, into_rounds, mean_of_sum,
@@ -180,8 +179,8 @@ impl GpuTracer<'_> {
             .iter()
             .any(|c| c.sorts(max_bounces) && c.reorder.mode == ReorderMode::SortPermute);
 
-        let variant = PathVariant::of(self.data.estimator, self.data.sampler);
-        let next_event = wavefront && variant.samples_lights();
+        let variant = self.path_variant();
+        let next_event = wavefront && variant.defers_light_samples();
         let pixels = settings.width * settings.height;
         // Every schedule a batch may run must fit: the wavefront's 64-byte states (and, when
         // it samples lights, its 128-byte light-sample records) bound it.

@@ -61,7 +61,9 @@ fn propagate(
         r = ray_queue_in[t];
         var ray = ray_states[r];
         var path = PathState(ray.origin, ray.dir, ray.throughput, ray.radiance, true, select(0.0, bitcast<f32>(ray.alive), ray.alive > RAY_ALIVE));
-        let deferred = trace_ray(&path, ray.pixel, ray.sample, bounce.depth, r);
+        // A light sample left for next_event goes to this queue slot's record: the stage
+        // reads it at the same slot, so both access the records in queue order.
+        let deferred = trace_ray(&path, ray.pixel, ray.sample, bounce.depth, t);
         traced = 1u;
         live = path.alive;
         ray.origin = path.origin;
@@ -76,7 +78,7 @@ fn propagate(
             key = ray_sort_key(path.origin, path.dir, scene.scene_min, scene.scene_extent);
         } else if (deferred) {
             // next_event adds the vertex's light sample, then writes the sample.
-            set_nee_record_state(r, NEE_ENDED);
+            set_nee_record_state(t, NEE_ENDED);
         } else {
             // The sample's own slot, not `r`: permute_rays may have moved its state.
             dropped = write_sample(sample_slot(ray.pixel, ray.sample), path.radiance);
@@ -126,11 +128,11 @@ fn next_event(
     let n = atomicLoad(&queue_counts[bounce.depth & 1u]);
     var dropped = 0u;
     if (t < n) {
-        let r = ray_queue_in[t];
-        let state = nee_record_state(r);
+        let state = nee_record_state(t);
         if (state != NEE_NONE) {
-            set_nee_record_state(r, NEE_NONE);
-            let rec = load_nee_record(r);
+            set_nee_record_state(t, NEE_NONE);
+            let rec = load_nee_record(t);
+            let r = ray_queue_in[t];
             let radiance = (ray_states[r].radiance + deferred_light_sample(rec)) + rec.emitted;
             if (state == NEE_ENDED) {
                 let ray = ray_states[r];
