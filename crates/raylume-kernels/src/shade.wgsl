@@ -115,7 +115,8 @@ fn path_rand4_at(sp: SobolPixel, pixel: u32, sample: u32, bounce: u32, dim: u32)
     return rand4(scene.seed, pixel, sample, bounce, dim);
 }
 
-// Returns true when the vertex's light sample was left in nee_records[slot] for `next_event`
+// Returns true when the vertex's light sample was left in nee_records (queue slot `slot`,
+// wavefront.wgsl `store_nee_record`) for `next_event`
 // (DEFER_NEE); `slot` is unused otherwise.
 fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32, slot: u32) -> bool {
     let hit = trace_closest(Ray((*path).origin, (*path).dir), 0.0, T_MAX);
@@ -183,61 +184,6 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     return sample_here && DEFER_NEE;
 }
 
-// Word k of the NeeRecord of queue slot `slot` in nee_records: the records are a structure of
-// arrays indexed by queue slot, so that a warp's stores of one word are contiguous whatever
-// order the queue's rays are in (a 128-byte struct per ray made each of its 4-byte fields a
-// transaction of its own: on the H200 the Cornell box's camera rays took 3x as long in
-// propagate; indexed by ray, a sorted queue scattered them).
-fn nee_word(k: u32, slot: u32) -> u32 {
-    return k * scene.queue_capacity + slot;
-}
-
-fn store_nee_record(slot: u32, r: NeeRecord) {
-    nee_records[nee_word(0u, slot)] = vec4<u32>(bitcast<vec3<u32>>(r.position), bitcast<u32>(r.offset));
-    nee_records[nee_word(1u, slot)] = vec4<u32>(bitcast<vec3<u32>>(r.geometric_normal), bitcast<u32>(r.back_offset));
-    nee_records[nee_word(2u, slot)] = vec4<u32>(bitcast<vec3<u32>>(r.shading_normal), r.material);
-    nee_records[nee_word(3u, slot)] = vec4<u32>(bitcast<vec3<u32>>(r.color), r.state);
-    nee_records[nee_word(4u, slot)] = vec4<u32>(bitcast<vec3<u32>>(r.dir_in), r._pad0);
-    nee_records[nee_word(5u, slot)] = vec4<u32>(bitcast<vec3<u32>>(r.throughput), r._pad1);
-    nee_records[nee_word(6u, slot)] = bitcast<vec4<u32>>(r.rnd);
-    nee_records[nee_word(7u, slot)] = vec4<u32>(bitcast<vec3<u32>>(r.emitted), r._pad2);
-}
-
-fn load_nee_record(slot: u32) -> NeeRecord {
-    let w0 = nee_records[nee_word(0u, slot)];
-    let w1 = nee_records[nee_word(1u, slot)];
-    let w2 = nee_records[nee_word(2u, slot)];
-    let w3 = nee_records[nee_word(3u, slot)];
-    let w4 = nee_records[nee_word(4u, slot)];
-    let w5 = nee_records[nee_word(5u, slot)];
-    let w6 = nee_records[nee_word(6u, slot)];
-    let w7 = nee_records[nee_word(7u, slot)];
-    return NeeRecord(bitcast<vec3<f32>>(w0.xyz), bitcast<f32>(w0.w), bitcast<vec3<f32>>(w1.xyz),
-                     bitcast<f32>(w1.w), bitcast<vec3<f32>>(w2.xyz), w2.w, bitcast<vec3<f32>>(w3.xyz), w3.w,
-                     bitcast<vec3<f32>>(w4.xyz), w4.w, bitcast<vec3<f32>>(w5.xyz), w5.w, bitcast<vec4<f32>>(w6),
-                     bitcast<vec3<f32>>(w7.xyz), w7.w);
-}
-
-// NeeRecord::state alone (NEE_NONE, NEE_PENDING or NEE_ENDED).
-fn nee_record_state(slot: u32) -> u32 {
-    return nee_records[nee_word(3u, slot)].w;
-}
-
-fn set_nee_record_state(slot: u32, state: u32) {
-    nee_records[nee_word(3u, slot)].w = state;
-}
-
-// The `next_event` stage's part (wavefront.wgsl): the light sample trace_ray left in
-// nee_records[slot] at a vertex, taken as trace_ray takes it in the other schedules. Returns
-// its contribution (the throughput at the vertex times sample_lights); the caller adds it,
-// then `rec.emitted`.
-fn deferred_light_sample(rec: NeeRecord) -> vec3<f32> {
-    let surface = SurfaceHit(rec.position, rec.geometric_normal, rec.shading_normal, vec2<f32>(0.0),
-                             rec.material, rec.offset, rec.back_offset);
-    var mat = materials[rec.material];
-    mat.color = rec.color;
-    return rec.throughput * sample_lights(surface, mat, rec.dir_in, rec.rnd);
-}
 
 // shade.rs `russian_roulette`.
 fn russian_roulette(path: ptr<function, PathState>, u: f32) {

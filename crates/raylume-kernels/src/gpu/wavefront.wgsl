@@ -113,6 +113,62 @@ fn propagate(
     }
 }
 
+// Word k of the NeeRecord of queue slot `slot` in nee_records: the records are a structure of
+// arrays indexed by queue slot, so that a warp's stores of one word are contiguous whatever
+// order the queue's rays are in (a 128-byte struct per ray made each of its 4-byte fields a
+// transaction of its own: on the H200 the Cornell box's camera rays took 3x as long in
+// propagate; indexed by ray, a sorted queue scattered them).
+fn nee_word(k: u32, slot: u32) -> u32 {
+    return k * scene.queue_capacity + slot;
+}
+
+fn store_nee_record(slot: u32, r: NeeRecord) {
+    nee_records[nee_word(0u, slot)] = vec4<u32>(bitcast<vec3<u32>>(r.position), bitcast<u32>(r.offset));
+    nee_records[nee_word(1u, slot)] = vec4<u32>(bitcast<vec3<u32>>(r.geometric_normal), bitcast<u32>(r.back_offset));
+    nee_records[nee_word(2u, slot)] = vec4<u32>(bitcast<vec3<u32>>(r.shading_normal), r.material);
+    nee_records[nee_word(3u, slot)] = vec4<u32>(bitcast<vec3<u32>>(r.color), r.state);
+    nee_records[nee_word(4u, slot)] = vec4<u32>(bitcast<vec3<u32>>(r.dir_in), r._pad0);
+    nee_records[nee_word(5u, slot)] = vec4<u32>(bitcast<vec3<u32>>(r.throughput), r._pad1);
+    nee_records[nee_word(6u, slot)] = bitcast<vec4<u32>>(r.rnd);
+    nee_records[nee_word(7u, slot)] = vec4<u32>(bitcast<vec3<u32>>(r.emitted), r._pad2);
+}
+
+fn load_nee_record(slot: u32) -> NeeRecord {
+    let w0 = nee_records[nee_word(0u, slot)];
+    let w1 = nee_records[nee_word(1u, slot)];
+    let w2 = nee_records[nee_word(2u, slot)];
+    let w3 = nee_records[nee_word(3u, slot)];
+    let w4 = nee_records[nee_word(4u, slot)];
+    let w5 = nee_records[nee_word(5u, slot)];
+    let w6 = nee_records[nee_word(6u, slot)];
+    let w7 = nee_records[nee_word(7u, slot)];
+    return NeeRecord(bitcast<vec3<f32>>(w0.xyz), bitcast<f32>(w0.w), bitcast<vec3<f32>>(w1.xyz),
+                     bitcast<f32>(w1.w), bitcast<vec3<f32>>(w2.xyz), w2.w, bitcast<vec3<f32>>(w3.xyz), w3.w,
+                     bitcast<vec3<f32>>(w4.xyz), w4.w, bitcast<vec3<f32>>(w5.xyz), w5.w, bitcast<vec4<f32>>(w6),
+                     bitcast<vec3<f32>>(w7.xyz), w7.w);
+}
+
+// NeeRecord::state alone (NEE_NONE, NEE_PENDING or NEE_ENDED).
+fn nee_record_state(slot: u32) -> u32 {
+    return nee_records[nee_word(3u, slot)].w;
+}
+
+fn set_nee_record_state(slot: u32, state: u32) {
+    nee_records[nee_word(3u, slot)].w = state;
+}
+
+// The `next_event` stage's part: the light sample trace_ray left in
+// nee_records[slot] at a vertex, taken as trace_ray takes it in the other schedules. Returns
+// its contribution (the throughput at the vertex times sample_lights); the caller adds it,
+// then `rec.emitted`.
+fn deferred_light_sample(rec: NeeRecord) -> vec3<f32> {
+    let surface = SurfaceHit(rec.position, rec.geometric_normal, rec.shading_normal, vec2<f32>(0.0),
+                             rec.material, rec.offset, rec.back_offset);
+    var mat = materials[rec.material];
+    mat.color = rec.color;
+    return rec.throughput * sample_lights(surface, mat, rec.dir_in, rec.rnd);
+}
+
 // Next-event estimation of bounce `bounce.depth`, after its `propagate` (whose pipeline
 // defers it: DEFER_NEE): each ray of the bounce's queue that left a light sample in
 // nee_records gets its contribution, then the vertex's emission, added to its radiance, in the
