@@ -451,7 +451,8 @@ pub struct Tracer {
     /// Whether the wavefront takes its light samples (NEE) in a `next_event` stage of their
     /// own after each bounce's `propagate`, two pipelines the driver compiles side by side
     /// (default: off). It shortens a cold process's wait for its pipelines (the living room's
-    /// first image on the H200: 0.59-0.64 s against the megakernel's 0.64-0.75 s) and sped
+    /// first image on the H200: sooner than the megakernel's in 9 of 10 cold rounds, by
+    /// 0.05-0.56 s) and sped
     /// the living room's unsorted NEE wavefront at 100 spp (0.489 -> 0.457 s), but costs a
     /// small scene a stage's overhead (the Cornell box's 0.114 -> 0.229 s);
     /// [`raylume_kernels::gpu::PathVariant::next_event_stage`].
