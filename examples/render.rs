@@ -463,6 +463,12 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
             return Err(format!("cannot write stats file {}: {e}", path.display()));
         }
     }
+    if args.next_event_stage && !render.stats.schedule.contains("next_event") {
+        eprintln!(
+            "raylume: --next-event-stage did nothing: it applies to the GPU's wavefront schedule \
+             with next-event estimation (`--schedule wavefront`, `--estimator nee`)"
+        );
+    }
     eprintln!("raylume: wrote {}", args.output.display());
     Ok(())
 }

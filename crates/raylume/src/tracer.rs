@@ -2106,6 +2106,9 @@ impl Tracer {
         };
         mark(&self.timeline, "render: traced");
         stats.schedule = schedules_run(&out);
+        if out.timings.iter().any(|&(stage, _)| stage == "next_event") {
+            stats.schedule += " + next_event stage";
+        }
         stats.take_trace(out.rays_traced, out.dropped_samples, &out.timings);
         stats.depth_seconds = out
             .depths

@@ -369,5 +369,17 @@ fn stats_name_the_schedule_that_ran() {
             .render(&s)
             .unwrap();
         assert_eq!(r.stats.schedule, schedule.name());
+        // The wavefront's next_event stage is named when it ran (NEE, the default estimator),
+        // and asking for it changes nothing the other schedules run.
+        let mut t = gpu_tracer(schedule, ReorderPolicy::Off, 1);
+        t.next_event_stage = true;
+        let r = t.render(&s).unwrap();
+        let want = match schedule {
+            Schedule::Wavefront => "wavefront + next_event stage".to_string(),
+            other => other.name().to_string(),
+        };
+        assert_eq!(r.stats.schedule, want);
+        t.estimator = raylume::Estimator::Plain;
+        assert_eq!(t.render(&s).unwrap().stats.schedule, schedule.name());
     }
 }
