@@ -126,9 +126,8 @@ pub fn emitted<const F: u32>(
     Vec3::ZERO
 }
 
-/// Unless this is the path's `last` segment, samples the material with the random numbers
-/// `rnd` and sets up the next ray, or ends the path when it is absorbed (the path ends at
-/// its `last` segment). Returns the solid-angle pdf of the scattered direction (0 for a delta
+/// Unless this is the path's `last` segment (where the path ends), samples the material with
+/// the random numbers `rnd` and sets up the next ray, or ends the path when it is absorbed. Returns the solid-angle pdf of the scattered direction (0 for a delta
 /// lobe: a smooth mirror, glass or coat).
 #[inline]
 pub fn shade_hit<const F: u32>(

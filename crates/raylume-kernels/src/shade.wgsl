@@ -115,9 +115,9 @@ fn path_rand4_at(sp: SobolPixel, pixel: u32, sample: u32, bounce: u32, dim: u32)
     return rand4(scene.seed, pixel, sample, bounce, dim);
 }
 
-// Returns true when the vertex's light sample was left in nee_records (queue slot `slot`,
-// wavefront.wgsl `store_nee_record`) for `next_event`
-// (DEFER_NEE); `slot` is unused otherwise.
+// Returns true when the vertex's light sample was left for `next_event` (DEFER_NEE) in
+// nee_records at queue slot `slot` (wavefront.wgsl `store_nee_record`); `slot` is unused
+// otherwise.
 fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32, slot: u32) -> bool {
     let hit = trace_closest(Ray((*path).origin, (*path).dir), 0.0, T_MAX);
     if (hit.prim == INVALID_INDEX) {

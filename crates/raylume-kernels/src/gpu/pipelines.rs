@@ -29,9 +29,10 @@ pub struct PathVariant {
     /// The wavefront's light samples taken by a `next_event` stage of their own after
     /// `propagate` (whose pipeline then holds no light sampling, shadow ray or BSDF
     /// evaluation: the driver compiles the two halves side by side, a first image's wait),
-    /// instead of inside it. Off by default: on the H200 it made the living room's unsorted
-    /// NEE wavefront faster (0.489 -> 0.457 s at 100 spp) and the Cornell box's slower (0.114
-    /// -> 0.229 s), a stage's overhead a small scene does not repay (docs/RESULTS.md).
+    /// instead of inside it. Off by default: on the H200, with its records then indexed by ray
+    /// (c08ba16), it made the living room's unsorted NEE wavefront faster (0.489 -> 0.457 s at
+    /// 100 spp) and the Cornell box's slower (0.114 -> 0.229 s); its present form (records by
+    /// queue slot) is not measured yet (docs/RESULTS.md).
     pub next_event_stage: bool,
 }
 
