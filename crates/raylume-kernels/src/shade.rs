@@ -360,72 +360,23 @@ pub fn trace_ray<const F: u32>(
     };
     let sample_here = lit && g.scene.light_count > 0 && samples_lights::<F>(&mat) && !last;
     let sp = sampler_pixel(g.scene, pixel);
-    let rnd = bounce_rand(g.scene, sp, pixel, sample, depth, sample_here);
     // The lights' contribution, then the emission: the order in which the wavefront's
     // `next_event` stage adds the two when its `propagate` left them to it.
     if sample_here {
+        let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT);
         path.radiance +=
-            path.throughput * sample_lights::<F>(g, bvh, &surface, &mat, path.dir, rnd.light);
+            path.throughput * sample_lights::<F>(g, bvh, &surface, &mat, path.dir, rnd);
     }
     path.radiance += emitted::<F>(path, &surface, &mat, emission_weight);
-    let pdf = shade_hit::<F>(g, path, &surface, &mat, rnd.scatter, last);
+    let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_SCATTER);
+    let pdf = shade_hit::<F>(g, path, &surface, &mat, rnd, last);
     path.mis_pdf = if sample_here { pdf } else { 0.0 };
     if path.alive && depth >= g.scene.rr_depth {
-        russian_roulette(path, rnd.roulette);
+        russian_roulette(
+            path,
+            path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_ROULETTE).x,
+        );
     }
-}
-
-/// The random numbers a hit's bounce uses ([`bounce_rand`]); the dimensions it does not
-/// use are 0. WGSL: `BounceRand`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BounceRand {
-    /// [`DIM_SCATTER`]: the BSDF's sample.
-    pub scatter: Vec4,
-    /// [`DIM_LIGHT`]: the light sample (when the vertex samples the lights).
-    pub light: Vec4,
-    /// [`DIM_ROULETTE`]'s first number (from segment `rr_depth` on).
-    pub roulette: f32,
-}
-
-/// A hit's random numbers, [`path_rand4_at`] of the dimensions it uses ([`DIM_SCATTER`];
-/// [`DIM_LIGHT`] when `sample_here`; [`DIM_ROULETTE`] from segment `rr_depth` on), taken in
-/// one loop over their bits:
-/// the WGSL calls the sampler from this one place, so that the driver compiles one copy of
-/// it in the path's loop instead of three (the living room's cold compilation on the H200,
-/// the sampler's share: see docs/RESULTS.md). Roulette's number is drawn before the
-/// scattering could end the path: the same number, only sometimes unused.
-#[inline]
-pub fn bounce_rand(
-    scene: &SceneUniforms,
-    sp: SobolPixel,
-    pixel: u32,
-    sample: u32,
-    depth: u32,
-    sample_here: bool,
-) -> BounceRand {
-    let mut dims: u32 = (1 << DIM_SCATTER)
-        | if sample_here { 1 << DIM_LIGHT } else { 0 }
-        | if depth >= scene.rr_depth {
-            1 << DIM_ROULETTE
-        } else {
-            0
-        };
-    let mut out = BounceRand {
-        scatter: Vec4::ZERO,
-        light: Vec4::ZERO,
-        roulette: 0.0,
-    };
-    while dims != 0 {
-        let d = dims.trailing_zeros();
-        dims &= dims - 1;
-        let r = path_rand4_at(scene, sp, pixel, sample, depth, d);
-        match d {
-            DIM_SCATTER => out.scatter = r,
-            DIM_LIGHT => out.light = r,
-            _ => out.roulette = r.x,
-        }
-    }
-    out
 }
 
 /// Russian roulette: the path goes on with probability `q = min(max throughput,
@@ -702,44 +653,6 @@ mod tests {
             }
             count.iter().all(|&c| c == 1)
         })
-    }
-
-    #[test]
-    fn bounce_rand_draws_what_each_dimension_would() {
-        // One call site for the bounce's three dimensions must hand each consumer the number
-        // its own `path_rand4_at` call gave before (the images stay the same), and only
-        // those it uses: the light's when the vertex samples the lights, roulette's from
-        // `rr_depth` on.
-        for sampler in [
-            SAMPLER_SOBOL,
-            crate::gpu_types::SAMPLER_ZSOBOL,
-            SAMPLER_INDEPENDENT,
-        ] {
-            let scene = SceneUniforms {
-                sampler,
-                width: 37,
-                height: 11,
-                spp: 16,
-                seed: 9,
-                rr_depth: 3,
-                ..Default::default()
-            };
-            for (pixel, sample) in [(0, 0), (200, 5), (406, 15)] {
-                let sp = sampler_pixel(&scene, pixel);
-                for depth in 0..6 {
-                    for sample_here in [false, true] {
-                        let at = |dim| path_rand4_at(&scene, sp, pixel, sample, depth, dim);
-                        let r = bounce_rand(&scene, sp, pixel, sample, depth, sample_here);
-                        assert_eq!(r.scatter, at(DIM_SCATTER));
-                        assert_ne!(r.scatter, Vec4::ZERO);
-                        let light = if sample_here { at(DIM_LIGHT) } else { Vec4::ZERO };
-                        assert_eq!(r.light, light, "depth {depth}, sample_here {sample_here}");
-                        let roulette = if depth >= 3 { at(DIM_ROULETTE).x } else { 0.0 };
-                        assert_eq!(r.roulette, roulette, "depth {depth}");
-                    }
-                }
-            }
-        }
     }
 
     #[test]

@@ -115,34 +115,6 @@ fn path_rand4_at(sp: SobolPixel, pixel: u32, sample: u32, bounce: u32, dim: u32)
     return rand4(scene.seed, pixel, sample, bounce, dim);
 }
 
-// shade.rs `BounceRand`.
-struct BounceRand {
-    scatter: vec4<f32>,
-    light: vec4<f32>,
-    roulette: f32,
-}
-
-// shade.rs `bounce_rand`: the sampler called from this one place in the path's loop (one
-// inlined copy for the driver to compile instead of three).
-fn bounce_rand(sp: SobolPixel, pixel: u32, sample: u32, depth: u32, sample_here: bool) -> BounceRand {
-    var dims = (1u << DIM_SCATTER) | select(0u, 1u << DIM_LIGHT, sample_here)
-        | select(0u, 1u << DIM_ROULETTE, depth >= scene.rr_depth);
-    var out = BounceRand(vec4<f32>(0.0), vec4<f32>(0.0), 0.0);
-    while (dims != 0u) {
-        let d = firstTrailingBit(dims);
-        dims &= dims - 1u;
-        let r = path_rand4_at(sp, pixel, sample, depth, d);
-        if (d == DIM_SCATTER) {
-            out.scatter = r;
-        } else if (d == DIM_LIGHT) {
-            out.light = r;
-        } else {
-            out.roulette = r.x;
-        }
-    }
-    return out;
-}
-
 // Returns true when the vertex's light sample was left for `next_event` (DEFER_NEE) in
 // nee_records at queue slot `slot` (wavefront.wgsl `store_nee_record`); `slot` is unused
 // otherwise.
@@ -184,22 +156,16 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
             }
 //#endif
             sample_here = scene.light_count > 0u && samples_lights(mat) && !last;
-        }
-    }
-//#endif
-    let rnd = bounce_rand(sp, pixel, sample, depth, sample_here);
-//#if emission|constant_environment|environment_map
-    if (NEXT_EVENT) {
-        if ((HAS_EMISSION || HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && (HAS_DIFFUSE || HAS_PLASTIC || HAS_ROUGH_METAL || HAS_ROUGH_GLASS)) {
             if (sample_here) {
+                let rnd_light = path_rand4_at(sp, pixel, sample, depth, DIM_LIGHT);
                 if (!DEFER_NEE) {
-                    (*path).radiance += (*path).throughput * sample_lights(surface, mat, (*path).dir, rnd.light);
+                    (*path).radiance += (*path).throughput * sample_lights(surface, mat, (*path).dir, rnd_light);
                 } else {
                     // next_event adds the light sample, then the emission (below), to the
                     // radiance as it is now: the sums of the other schedules, in their order.
                     store_nee_record(slot, NeeRecord(surface.position, surface.offset, surface.geometric_normal,
                         surface.back_offset, surface.shading_normal, surface.material, mat.color, NEE_PENDING,
-                        (*path).dir, 0u, (*path).throughput, 0u, rnd.light,
+                        (*path).dir, 0u, (*path).throughput, 0u, rnd_light,
                         emitted(*path, surface, mat, emission_weight), 0u));
                 }
             }
@@ -209,10 +175,11 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     if (!(DEFER_NEE && sample_here)) {
         (*path).radiance += emitted(*path, surface, mat, emission_weight);
     }
-    let pdf = shade_hit(path, surface, mat, rnd.scatter, last);
+    let rnd = path_rand4_at(sp, pixel, sample, depth, DIM_SCATTER);
+    let pdf = shade_hit(path, surface, mat, rnd, last);
     (*path).mis_pdf = select(0.0, pdf, sample_here);
     if ((*path).alive && depth >= scene.rr_depth) {
-        russian_roulette(path, rnd.roulette);
+        russian_roulette(path, path_rand4_at(sp, pixel, sample, depth, DIM_ROULETTE).x);
     }
     return sample_here && DEFER_NEE;
 }
