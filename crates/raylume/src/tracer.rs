@@ -450,11 +450,12 @@ pub struct Tracer {
     pub schedule: Schedule,
     /// Whether the wavefront takes its light samples (NEE) in a `next_event` stage of their
     /// own after each bounce's `propagate`, two pipelines the driver compiles side by side
-    /// (default: off). It shortens a cold process's wait for its pipelines (the living room's
-    /// first image on the H200: sooner than the megakernel's in 9 of 10 cold rounds, by
-    /// 0.05-0.56 s); in an earlier form it sped the living room's unsorted NEE wavefront at
-    /// 100 spp (0.489 -> 0.457 s) but cost a small scene a stage's overhead (the Cornell
-    /// box's 0.114 -> 0.229 s); [`raylume_kernels::gpu::PathVariant::next_event_stage`].
+    /// (default: off). It can shorten a cold process's wait for its pipelines (the living
+    /// room's first image on the H200: sooner than the megakernel's in 9 of 11 cold rounds
+    /// over four calls, by 0.05-0.56 s, 0.01-0.04 s later in two); it speeds the living
+    /// room's NEE wavefront at 100 spp (unsorted 0.488 -> 0.446 s, sorted 0.434 -> 0.427 s)
+    /// but costs a small scene a stage's overhead (the Cornell box's 0.113 -> 0.193 s);
+    /// [`raylume_kernels::gpu::PathVariant::next_event_stage`].
     pub next_event_stage: bool,
     /// The estimator: next-event estimation with multiple importance sampling
     /// ([`Estimator::Nee`], the default: far less noise per sample where emitters light the

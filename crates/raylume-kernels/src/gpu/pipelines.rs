@@ -29,10 +29,10 @@ pub struct PathVariant {
     /// The wavefront's light samples taken by a `next_event` stage of their own after
     /// `propagate` (whose pipeline then holds no light sampling, shadow ray or BSDF
     /// evaluation: the driver compiles the two halves side by side, a first image's wait),
-    /// instead of inside it. Off by default: on the H200, with its records then indexed by ray
-    /// (c08ba16), it made the living room's unsorted NEE wavefront faster (0.489 -> 0.457 s at
-    /// 100 spp) and the Cornell box's slower (0.114 -> 0.229 s); its present form (records by
-    /// queue slot) is not measured yet (docs/RESULTS.md).
+    /// instead of inside it. Off by default: on the H200 (6f0fa32, NEE, 100 spp) it makes the
+    /// living room's wavefront faster (unsorted 0.488 -> 0.446 s, sorted 0.434 -> 0.427 s)
+    /// and the Cornell box's slower (0.113 -> 0.193 s): where the shadow ray is cheap, storing
+    /// its record costs what the ray did, and `next_event` is all extra (docs/RESULTS.md).
     pub next_event_stage: bool,
 }
 
