@@ -127,8 +127,9 @@ pub fn emitted<const F: u32>(
 }
 
 /// Unless this is the path's `last` segment (where the path ends), samples the material with
-/// the random numbers `rnd` and sets up the next ray, or ends the path when it is absorbed. Returns the solid-angle pdf of the scattered direction (0 for a delta
-/// lobe: a smooth mirror, glass or coat).
+/// the random numbers `rnd` and sets up the next ray, or ends the path when it is absorbed.
+/// Returns the solid-angle pdf of the scattered direction (0 for a delta lobe: a smooth
+/// mirror, glass or coat).
 #[inline]
 pub fn shade_hit<const F: u32>(
     g: &Globals,
