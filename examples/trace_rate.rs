@@ -171,12 +171,9 @@ fn gpu_rate(
     passes: u32,
 ) -> (f64, u32) {
     let source = format!("{}\n{KERNEL}", bvh.traverse_wgsl());
-    let module = ctx
-        .device
-        .create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("trace_rate"),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
-        });
+    // As the renders' kernels are made (`GpuContext::shader_module`: on Vulkan without naga's
+    // bounds checks and loop bounding), so that the rate is the traversal they run.
+    let module = ctx.shader_module("trace_rate", &source);
     let pipeline = ctx
         .device
         .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
