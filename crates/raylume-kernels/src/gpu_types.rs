@@ -58,6 +58,13 @@ pub const SHADING_HAS_UVS: u32 = 2;
 /// to the front. The WGSL constant comes from raylume-sort's `MORTON_WGSL`.
 pub const DEAD_RAY_KEY: u32 = raylume_sort::DEAD_RAY_KEY;
 
+/// The megakernel's threads take a batch's pixels in tiles of `PIXEL_TILE_WIDTH` x
+/// `PIXEL_TILE_HEIGHT` (a 32-lane warp one tile) instead of scanlines, so that a warp's rays
+/// start closer together ([`tiled_ray`](crate::cpu::stages::tiled_ray)). WGSL: the same names.
+pub const PIXEL_TILE_WIDTH: u32 = 8;
+/// See [`PIXEL_TILE_WIDTH`].
+pub const PIXEL_TILE_HEIGHT: u32 = 4;
+
 /// Random-number dimension (a group of 4 numbers) of the camera ray's pixel jitter. It uses x
 /// and y only: under ZSobol its z and w are not drawn (0; `shade::path_rand4`).
 pub const DIM_CAMERA: u32 = 0;
@@ -433,6 +440,8 @@ pub fn wgsl_constants() -> String {
     s += &u("ENVIRONMENT_MAP", ENVIRONMENT_MAP);
     s += &u("SHADING_HAS_NORMALS", SHADING_HAS_NORMALS);
     s += &u("SHADING_HAS_UVS", SHADING_HAS_UVS);
+    s += &u("PIXEL_TILE_WIDTH", PIXEL_TILE_WIDTH);
+    s += &u("PIXEL_TILE_HEIGHT", PIXEL_TILE_HEIGHT);
     s += &u("DIM_CAMERA", DIM_CAMERA);
     s += &u("DIM_SCATTER", DIM_SCATTER);
     s += &u("DIM_LIGHT", DIM_LIGHT);

@@ -184,6 +184,14 @@ fn cornell_box_matches_cpu() {
     compare("cornell_box_matches_cpu", &cornell_box(), 32, 32, 4, 4);
 }
 
+/// An image of whole 8x4 tiles and one whose last tile column and row are narrower: the
+/// megakernel's threads take the pixels tile by tile (`tiled_ray`) and must still cover each
+/// pixel sample once and write it to its own slot.
+#[test]
+fn images_of_partial_pixel_tiles_match_cpu() {
+    compare("partial_tiles_match_cpu", &cornell_box(), 21, 13, 2, 3);
+}
+
 #[test]
 fn spheres_match_cpu() {
     compare("spheres_match_cpu", &spheres(), 32, 32, 4, 6);

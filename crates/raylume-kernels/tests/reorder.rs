@@ -6,7 +6,7 @@
 mod support;
 
 use raylume_kernels::batches::Batch;
-use raylume_kernels::cpu::stages::{batch_ray, sample_slot};
+use raylume_kernels::cpu::stages::{batch_ray, sample_slot, tiled_ray};
 use raylume_kernels::gpu_types::SceneUniforms;
 use raylume_kernels::{
     BatchPlan, BatchPolicy, BatchTiming, GpuTracer, KernelError, Reorder, ReorderMode, Schedule,
@@ -97,6 +97,62 @@ fn sample_slot_inverts_batch_ray() {
     for r in 0..17 * 3 {
         let (pixel, sample) = batch_ray(&scene, r);
         assert_eq!(sample_slot(&scene, pixel, sample), r);
+    }
+}
+
+#[test]
+fn tiled_rays_are_the_batch_samples_in_tiles() {
+    // Whole images (tiles, edge tiles narrower or shorter), then part of one (scanlines).
+    for (w, h) in [(16, 8), (13, 7), (8, 4), (1, 1), (3, 10), (1000, 3)] {
+        let scene = SceneUniforms {
+            width: w,
+            height: h,
+            pixel_begin: 0,
+            pixel_count: w * h,
+            sample_begin: 2,
+            sample_count: 3,
+            ..Default::default()
+        };
+        let n = w * h * 3;
+        let mut seen = vec![false; n as usize];
+        for r in 0..n {
+            let (pixel, sample) = tiled_ray(&scene, r);
+            // Sample as batch_ray's; every (pixel, sample) of the batch exactly once.
+            assert_eq!(sample, batch_ray(&scene, r).1, "{w}x{h} ray {r}");
+            let slot = sample_slot(&scene, pixel, sample) as usize;
+            assert!(
+                !seen[slot],
+                "{w}x{h}: ray {r} repeats pixel {pixel}, sample {sample}"
+            );
+            seen[slot] = true;
+            // Where the image is whole tiles, each 32 consecutive rays (a warp) are one
+            // tile-aligned 8x4 block of pixels.
+            if w % 8 == 0 && h % 4 == 0 {
+                let first = tiled_ray(&scene, r - r % 32).0;
+                let (x0, y0) = (first % w, first / w);
+                let (x, y) = (pixel % w, pixel / w);
+                assert!(
+                    x0 % 8 == 0 && y0 % 4 == 0,
+                    "{w}x{h} ray {r}: tile at {x0},{y0}"
+                );
+                assert!(
+                    (x0..x0 + 8).contains(&x) && (y0..y0 + 4).contains(&y),
+                    "{w}x{h} ray {r}"
+                );
+            }
+        }
+    }
+    let part = SceneUniforms {
+        width: 16,
+        height: 8,
+        pixel_begin: 30,
+        pixel_count: 17,
+        sample_begin: 4,
+        sample_count: 3,
+        ..Default::default()
+    };
+    for r in 0..17 * 3 {
+        assert_eq!(tiled_ray(&part, r), batch_ray(&part, r));
     }
 }
 

@@ -14,6 +14,27 @@ fn batch_ray(r: u32) -> vec2<u32> {
     return vec2<u32>(scene.pixel_begin + r % scene.pixel_count, scene.sample_begin + r / scene.pixel_count);
 }
 
+// (pixel, sample) of megakernel thread r: batch_ray's samples with the whole image's pixels
+// in PIXEL_TILE_WIDTH x PIXEL_TILE_HEIGHT tiles (stages.rs `tiled_ray` says how and why).
+fn tiled_ray(r: u32) -> vec2<u32> {
+    let w = scene.width;
+    let h = scene.height;
+    if (scene.pixel_begin != 0u || scene.pixel_count != w * h) {
+        return batch_ray(r);
+    }
+    let i = r % scene.pixel_count;
+    let band = i / (PIXEL_TILE_HEIGHT * w);
+    let band_height = min(PIXEL_TILE_HEIGHT, h - band * PIXEL_TILE_HEIGHT);
+    let j = i - band * PIXEL_TILE_HEIGHT * w;
+    let blocks = (w + PIXEL_TILE_WIDTH - 1u) / PIXEL_TILE_WIDTH;
+    let block = min(j / (PIXEL_TILE_WIDTH * band_height), blocks - 1u);
+    let k = j - block * PIXEL_TILE_WIDTH * band_height;
+    let block_width = min(PIXEL_TILE_WIDTH, w - block * PIXEL_TILE_WIDTH);
+    let x = block * PIXEL_TILE_WIDTH + k % block_width;
+    let y = band * PIXEL_TILE_HEIGHT + k / block_width;
+    return vec2<u32>(y * w + x, scene.sample_begin + r / scene.pixel_count);
+}
+
 // The slot of a pixel sample of the batch: the inverse of batch_ray, so a ray whose state was
 // moved (permute_rays) still writes its radiance where resolve looks for it.
 fn sample_slot(pixel: u32, sample: u32) -> u32 {
@@ -42,7 +63,7 @@ fn trace_path(pixel: u32, sample: u32) -> PathResult {
     return PathResult(path.radiance, traced);
 }
 
-// Writes ray r's radiance to its slot; a non-finite or overflowing sample (sample_is_valid)
+// Writes radiance to slot r; a non-finite or overflowing sample (sample_is_valid)
 // is dropped (written as zero) and counted. Returns 1 when dropped.
 fn write_sample(r: u32, radiance: vec3<f32>) -> u32 {
     let ok = sample_is_valid(radiance);

@@ -1,5 +1,5 @@
 // The persistent / megakernel schedule: one thread per pixel sample of the batch follows its
-// whole path with the state in registers, then writes its radiance to its own slot.
+// whole path with the state in registers, then writes its radiance to its sample's slot.
 
 // Its own workgroup size (MEGAKERNEL_WORKGROUP_SIZE, lib.rs): faster than the other kernels'.
 @compute @workgroup_size(MEGAKERNEL_WORKGROUP_SIZE)
@@ -12,10 +12,10 @@ fn trace_paths(
     var traced = 0u;
     var dropped = 0u;
     if (r < scene.rays_in_batch) {
-        let ps = batch_ray(r);
+        let ps = tiled_ray(r);
         let result = trace_path(ps.x, ps.y);
         traced = result.traced;
-        dropped = write_sample(r, result.radiance);
+        dropped = write_sample(sample_slot(ps.x, ps.y), result.radiance);
     }
     flush_stats(local, traced, dropped);
 }
