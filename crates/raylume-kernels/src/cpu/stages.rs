@@ -25,10 +25,10 @@ pub fn batch_ray(scene: &SceneUniforms, r: u32) -> (u32, u32) {
 /// bands of [`PIXEL_TILE_HEIGHT`] rows, each band in blocks of [`PIXEL_TILE_WIDTH`] columns
 /// (the last band and block narrower where the image is), row by row inside a block: a
 /// 32-lane warp's camera rays leave from an 8x4 tile, not a 32x1 strip, and its first bounces
-/// stay closer together (H200: the living room's megakernel 2 % faster, the teapot's 5 %;
-/// docs/study/h200-a3d7590-pixel-tiles.md). A batch of part of the image keeps scanlines.
-/// Each thread writes its sample to [`sample_slot`], so the image is the same. The CPU, which
-/// runs the samples in slot order, uses it only to check the WGSL.
+/// stay closer together (H200, 100 spp: the living room's megakernel 1.5-2 % faster, the
+/// teapots' 4-7 %; docs/study/h200-a3d7590-pixel-tiles.md). A batch of part of the image
+/// keeps scanlines. Each thread writes its sample to [`sample_slot`], so the image is the
+/// same. The CPU runs its samples in slot order and does not call this twin of the WGSL.
 #[inline]
 pub fn tiled_ray(scene: &SceneUniforms, r: u32) -> (u32, u32) {
     let (w, h) = (scene.width, scene.height);
