@@ -1,7 +1,7 @@
 //! Property tests: random bytes and random mutations of valid files fed to every loader
 //! (TOML, OBJ + MTL, glTF JSON, GLB, Tungsten JSON, HDR, EXR, PNG). The property: no panic,
-//! ever; the result is `Ok` or a typed `SceneError` that names a file. 64 cases per loader keep
-//! the suite fast.
+//! ever; the result is `Ok` or a typed `SceneError` that names a file. 64 cases per loader, from
+//! a fixed seed (see [`config`]), keep the suite fast and the same every run.
 //!
 //! Inputs that once panicked inside a dependency are kept below as plain regression tests.
 
@@ -20,6 +20,19 @@ fn cases() -> u32 {
         .ok()
         .and_then(|c| c.parse().ok())
         .unwrap_or(64)
+}
+
+/// 64 cases from a fixed seed, so that the suite (and CI) sees the same inputs every run: a
+/// random seed made CI fail on whichever dependency panic its draw found that day (twice).
+/// Explore with a random or chosen seed and many cases, e.g.
+/// `PROPTEST_RNG_SEED=$RANDOM PROPTEST_CASES=100000 cargo test -p raylume-scene --test fuzz`,
+/// and keep what it finds as a named regression test below.
+fn config() -> ProptestConfig {
+    let mut c = ProptestConfig::with_cases(cases());
+    if std::env::var_os("PROPTEST_RNG_SEED").is_none() {
+        c.rng_seed = proptest::test_runner::RngSeed::Fixed(0x0072_6179_6c75_6d65);
+    }
+    c
 }
 
 const OBJ: &str = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvn 0 0 1\n\
@@ -222,7 +235,7 @@ fn the_unmutated_fixtures_load() {
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(cases()))]
+    #![proptest_config(config())]
 
     #[test]
     fn random_bytes(bytes in proptest::collection::vec(any::<u8>(), 0..600), ext in 0usize..8) {
@@ -363,6 +376,35 @@ fn gltf_position_accessor_past_the_end_is_an_error_not_a_panic() {
             "{e}"
         );
     }
+}
+
+#[test]
+fn gltf_accessors_under_an_unread_key_is_an_error_not_a_panic() {
+    // Seen by `mutated_gltf_json` in CI: `"accessors"` became `"aaccessors"` and a key inside
+    // it got a byte that is not UTF-8. gltf's reader skips the unknown key unread (so the
+    // document has no accessors and POSITION 0 is past the end), while serde_json's `Value`
+    // rejects the file, so a check on the raw JSON let it through to the panicking validation.
+    let doc = gltf_with_data_uri().replacen("\"accessors\"", "\"aaccessors\"", 1);
+    let mut bytes = doc.into_bytes();
+    let at = bytes
+        .windows(12)
+        .position(|w| w == b"\"bufferView\"")
+        .unwrap();
+    bytes[at + 1] = 0x80;
+    let d = TempDir::new("regress-unread");
+    let p = d.write("g.gltf", &bytes);
+    let e = Scene::load(&p).unwrap_err();
+    assert!(
+        matches!(
+            &e,
+            raylume_scene::SceneError::IndexOutOfRange {
+                index: 0,
+                len: 0,
+                ..
+            }
+        ),
+        "{e}"
+    );
 }
 
 #[test]

@@ -253,50 +253,54 @@ fn check_glb_header(bytes: &[u8], file: &str) -> Result<(), SceneError> {
 /// gltf-json 1.4's validation looks up a primitive's `POSITION` accessor without a bounds
 /// check (`primitive_validate_hook` in its mesh.rs), so a file whose `POSITION` index is past
 /// the end of `accessors` panics inside `Gltf::from_slice`; `catch_unwind` turned that into an
-/// error, but the panic message still reached stderr. This checks those indices first, on the
-/// raw JSON (the whole `.gltf`, or a `.glb`'s first chunk). JSON that does not parse is left
-/// to the glTF parser, which reports it with line and column.
-fn check_position_accessors(bytes: &[u8], file: &str) -> Result<(), SceneError> {
-    let json = if bytes.starts_with(b"glTF") {
-        // GLB: a 12-byte header, then the JSON chunk's length, its type, its data.
-        let Some(len) = bytes.get(12..16) else {
-            return Ok(());
-        };
-        let len = u32::from_le_bytes([len[0], len[1], len[2], len[3]]) as usize;
-        match bytes.get(20..20usize.saturating_add(len)) {
-            Some(json) => json,
-            None => return Ok(()),
-        }
-    } else {
-        bytes
-    };
-    let Ok(doc) = serde_json::from_slice::<serde_json::Value>(json) else {
-        return Ok(());
-    };
-    fn array(v: Option<&serde_json::Value>) -> &[serde_json::Value] {
-        v.and_then(serde_json::Value::as_array)
-            .map_or(&[][..], Vec::as_slice)
-    }
-    let accessors = array(doc.get("accessors")).len() as u64;
-    for (m, mesh) in array(doc.get("meshes")).iter().enumerate() {
-        for (p, primitive) in array(mesh.get("primitives")).iter().enumerate() {
-            let position = primitive.pointer("/attributes/POSITION");
-            if let Some(index) = position.and_then(serde_json::Value::as_u64) {
-                if index >= accessors {
-                    return Err(SceneError::IndexOutOfRange {
-                        file: file.to_string(),
-                        at: Location::path(format!(
-                            "meshes[{m}].primitives[{p}].attributes.POSITION"
-                        )),
-                        what: "accessor".into(),
-                        index,
-                        len: accessors,
-                    });
-                }
+/// error, but the panic message still reached stderr. This checks those indices on the
+/// document exactly as gltf deserialised it, before its validation runs. (A check on the raw
+/// JSON missed files that serde_json's `Value` rejects but gltf's reader accepts: an unknown
+/// key holding invalid UTF-8 is skipped unread, and then `accessors` is simply absent.)
+fn check_position_accessors(root: &::gltf::json::Root, file: &str) -> Result<(), SceneError> {
+    use ::gltf::json::mesh::Semantic;
+    use ::gltf::json::validation::Checked;
+    let len = root.accessors.len() as u64;
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let Some(index) = primitive
+                .attributes
+                .get(&Checked::Valid(Semantic::Positions))
+            else {
+                continue;
+            };
+            let index = index.value() as u64;
+            if index >= len {
+                return Err(SceneError::IndexOutOfRange {
+                    file: file.to_string(),
+                    at: Location::path(format!("meshes[{m}].primitives[{p}].attributes.POSITION")),
+                    what: "accessor".into(),
+                    index,
+                    len,
+                });
             }
         }
     }
     Ok(())
+}
+
+/// `Gltf::from_slice` in two steps, so that [`check_position_accessors`] runs between reading
+/// and validating (gltf's own `Document::validate` is private; this is its body).
+fn parse_gltf(bytes: &[u8], file: &str) -> Result<::gltf::Gltf, SceneError> {
+    use ::gltf::json::validation::Validate;
+    let gltf =
+        ::gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| map_gltf_error(file, e))?;
+    let root = gltf.document.as_json();
+    check_position_accessors(root, file)?;
+    let mut errors = Vec::new();
+    root.validate(root, ::gltf::json::Path::new, &mut |path, error| {
+        errors.push((path(), error))
+    });
+    if errors.is_empty() {
+        Ok(gltf)
+    } else {
+        Err(map_gltf_error(file, ::gltf::Error::Validation(errors)))
+    }
 }
 
 /// Loads a glTF/GLB file's triangles (and, unless overridden, materials) into `b`; returns
@@ -309,16 +313,13 @@ pub(crate) fn load_into(
     let file = path.display().to_string();
     let bytes = read_file(path, opts.referenced_by.as_deref())?;
     check_glb_header(&bytes, &file)?;
-    check_position_accessors(&bytes, &file)?;
-    let gltf = std::panic::catch_unwind(|| ::gltf::Gltf::from_slice(&bytes))
-        .map_err(|_| {
-            syntax(
-                &file,
-                Location::None,
-                "the glTF parser panicked on this file",
-            )
-        })?
-        .map_err(|e| map_gltf_error(&file, e))?;
+    let gltf = std::panic::catch_unwind(|| parse_gltf(&bytes, &file)).map_err(|_| {
+        syntax(
+            &file,
+            Location::None,
+            "the glTF parser panicked on this file",
+        )
+    })??;
     let doc = gltf.document;
     let mut blob = gltf.blob;
     let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
