@@ -285,6 +285,8 @@ fn main() {
         for &layout in &args.bvh {
             let bvh =
                 GpuBvh::from_scene_with_layout(&scene, BvhQuality::Quality, layout).expect("BVH");
+            // The CPU walk's float node boxes, made before the parallel loops.
+            bvh.wide_boxes();
             let (primary, diffuse) = rays(&scene, &bvh, w, h);
             for (kind, qs) in [("primary", &primary), ("diffuse", &diffuse)] {
                 for backend in &args.backend {

@@ -1,6 +1,9 @@
 //! [`GpuBvh`]: the flattened tree and its primitives, ready to upload.
 
+use std::sync::OnceLock;
+
 use crate::stats::BvhStats;
+use crate::wide_traverse::{WideBoxes, wide_boxes};
 use crate::{BvhLayout, BvhNode, Primitive, WideNode};
 
 /// A BVH over a scene's triangles and spheres in the layout the WGSL kernels read.
@@ -28,6 +31,25 @@ pub struct GpuBvh {
     pub sphere_count: u32,
     /// What the build produced and cost.
     pub stats: BvhStats,
+    /// The CPU's float copy of `wide_nodes`' child boxes ([`GpuBvh::wide_boxes`]), made on
+    /// the first CPU traversal (`Default::default()` when building a `GpuBvh` by hand).
+    pub cpu_boxes: CpuBoxes,
+}
+
+/// [`WideBoxes`] of a wide tree's nodes, made from them on first use by the CPU's traversal
+/// ([`GpuBvh::wide_boxes`]): 192 bytes a node that a GPU-only render never makes. Made once;
+/// a tree whose `wide_nodes` are changed after a CPU traversal needs
+/// [`CpuBoxes::default`] again.
+#[derive(Clone, Default)]
+pub struct CpuBoxes(OnceLock<Vec<WideBoxes>>);
+
+impl std::fmt::Debug for CpuBoxes {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.0.get() {
+            Some(b) => write!(f, "CpuBoxes({} nodes)", b.len()),
+            None => write!(f, "CpuBoxes(not made)"),
+        }
+    }
 }
 
 impl GpuBvh {
@@ -44,5 +66,16 @@ impl GpuBvh {
     /// element type of `bvh_nodes`), `Hit`, `trace_closest` and `trace_any`.
     pub fn traverse_wgsl(&self) -> &'static str {
         crate::traverse_wgsl(self.layout)
+    }
+
+    /// The float boxes of [`GpuBvh::wide_nodes`] that the CPU's traversal tests
+    /// ([`WideBoxes`]), made on the first call and kept (about 0.1 us a node, on the calling
+    /// thread: a `rayon` loop here could, while it waits, take up another ray's trace on this
+    /// same thread and re-enter this initialisation). Call it before tracing in parallel to
+    /// keep that first call out of the loop, as the CPU tracer does.
+    pub fn wide_boxes(&self) -> &[WideBoxes] {
+        self.cpu_boxes
+            .0
+            .get_or_init(|| self.wide_nodes.iter().map(wide_boxes).collect())
     }
 }

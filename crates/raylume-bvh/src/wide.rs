@@ -131,7 +131,7 @@ fn leaf_range(node: &WideNode, slot: usize) -> (usize, u32) {
 }
 
 /// Slot `slot`'s box as the traversal sees it (padded by [`WIDE_QUANT_PAD`] cells), in f64.
-fn slot_box(node: &WideNode, slot: usize) -> (DVec3, DVec3) {
+pub(crate) fn slot_box(node: &WideNode, slot: usize) -> (DVec3, DVec3) {
     let cell = DVec3::from(node.cell().map(f64::from));
     let p = DVec3::from(node.p.map(f64::from));
     let pad = f64::from(WIDE_QUANT_PAD);

@@ -530,10 +530,35 @@ pub fn check_against_brute_force(
                 || (bits(bvh.trace_closest_for::<false>(&q.ray, q.t_min, q.t_max))
                     == bits(bvh.trace_closest(&q.ray, q.t_min, q.t_max))
                     && bvh.trace_any_for::<false>(&q.ray, q.t_min, q.t_max) == any);
-            (!(closest_ok && any_ok && triangles_ok)).then(|| {
+            // A wide tree: the CPU's walk (float boxes) finds what the WGSL's mirror
+            // (quantised boxes) finds: the same scene primitive at the same t, u, v, bit for
+            // bit (a pre-split triangle's copies may stand in for each other), and the same
+            // any-hit answer.
+            let mirror_ok = bvh.layout != raylume_bvh::BvhLayout::Wide || {
+                use raylume_bvh::wide_traverse;
+                let same = |h: raylume_bvh::Hit| {
+                    (h.prim != INVALID_INDEX).then(|| {
+                        let p = &bvh.primitives[h.prim as usize];
+                        (
+                            p.kind(),
+                            p.scene_index(),
+                            h.t.to_bits(),
+                            h.u.to_bits(),
+                            h.v.to_bits(),
+                        )
+                    })
+                };
+                let (n, p) = (&bvh.wide_nodes, &bvh.primitives);
+                let mirror = wide_traverse::trace_closest(n, p, &q.ray, q.t_min, q.t_max);
+                let cpu = bvh.trace_closest(&q.ray, q.t_min, q.t_max);
+                same(mirror) == cpu.and_then(same)
+                    && wide_traverse::trace_any(n, p, &q.ray, q.t_min, q.t_max) == any
+            };
+            (!(closest_ok && any_ok && triangles_ok && mirror_ok)).then(|| {
                 format!(
                     "{} query {i} {q:?}: bvh {got:?} any {any}, brute force {want:?}, \
-                     triangles-only walk the same: {triangles_ok}",
+                     triangles-only walk the same: {triangles_ok}, the quantised walk the \
+                     same: {mirror_ok}",
                     f.name
                 )
             })

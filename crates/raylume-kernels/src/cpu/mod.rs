@@ -217,6 +217,11 @@ impl CpuTracer {
         mut hook: Option<&mut RoundHook<'_>>,
     ) -> Result<TraceOutput, KernelError> {
         settings.validate()?;
+        if self.bvh.layout == raylume_bvh::BvhLayout::Wide {
+            // The CPU's float node boxes, made here rather than by the first ray of the
+            // parallel loop (see `GpuBvh::wide_boxes`).
+            self.bvh.wide_boxes();
+        }
         let pixels = settings.width * settings.height;
         let mut batches = crate::batches::plan_render(
             pixels,
