@@ -364,15 +364,7 @@ pub fn wide_walk<const SPHERES: bool>(
     t_max: f32,
     any_hit: bool,
 ) -> Hit {
-    walk_with::<SPHERES>(
-        nodes,
-        primitives,
-        ray,
-        t_min,
-        t_max,
-        any_hit,
-        |_, node, r, t0, t1| intersect_wide_node(node, r, t0, t1),
-    )
+    walk_with::<SPHERES, false>(nodes, &[], primitives, ray, t_min, t_max, any_hit)
 }
 
 /// [`wide_walk`] with the CPU's node test ([`intersect_wide_boxes`]; `boxes[i]` of
@@ -388,27 +380,22 @@ pub fn wide_walk_boxes<const SPHERES: bool>(
     any_hit: bool,
 ) -> Hit {
     debug_assert_eq!(nodes.len(), boxes.len());
-    walk_with::<SPHERES>(
-        nodes,
-        primitives,
-        ray,
-        t_min,
-        t_max,
-        any_hit,
-        |i, node, r, t0, t1| intersect_wide_boxes(&boxes[i], node, r, t0, t1),
-    )
+    walk_with::<SPHERES, true>(nodes, boxes, primitives, ray, t_min, t_max, any_hit)
 }
 
-/// The walk of [`wide_walk`], with `test(index, node, ray, t_min, t_max)` as its node test.
+/// The walk of [`wide_walk`]; with `BOXES` its node test is [`intersect_wide_boxes`] on
+/// `boxes` (a const parameter, not a closure: a closure was left out of line, a call per
+/// node).
 #[inline(always)]
-fn walk_with<const SPHERES: bool>(
+#[allow(clippy::too_many_arguments)]
+fn walk_with<const SPHERES: bool, const BOXES: bool>(
     nodes: &[WideNode],
+    boxes: &[WideBoxes],
     primitives: &[Primitive],
     ray: &Ray,
     t_min: f32,
     t_max: f32,
     any_hit: bool,
-    test: impl Fn(usize, &WideNode, &WideRay, f32, f32) -> u32,
 ) -> Hit {
     let wr = wide_ray(ray);
     let sheared: ShearedRay = shear_ray(ray);
@@ -433,7 +420,11 @@ fn walk_with<const SPHERES: bool>(
                 sp += 1;
             }
             let node = &nodes[index as usize];
-            let mask = test(index as usize, node, &wr, t_min, hit.t);
+            let mask = if BOXES {
+                intersect_wide_boxes(&boxes[index as usize], node, &wr, t_min, hit.t)
+            } else {
+                intersect_wide_node(node, &wr, t_min, hit.t)
+            };
             group = UVec2::new(
                 node.child_base,
                 (mask & 0xff00_0000) | u32::from(node.imask()),
