@@ -37,7 +37,7 @@ pub struct GpuBvh {
 }
 
 /// [`WideBoxes`] of a wide tree's nodes, made from them on first use by the CPU's traversal
-/// ([`GpuBvh::wide_boxes`]): 192 bytes a node that a GPU-only render never makes. Made once;
+/// ([`GpuBvh::wide_boxes`]): 224 bytes a node that a GPU-only render never makes. Made once;
 /// a tree whose `wide_nodes` are changed after a CPU traversal needs
 /// [`CpuBoxes::default`] again.
 #[derive(Clone, Default)]

@@ -42,12 +42,12 @@
 //! On the CPU, [`GpuBvh`]'s traversal tests a node's children against float boxes made from
 //! the quantised ones ([`WideBoxes`], [`intersect_wide_boxes`]) instead of decoding the bytes
 //! at every visit ([`intersect_wide_node`], which the WGSL mirrors and [`wide_walk`] keeps
-//! using): a third of the instructions, and no branch on the ray's signs. Each float box
+//! using): about half the instructions, and no branch on the ray's signs. Each float box
 //! holds its padded quantised box, and its slab test carries the same `WIDE_T_FAR_SCALE`
 //! margin, so it too culls only boxes that cannot hold a hit closer than the current one;
 //! the walk, its order and its triangle tests are the same, so the hits are the same as the
 //! quantised walk's and the GPU's (tested against both over every test tree). Living room,
-//! diffuse rays, one core: 329 -> 249-287 ns a closest hit (`docs/RESULTS.md`, issue 15).
+//! diffuse rays, one core: 329-390 -> 260-330 ns a closest hit (`docs/RESULTS.md`, issue 15).
 
 use glam::{UVec2, UVec4, Vec3, Vec4};
 
@@ -207,13 +207,14 @@ pub fn intersect_wide_node(node: &WideNode, r: &WideRay, t_min: f32, t_max: f32)
     bits
 }
 
-/// A wide node's eight child boxes as floats, for the CPU's node test
-/// ([`intersect_wide_boxes`]): per axis the slots' lower planes and upper planes. Each plane
-/// is the quantised one moved out by [`WIDE_QUANT_PAD`] cells (`p + (q -/+ pad) * cell`,
-/// exact in `f64`) and rounded outward to `f32`, so each box holds the padded quantised box
-/// the GPU tests, and with it the child's true box. Empty slots hold zeros (their bits are
-/// never set: see [`intersect_wide_boxes`]). Made from the nodes by [`wide_boxes`]; the GPU
-/// never sees them.
+/// A wide node as the CPU's walk reads it ([`intersect_wide_boxes`]): its eight child boxes
+/// as floats, per axis the slots' lower planes and upper planes, and the node's fields the
+/// walk needs (so that a node is one 208-byte read, not that and its [`WideNode`]). Each
+/// plane is the quantised one moved out by [`WIDE_QUANT_PAD`] cells (`p + (q -/+ pad) *
+/// cell`, exact in `f64`) and rounded outward to `f32`, so each box holds the padded
+/// quantised box the GPU tests, and with it the child's true box. Empty slots hold zeros
+/// (their bits are never set: see [`intersect_wide_boxes`]). Made from the nodes by
+/// [`wide_boxes`]; the GPU never sees them.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(C, align(16))]
 pub struct WideBoxes {
@@ -221,9 +222,17 @@ pub struct WideBoxes {
     pub lo: [[f32; 8]; 3],
     /// `hi[axis][slot]`.
     pub hi: [[f32; 8]; 3],
+    /// The node's [`WideNode::child_base`].
+    pub child_base: u32,
+    /// The node's [`WideNode::prim_base`].
+    pub prim_base: u32,
+    /// The node's [`WideNode::imask`].
+    pub imask: u32,
+    /// Its [`WideNode::child_meta`]'s first four bytes (slots 0..4), then its last four.
+    pub child_meta: [u32; 2],
 }
 
-const _: () = assert!(size_of::<WideBoxes>() == 192);
+const _: () = assert!(size_of::<WideBoxes>() == 224);
 
 /// The largest `f32` at most `x`.
 fn f32_down(x: f64) -> f32 {
@@ -239,7 +248,17 @@ fn f32_up(x: f64) -> f32 {
 
 /// The float boxes of `node`'s children (see [`WideBoxes`]).
 pub fn wide_boxes(node: &WideNode) -> WideBoxes {
-    let mut b = WideBoxes::default();
+    let m = node.child_meta;
+    let mut b = WideBoxes {
+        child_base: node.child_base,
+        prim_base: node.prim_base,
+        imask: u32::from(node.imask()),
+        child_meta: [
+            u32::from_le_bytes([m[0], m[1], m[2], m[3]]),
+            u32::from_le_bytes([m[4], m[5], m[6], m[7]]),
+        ],
+        ..WideBoxes::default()
+    };
     let cell = node.cell();
     let pad = f64::from(WIDE_QUANT_PAD);
     for (axis, q) in [&node.q_x, &node.q_y, &node.q_z].into_iter().enumerate() {
@@ -280,7 +299,7 @@ static XOR_PERMUTE8: [[u8; 256]; 8] = {
 };
 
 /// [`intersect_wide_node`]'s hit mask (the same bits for the same hit children) from the
-/// node's float boxes: the CPU's form of the node test, about a third of its instructions
+/// node's float boxes: the CPU's form of the node test, about about half its instructions
 /// (no byte conversions, no per-slot shifts; `docs/RESULTS.md`, issue 15). The slab test of
 /// [`intersect_aabb`](crate::intersect::intersect_aabb) on exact planes, four slots a lane
 /// each, accepting `t_near <= t_far * WIDE_T_FAR_SCALE` (a wider margin than that test's own
@@ -289,13 +308,7 @@ static XOR_PERMUTE8: [[u8; 256]; 8] = {
 /// true box: the walk visits a superset of the nodes that can hold the closest hit, and finds
 /// the same primitives in the same order (see the module docs).
 #[inline(always)]
-pub fn intersect_wide_boxes(
-    boxes: &WideBoxes,
-    node: &WideNode,
-    r: &WideRay,
-    t_min: f32,
-    t_max: f32,
-) -> u32 {
+pub fn intersect_wide_boxes(boxes: &WideBoxes, r: &WideRay, t_min: f32, t_max: f32) -> u32 {
     let o = r.origin.to_array();
     let inv = r.inv_dir.to_array();
     let half = |h: usize| -> u32 {
@@ -316,14 +329,14 @@ pub fn intersect_wide_boxes(
         t_near.cmple(t_far * WIDE_T_FAR_SCALE).bitmask()
     };
     let hit = half(0) | (half(1) << 4);
-    let imask = u32::from(node.imask());
+    let imask = boxes.imask;
     let inner = XOR_PERMUTE8[(r.oct_inv4 & 7) as usize][(hit & imask) as usize];
     let mut bits = u32::from(inner) << 24;
     let mut leaves = hit & !imask;
     while leaves != 0 {
         let slot = leaves.trailing_zeros();
         leaves &= leaves - 1;
-        let meta = u32::from(node.child_meta[slot as usize]);
+        let meta = (boxes.child_meta[(slot >> 2) as usize] >> (8 * (slot & 3))) & 0xff;
         // An empty slot's meta is 0: no bits.
         bits |= ((meta >> 5) & 7) << (meta & 0x1f);
     }
@@ -419,29 +432,29 @@ fn walk_with<const SPHERES: bool, const BOXES: bool>(
                 stack[sp] = group;
                 sp += 1;
             }
-            let node = &nodes[index as usize];
-            let mask = if BOXES {
-                intersect_wide_boxes(&boxes[index as usize], node, &wr, t_min, hit.t)
+            // The node's mask and fields: from its float copy alone with `BOXES`.
+            let (mask, child_base, imask, prim_base) = if BOXES {
+                let b = &boxes[index as usize];
+                let mask = intersect_wide_boxes(b, &wr, t_min, hit.t);
+                (mask, b.child_base, b.imask, b.prim_base)
             } else {
-                intersect_wide_node(node, &wr, t_min, hit.t)
+                let node = &nodes[index as usize];
+                let mask = intersect_wide_node(node, &wr, t_min, hit.t);
+                (
+                    mask,
+                    node.child_base,
+                    u32::from(node.imask()),
+                    node.prim_base,
+                )
             };
-            group = UVec2::new(
-                node.child_base,
-                (mask & 0xff00_0000) | u32::from(node.imask()),
-            );
+            group = UVec2::new(child_base, (mask & 0xff00_0000) | imask);
             let mut prims = mask & 0x00ff_ffff;
             while prims != 0 {
                 if !SPHERES && prims.count_ones() > 1 {
                     // The CPU's four-wide form of the loop below (same hits: see
                     // `leaf_group4`).
-                    if leaf_group4(
-                        primitives,
-                        node.prim_base,
-                        &mut prims,
-                        &sheared,
-                        t_min,
-                        &mut hit,
-                    ) && any_hit
+                    if leaf_group4(primitives, prim_base, &mut prims, &sheared, t_min, &mut hit)
+                        && any_hit
                     {
                         return hit;
                     }
@@ -449,7 +462,7 @@ fn walk_with<const SPHERES: bool, const BOXES: bool>(
                 }
                 let k = first_leading_bit(prims);
                 prims &= !(1 << k);
-                let i = node.prim_base + k;
+                let i = prim_base + k;
                 let r =
                     intersect_primitive::<SPHERES>(&primitives[i as usize], &sheared, t_min, hit.t);
                 if r.x < hit.t {
@@ -629,6 +642,13 @@ mod tests {
                 GpuBvh::build_with_layout(&tris, &[], BvhQuality::Fast, BvhLayout::Wide).unwrap();
             assert!(bvh.wide_nodes.len() > 8);
             for (node, boxes) in bvh.wide_nodes.iter().zip(bvh.wide_boxes()) {
+                assert_eq!(
+                    (boxes.child_base, boxes.prim_base),
+                    (node.child_base, node.prim_base)
+                );
+                assert_eq!(boxes.imask, u32::from(node.imask()));
+                let meta: [u8; 8] = bytemuck::cast(boxes.child_meta);
+                assert_eq!(meta, node.child_meta);
                 for slot in (0..8).filter(|&s| node.child_meta[s] != 0) {
                     let (lo, hi) = slot_box(node, slot);
                     for k in 0..3 {
@@ -664,7 +684,7 @@ mod tests {
             let t_max = 0.2 + 2.0 * r();
             for (node, boxes) in bvh.wide_nodes.iter().zip(bvh.wide_boxes()) {
                 let q = intersect_wide_node(node, &wr, 0.0, t_max);
-                let f = intersect_wide_boxes(boxes, node, &wr, 0.0, t_max);
+                let f = intersect_wide_boxes(boxes, &wr, 0.0, t_max);
                 tests += 1;
                 differ += usize::from(q != f);
                 inner += usize::from(q & 0xff00_0000 != 0);
