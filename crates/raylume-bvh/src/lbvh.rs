@@ -412,12 +412,7 @@ mod tests {
 
     fn boxes(n: usize, seed: u64) -> Vec<Aabb> {
         let mut s = seed;
-        let mut r = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut r = || crate::test_rand(&mut s);
         (0..n)
             .map(|i| {
                 let c = glam::Vec3A::new(r(), r(), r()) * 10.0;

@@ -140,3 +140,13 @@ pub const fn traverse_wgsl(layout: BvhLayout) -> &'static str {
         BvhLayout::Wide => WIDE_TRAVERSE_WGSL,
     }
 }
+
+/// A deterministic pseudo-random number in [0, 1) (a 64-bit LCG's top bits), for the unit
+/// tests' random soups and rays.
+#[cfg(test)]
+pub(crate) fn test_rand(state: &mut u64) -> f32 {
+    *state = state
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    (*state >> 40) as f32 / (1u64 << 24) as f32
+}

@@ -436,13 +436,7 @@ mod tests {
     use super::*;
     use obvhs::{BvhBuildParams, bvh2::reinsertion::ReinsertionOptimizer, ploc::PlocBuilder};
 
-    /// A deterministic pseudo-random number in [0, 1).
-    fn rand(state: &mut u64) -> f32 {
-        *state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (*state >> 40) as f32 / (1u64 << 24) as f32
-    }
+    use crate::test_rand as rand;
 
     /// `n` boxes: small ones scattered in clusters, some large, some coincident.
     fn boxes(n: usize, seed: u64) -> Vec<Aabb> {

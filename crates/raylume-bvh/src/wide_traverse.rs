@@ -612,12 +612,7 @@ mod tests {
     /// A random soup of small triangles in a box of size `scale` about `offset`.
     fn soup(n: usize, scale: f32, offset: Vec3, seed: u64) -> Vec<Triangle> {
         let mut s = seed;
-        let mut r = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut r = || crate::test_rand(&mut s);
         (0..n)
             .map(|_| {
                 let c = Vec3::new(r(), r(), r());
@@ -670,12 +665,7 @@ mod tests {
         let tris = soup(600, 1.0, Vec3::ZERO, 11);
         let bvh = GpuBvh::build_with_layout(&tris, &[], BvhQuality::Fast, BvhLayout::Wide).unwrap();
         let mut s = 3u64;
-        let mut r = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (s >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut r = || crate::test_rand(&mut s);
         let (mut differ, mut inner, mut leaves, mut tests) = (0, 0, 0, 0);
         for _ in 0..2000 {
             let origin = Vec3::new(r(), r(), r()) * 1.4 - 0.2;
