@@ -2,6 +2,7 @@
 
 use std::sync::OnceLock;
 
+use crate::intersect::TriangleColumns;
 use crate::stats::BvhStats;
 use crate::wide_traverse::{WideBoxes, wide_boxes};
 use crate::{BvhLayout, BvhNode, Primitive, WideNode};
@@ -36,17 +37,18 @@ pub struct GpuBvh {
     pub cpu_boxes: CpuBoxes,
 }
 
-/// [`WideBoxes`] of a wide tree's nodes, made from them on first use by the CPU's traversal
-/// ([`GpuBvh::wide_boxes`]): 224 bytes a node that a GPU-only render never makes. Made once;
-/// a tree whose `wide_nodes` are changed after a CPU traversal needs
-/// [`CpuBoxes::default`] again.
+/// What the CPU's wide walk reads instead of the GPU's arrays, made from them on first use
+/// ([`GpuBvh::wide_boxes`], [`GpuBvh::triangle_columns`]): the nodes' [`WideBoxes`] (224
+/// bytes a node) and the primitives' [`TriangleColumns`] (36 bytes a primitive), which a
+/// GPU-only render never makes. Made once; a tree whose `wide_nodes` or `primitives` are
+/// changed after a CPU traversal needs [`CpuBoxes::default`] again.
 #[derive(Clone, Default)]
-pub struct CpuBoxes(OnceLock<Vec<WideBoxes>>);
+pub struct CpuBoxes(OnceLock<(Vec<WideBoxes>, TriangleColumns)>);
 
 impl std::fmt::Debug for CpuBoxes {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self.0.get() {
-            Some(b) => write!(f, "CpuBoxes({} nodes)", b.len()),
+            Some((b, _)) => write!(f, "CpuBoxes({} nodes)", b.len()),
             None => write!(f, "CpuBoxes(not made)"),
         }
     }
@@ -74,8 +76,21 @@ impl GpuBvh {
     /// same thread and re-enter this initialisation). Call it before tracing in parallel to
     /// keep that first call out of the loop, as the CPU tracer does.
     pub fn wide_boxes(&self) -> &[WideBoxes] {
-        self.cpu_boxes
-            .0
-            .get_or_init(|| self.wide_nodes.iter().map(wide_boxes).collect())
+        &self.cpu_arrays().0
+    }
+
+    /// [`GpuBvh::primitives`] as columns, for the CPU's wide walk's four-at-once triangle
+    /// tests ([`TriangleColumns`]); made with [`GpuBvh::wide_boxes`].
+    pub fn triangle_columns(&self) -> &TriangleColumns {
+        &self.cpu_arrays().1
+    }
+
+    pub(crate) fn cpu_arrays(&self) -> &(Vec<WideBoxes>, TriangleColumns) {
+        self.cpu_boxes.0.get_or_init(|| {
+            (
+                self.wide_nodes.iter().map(wide_boxes).collect(),
+                TriangleColumns::new(&self.primitives),
+            )
+        })
     }
 }

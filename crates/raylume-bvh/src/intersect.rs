@@ -244,13 +244,72 @@ pub fn intersect_triangles4(
         rows(tris.map(|p| &p.b)),
         rows(tris.map(|p| &p.c)),
     );
+    triangles4_core(r, |vertex, k| [&va, &vb, &vc][vertex].col(k), t_min, t_max)
+}
+
+/// A triangle array's vertices as columns, for [`intersect_triangles4_at`]: `v[vertex][axis]
+/// [i]` is coordinate `axis` of vertex `vertex` (a, b, c) of primitive `i`, each column
+/// three zeros longer than the primitives (a degenerate triangle, never hit), so that four
+/// lanes from any primitive index can be read.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TriangleColumns {
+    pub v: [[Vec<f32>; 3]; 3],
+}
+
+impl TriangleColumns {
+    /// The columns of `primitives` (spheres' words too: read only as triangles).
+    pub fn new(primitives: &[Primitive]) -> Self {
+        let col = |f: &dyn Fn(&Primitive) -> f32| {
+            let mut c: Vec<f32> = primitives.iter().map(f).collect();
+            c.extend([0.0; 3]);
+            c
+        };
+        Self {
+            v: [
+                [col(&|p| p.a[0]), col(&|p| p.a[1]), col(&|p| p.a[2])],
+                [col(&|p| p.b[0]), col(&|p| p.b[1]), col(&|p| p.b[2])],
+                [col(&|p| p.c[0]), col(&|p| p.c[1]), col(&|p| p.c[2])],
+            ],
+        }
+    }
+}
+
+/// [`intersect_triangles4`] of the four consecutive primitives `first..first + 4`, read from
+/// their columns (four loads a coordinate instead of a gather and a transpose): the same
+/// values, bit for bit.
+#[inline(always)]
+pub fn intersect_triangles4_at(
+    r: &ShearedRay,
+    columns: &TriangleColumns,
+    first: u32,
+    t_min: f32,
+    t_max: f32,
+) -> [Vec4; 3] {
+    let i = first as usize;
+    triangles4_core(
+        r,
+        |vertex, k| Vec4::from_slice(&columns.v[vertex][k][i..i + 4]),
+        t_min,
+        t_max,
+    )
+}
+
+/// The arithmetic of [`intersect_triangles4`], lane by lane that of [`intersect_triangle`];
+/// `coord(vertex, axis)` gives the four lanes' coordinate `axis` of vertex `vertex`.
+#[inline(always)]
+fn triangles4_core(
+    r: &ShearedRay,
+    coord: impl Fn(usize, usize) -> Vec4,
+    t_min: f32,
+    t_max: f32,
+) -> [Vec4; 3] {
     let (kx, ky, kz) = (r.kx as usize, r.ky as usize, r.kz as usize);
     let o = r.origin.to_array();
     // p[k] - origin[k]: the component of `v0 - r.origin` that intersect_triangle picks.
-    let rel = |m: &Mat4, k: usize| m.col(k) - Vec4::splat(o[k]);
-    let (a_x, a_y, a_z) = (rel(&va, kx), rel(&va, ky), rel(&va, kz));
-    let (b_x, b_y, b_z) = (rel(&vb, kx), rel(&vb, ky), rel(&vb, kz));
-    let (c_x, c_y, c_z) = (rel(&vc, kx), rel(&vc, ky), rel(&vc, kz));
+    let rel = |vertex: usize, k: usize| coord(vertex, k) - Vec4::splat(o[k]);
+    let (a_x, a_y, a_z) = (rel(0, kx), rel(0, ky), rel(0, kz));
+    let (b_x, b_y, b_z) = (rel(1, kx), rel(1, ky), rel(1, kz));
+    let (c_x, c_y, c_z) = (rel(2, kx), rel(2, ky), rel(2, kz));
     let (sx, sy, sz) = (
         Vec4::splat(r.shear.x),
         Vec4::splat(r.shear.y),
@@ -579,6 +638,20 @@ mod tests {
             let t_max = [T_MISS, 2.0, 3.5][(lanes / 3) % 3];
             let [t, u, v] =
                 intersect_triangles4(&r, [&tris[0], &tris[1], &tris[2], &tris[3]], t_min, t_max);
+            // The same four read from columns (the CPU walk's form), from the start and from
+            // one in (its fourth lane then the columns' padding, a miss).
+            let columns = TriangleColumns::new(&tris);
+            let bits = |l: [Vec4; 3]| l.map(|x| x.to_array().map(f32::to_bits));
+            assert_eq!(
+                bits(intersect_triangles4_at(&r, &columns, 0, t_min, t_max)),
+                bits([t, u, v])
+            );
+            let [t1, u1, v1] = intersect_triangles4_at(&r, &columns, 1, t_min, t_max);
+            for j in 0..3 {
+                let got = [t1[j], u1[j], v1[j]].map(f32::to_bits);
+                assert_eq!(got, [t[j + 1], u[j + 1], v[j + 1]].map(f32::to_bits));
+            }
+            assert_eq!((t1[3], u1[3], v1[3]), (T_MISS, 0.0, 0.0));
             for (j, p) in tris.iter().enumerate() {
                 let (a, b, c) = (
                     Vec3::from_slice(&p.a[..3]),

@@ -48,10 +48,15 @@
 //! the walk, its order and its triangle tests are the same, so the hits are the same as the
 //! quantised walk's and the GPU's (tested against both over every test tree). Living room,
 //! diffuse rays, one core: 329-390 -> 260-330 ns a closest hit (`docs/RESULTS.md`, issue 15).
+//! Its triangles, four at a time, come from columns ([`TriangleColumns`]: four consecutive
+//! primitives a load per coordinate) instead of four records gathered and transposed.
 
 use glam::{UVec2, UVec4, Vec3, Vec4};
 
-use crate::intersect::{Ray, ShearedRay, intersect_primitive, intersect_triangles4, shear_ray};
+use crate::intersect::{
+    Ray, ShearedRay, TriangleColumns, intersect_primitive, intersect_triangles4,
+    intersect_triangles4_at, shear_ray,
+};
 use crate::traverse::{Hit, T_MAX_LIMIT};
 use crate::{GpuBvh, INVALID_INDEX, Primitive, WIDE_STACK_SIZE, WideNode};
 
@@ -377,15 +382,36 @@ pub fn wide_walk<const SPHERES: bool>(
     t_max: f32,
     any_hit: bool,
 ) -> Hit {
-    walk_with::<SPHERES, false>(nodes, &[], primitives, ray, t_min, t_max, any_hit)
+    walk_with::<SPHERES, false>(
+        nodes,
+        &[],
+        &NO_COLUMNS,
+        primitives,
+        ray,
+        t_min,
+        t_max,
+        any_hit,
+    )
 }
 
+/// [`wide_walk`]'s stand-in for the columns it does not read.
+static NO_COLUMNS: TriangleColumns = TriangleColumns {
+    v: [
+        [Vec::new(), Vec::new(), Vec::new()],
+        [Vec::new(), Vec::new(), Vec::new()],
+        [Vec::new(), Vec::new(), Vec::new()],
+    ],
+};
+
 /// [`wide_walk`] with the CPU's node test ([`intersect_wide_boxes`]; `boxes[i]` of
-/// `nodes[i]`): the same hits.
+/// `nodes[i]`) and, without `SPHERES`, its leaves' triangles read from `columns` four
+/// consecutive ones at a time ([`intersect_triangles4_at`]): the same hits.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub fn wide_walk_boxes<const SPHERES: bool>(
     nodes: &[WideNode],
     boxes: &[WideBoxes],
+    columns: &TriangleColumns,
     primitives: &[Primitive],
     ray: &Ray,
     t_min: f32,
@@ -393,7 +419,9 @@ pub fn wide_walk_boxes<const SPHERES: bool>(
     any_hit: bool,
 ) -> Hit {
     debug_assert_eq!(nodes.len(), boxes.len());
-    walk_with::<SPHERES, true>(nodes, boxes, primitives, ray, t_min, t_max, any_hit)
+    walk_with::<SPHERES, true>(
+        nodes, boxes, columns, primitives, ray, t_min, t_max, any_hit,
+    )
 }
 
 /// The walk of [`wide_walk`]; with `BOXES` its node test is [`intersect_wide_boxes`] on
@@ -404,6 +432,7 @@ pub fn wide_walk_boxes<const SPHERES: bool>(
 fn walk_with<const SPHERES: bool, const BOXES: bool>(
     nodes: &[WideNode],
     boxes: &[WideBoxes],
+    columns: &TriangleColumns,
     primitives: &[Primitive],
     ray: &Ray,
     t_min: f32,
@@ -453,9 +482,12 @@ fn walk_with<const SPHERES: bool, const BOXES: bool>(
                 if !SPHERES && prims.count_ones() > 1 {
                     // The CPU's four-wide form of the loop below (same hits: see
                     // `leaf_group4`).
-                    if leaf_group4(primitives, prim_base, &mut prims, &sheared, t_min, &mut hit)
-                        && any_hit
-                    {
+                    let found = if BOXES {
+                        leaf_block4(columns, prim_base, &mut prims, &sheared, t_min, &mut hit)
+                    } else {
+                        leaf_group4(primitives, prim_base, &mut prims, &sheared, t_min, &mut hit)
+                    };
+                    if found && any_hit {
                         return hit;
                     }
                     continue;
@@ -537,6 +569,42 @@ fn leaf_group4(
     found
 }
 
+/// [`leaf_group4`] from the triangle columns: the four consecutive offsets of `prims`'
+/// highest set bit (an aligned block of four), its set bits among them cleared from it and
+/// those tested at once ([`intersect_triangles4_at`]; lanes whose bit is clear are tested
+/// too and ignored). `hit` becomes what the one-at-a-time loop would make it: the lanes are
+/// taken highest offset first, as that loop takes them, a lane replacing `hit` only if
+/// strictly closer. True if any of them was hit.
+#[inline(always)]
+fn leaf_block4(
+    columns: &TriangleColumns,
+    base: u32,
+    prims: &mut u32,
+    sheared: &ShearedRay,
+    t_min: f32,
+    hit: &mut Hit,
+) -> bool {
+    let lo = first_leading_bit(*prims) & !3;
+    let lanes = (*prims >> lo) & 0xf;
+    *prims &= !(0xf << lo);
+    let first = base + lo;
+    let [t, u, v] = intersect_triangles4_at(sheared, columns, first, t_min, hit.t);
+    let (t, u, v) = (t.to_array(), u.to_array(), v.to_array());
+    let mut found = false;
+    for j in (0..4).rev() {
+        if lanes >> j & 1 == 1 && t[j] < hit.t {
+            *hit = Hit {
+                t: t[j],
+                prim: first + j as u32,
+                u: u[j],
+                v: v[j],
+            };
+            found = true;
+        }
+    }
+    found
+}
+
 /// The closest hit with `t_min < t < t_max` in the wide tree `nodes` over `primitives`, or a
 /// miss (`prim == INVALID_INDEX`, `t == min(t_max, T_MAX_LIMIT)`).
 pub fn trace_closest(
@@ -571,9 +639,11 @@ impl GpuBvh {
         t_max: f32,
         any_hit: bool,
     ) -> Hit {
+        let (boxes, columns) = self.cpu_arrays();
         wide_walk_boxes::<SPHERES>(
             &self.wide_nodes,
-            self.wide_boxes(),
+            boxes,
+            columns,
             &self.primitives,
             ray,
             t_min,
