@@ -188,7 +188,7 @@ impl GpuBvh {
             triangle_count: triangles.len() as u32,
             sphere_count: spheres.len() as u32,
             stats: BvhStats::default(),
-            cpu_boxes: Default::default(),
+            cpu_arrays: Default::default(),
         };
         lap.next();
         bvh.stats = BvhStats::measure(&bvh, quality, max_depth, fallback, start);
@@ -292,7 +292,7 @@ fn build_wide(
             triangle_count: source.triangles.len() as u32,
             sphere_count: source.spheres.len() as u32,
             stats,
-            cpu_boxes: Default::default(),
+            cpu_arrays: Default::default(),
         },
         profile,
     ))
@@ -453,7 +453,7 @@ impl GpuBvh {
             triangle_count: source.len() as u32,
             sphere_count: 0,
             stats: BvhStats::default(),
-            cpu_boxes: Default::default(),
+            cpu_arrays: Default::default(),
         })
     }
 }

@@ -32,24 +32,25 @@ pub struct GpuBvh {
     pub sphere_count: u32,
     /// What the build produced and cost.
     pub stats: BvhStats,
-    /// The CPU's float copy of `wide_nodes`' child boxes ([`GpuBvh::wide_boxes`]), made on
-    /// the first CPU traversal (`Default::default()` when building a `GpuBvh` by hand).
-    pub cpu_boxes: CpuBoxes,
+    /// The arrays the CPU's wide walk reads instead of `wide_nodes` and `primitives`
+    /// ([`GpuBvh::wide_boxes`], [`GpuBvh::triangle_columns`]), made on the first CPU
+    /// traversal (`Default::default()` when building a `GpuBvh` by hand).
+    pub cpu_arrays: CpuArrays,
 }
 
 /// What the CPU's wide walk reads instead of the GPU's arrays, made from them on first use
 /// ([`GpuBvh::wide_boxes`], [`GpuBvh::triangle_columns`]): the nodes' [`WideBoxes`] (224
 /// bytes a node) and the primitives' [`TriangleColumns`] (36 bytes a primitive), which a
 /// GPU-only render never makes. Made once; a tree whose `wide_nodes` or `primitives` are
-/// changed after a CPU traversal needs [`CpuBoxes::default`] again.
+/// changed after a CPU traversal needs [`CpuArrays::default`] again.
 #[derive(Clone, Default)]
-pub struct CpuBoxes(OnceLock<(Vec<WideBoxes>, TriangleColumns)>);
+pub struct CpuArrays(OnceLock<(Vec<WideBoxes>, TriangleColumns)>);
 
-impl std::fmt::Debug for CpuBoxes {
+impl std::fmt::Debug for CpuArrays {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self.0.get() {
-            Some((b, _)) => write!(f, "CpuBoxes({} nodes)", b.len()),
-            None => write!(f, "CpuBoxes(not made)"),
+            Some((b, _)) => write!(f, "CpuArrays({} nodes)", b.len()),
+            None => write!(f, "CpuArrays(not made)"),
         }
     }
 }
@@ -76,17 +77,17 @@ impl GpuBvh {
     /// same thread and re-enter this initialisation). Call it before tracing in parallel to
     /// keep that first call out of the loop, as the CPU tracer does.
     pub fn wide_boxes(&self) -> &[WideBoxes] {
-        &self.cpu_arrays().0
+        &self.cpu_walk_arrays().0
     }
 
     /// [`GpuBvh::primitives`] as columns, for the CPU's wide walk's four-at-once triangle
     /// tests ([`TriangleColumns`]); made with [`GpuBvh::wide_boxes`].
     pub fn triangle_columns(&self) -> &TriangleColumns {
-        &self.cpu_arrays().1
+        &self.cpu_walk_arrays().1
     }
 
-    pub(crate) fn cpu_arrays(&self) -> &(Vec<WideBoxes>, TriangleColumns) {
-        self.cpu_boxes.0.get_or_init(|| {
+    pub(crate) fn cpu_walk_arrays(&self) -> &(Vec<WideBoxes>, TriangleColumns) {
+        self.cpu_arrays.0.get_or_init(|| {
             (
                 self.wide_nodes.iter().map(wide_boxes).collect(),
                 TriangleColumns::new(&self.primitives),

@@ -66,7 +66,7 @@ pub mod wide_traverse;
 #[doc(hidden)]
 pub use builder::BuildProfile;
 pub use error::BvhError;
-pub use gpu_bvh::GpuBvh;
+pub use gpu_bvh::{CpuArrays, GpuBvh};
 pub use gpu_types::{
     BvhLayout, BvhNode, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE, PRIM_TRIANGLE, Primitive,
     WIDE_STACK_SIZE, WideNode,

@@ -639,7 +639,7 @@ impl GpuBvh {
         t_max: f32,
         any_hit: bool,
     ) -> Hit {
-        let (boxes, columns) = self.cpu_arrays();
+        let (boxes, columns) = self.cpu_walk_arrays();
         wide_walk_boxes::<SPHERES>(
             &self.wide_nodes,
             boxes,

@@ -155,7 +155,7 @@ impl ResidentBvh {
             triangle_count: self.order.len() as u32,
             sphere_count: 0,
             stats: Default::default(),
-            cpu_boxes: Default::default(),
+            cpu_arrays: Default::default(),
         };
         bvh.stats = raylume_bvh::BvhStats::of_lbvh(&bvh, self.max_depth, start);
         Ok(bvh)
