@@ -403,27 +403,6 @@ static NO_COLUMNS: TriangleColumns = TriangleColumns {
     ],
 };
 
-/// [`wide_walk`] with the CPU's node test ([`intersect_wide_boxes`]; `boxes[i]` of
-/// `nodes[i]`) and, without `SPHERES`, its leaves' triangles read from `columns` four
-/// consecutive ones at a time ([`intersect_triangles4_at`]): the same hits.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-pub fn wide_walk_boxes<const SPHERES: bool>(
-    nodes: &[WideNode],
-    boxes: &[WideBoxes],
-    columns: &TriangleColumns,
-    primitives: &[Primitive],
-    ray: &Ray,
-    t_min: f32,
-    t_max: f32,
-    any_hit: bool,
-) -> Hit {
-    debug_assert_eq!(nodes.len(), boxes.len());
-    walk_with::<SPHERES, true>(
-        nodes, boxes, columns, primitives, ray, t_min, t_max, any_hit,
-    )
-}
-
 /// The walk of [`wide_walk`]; with `BOXES` its node test is [`intersect_wide_boxes`] on
 /// `boxes` (a const parameter, not a closure: a closure was left out of line, a call per
 /// node).
@@ -630,7 +609,10 @@ pub fn trace_any(
 }
 
 impl GpuBvh {
-    /// [`wide_walk`] over [`GpuBvh::wide_nodes`], for a tree of [`BvhLayout::Wide`](crate::BvhLayout::Wide).
+    /// [`wide_walk`]'s hits for a tree of [`BvhLayout::Wide`](crate::BvhLayout::Wide), found
+    /// the CPU's way: nodes tested by their float boxes ([`intersect_wide_boxes`]) and,
+    /// without `SPHERES`, triangles read four consecutive ones at a time from the columns
+    /// ([`intersect_triangles4_at`]), both from [`GpuBvh::cpu_arrays`].
     #[inline(always)]
     pub(crate) fn wide_walk<const SPHERES: bool>(
         &self,
@@ -640,7 +622,8 @@ impl GpuBvh {
         any_hit: bool,
     ) -> Hit {
         let (boxes, columns) = self.cpu_walk_arrays();
-        wide_walk_boxes::<SPHERES>(
+        debug_assert_eq!(self.wide_nodes.len(), boxes.len());
+        walk_with::<SPHERES, true>(
             &self.wide_nodes,
             boxes,
             columns,
