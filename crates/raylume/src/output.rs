@@ -114,21 +114,80 @@ pub fn save_png(
     })
 }
 
-/// Saves linear radiance as 32-bit float OpenEXR (no tone mapping).
+/// Saves linear radiance as 32-bit float OpenEXR (no tone mapping): run-length compressed
+/// 64x64 tiles (exr's fast lossless encoding, which `image` writes too), written in increasing
+/// order, so that the same pixels make the same bytes (the tiles compress on several threads;
+/// in the order they finished the file differed from run to run).
 pub fn save_exr(
     path: impl AsRef<Path>,
     pixels: &[[f32; 3]],
     width: u32,
     height: u32,
 ) -> Result<(), Error> {
+    use exr::prelude::{Encoding, Image, LineOrder, SpecificChannels, Vec2, WritableImage};
     let path = path.as_ref();
     check_dims(path, pixels, width, height)?;
-    let flat: Vec<f32> = pixels.iter().flatten().copied().collect();
-    let img = image::Rgb32FImage::from_raw(width, height, flat)
-        .ok_or_else(|| output_err(path, "pixel buffer size mismatch"))?;
-    write_atomically(path, |w| {
-        image::DynamicImage::ImageRgb32F(img)
-            .write_to(w, image::ImageFormat::OpenExr)
-            .map_err(|e| e.to_string())
+    let w = width as usize;
+    let encoding = Encoding {
+        line_order: LineOrder::Increasing,
+        ..Encoding::FAST_LOSSLESS
+    };
+    let image = Image::from_encoded_channels(
+        (w, height as usize),
+        encoding,
+        SpecificChannels::rgb(|p: Vec2<usize>| {
+            let [r, g, b] = pixels[p.y() * w + p.x()];
+            (r, g, b)
+        }),
+    );
+    write_atomically(path, |out| {
+        image.write().to_buffered(out).map_err(|e| e.to_string())
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The same radiance saves as the same bytes every time: the EXR's tiles are compressed on
+    /// several threads, and a file whose tiles were written in the order they finished (exr's
+    /// `LineOrder::Unspecified`, the `image` crate's default) differed from run to run while
+    /// its pixels did not, so a render could not be checked by its file's hash.
+    #[test]
+    fn exr_files_of_the_same_image_are_the_same_bytes() {
+        // Enough 64x64 tiles (10 x 8) for the compressing threads to finish out of order, with
+        // values that do not all run-length-compress alike.
+        let (w, h) = (640u32, 480u32);
+        let mut s = 0x2545_f491u32;
+        let pixels: Vec<[f32; 3]> = (0..w * h)
+            .map(|i| {
+                s ^= s << 13;
+                s ^= s >> 17;
+                s ^= s << 5;
+                let noise = (s >> 8) as f32 / (1u32 << 24) as f32;
+                let flat = if (i / 4096) % 3 == 0 { 0.0 } else { noise };
+                [flat, 0.5 * flat, (i % w) as f32 / w as f32]
+            })
+            .collect();
+        let dir = std::env::temp_dir().join(format!("raylume-exr-bytes-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let files: Vec<Vec<u8>> = (0..12)
+            .map(|k| {
+                let p = dir.join(format!("{k}.exr"));
+                save_exr(&p, &pixels, w, h).unwrap();
+                std::fs::read(&p).unwrap()
+            })
+            .collect();
+        let back = image::open(dir.join("0.exr")).unwrap().into_rgb32f();
+        std::fs::remove_dir_all(&dir).unwrap();
+        let same = files.iter().filter(|f| **f == files[0]).count();
+        assert_eq!(
+            same,
+            files.len(),
+            "{same} of {} files equal the first",
+            files.len()
+        );
+        let read: Vec<[f32; 3]> = back.pixels().map(|p| p.0).collect();
+        assert!(read == pixels, "the pixels read back differ");
+    }
 }
