@@ -90,3 +90,9 @@ fn trace_closest(ray: Ray, t_min: f32, t_max: f32) -> Hit {
 fn trace_any(ray: Ray, t_min: f32, t_max: f32) -> bool {
     return binary_walk(ray, t_min, t_max, true).prim != INVALID_INDEX;
 }
+
+// The walk with the query's kind a value: shade.wgsl's trace_ray traces a path's ray and its
+// shadow ray through one call.
+fn trace_query(ray: Ray, t_min: f32, t_max: f32, any_hit: bool) -> Hit {
+    return binary_walk(ray, t_min, t_max, any_hit);
+}

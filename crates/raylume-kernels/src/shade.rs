@@ -361,14 +361,20 @@ pub fn trace_ray<const F: u32>(
     };
     let sample_here = lit && g.scene.light_count > 0 && samples_lights::<F>(&mat) && !last;
     let sp = sampler_pixel(g.scene, pixel);
-    // The lights' contribution, then the emission: the order in which the wavefront's
-    // `next_event` stage adds the two when its `propagate` left them to it.
-    if sample_here {
+    // The hit is shaded before the light sample's shadow ray is traced (as the WGSL, which
+    // traces the path's ray and the shadow ray through one call of the walk): the light's
+    // contribution, the emission and the scattered ray; then the ray decides whether the
+    // light's term counts, and the two terms are added in the order of the `next_event`
+    // stage's sums (the light's, then the emission).
+    let light = sample_here.then(|| {
         let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT);
-        path.radiance +=
-            path.throughput * sample_lights::<F>(g, bvh, &surface, &mat, path.dir, rnd);
-    }
-    path.radiance += emitted::<F>(path, &surface, &mat, emission_weight);
+        let query = light_query::<F>(g, &surface, &mat, path.dir, rnd);
+        let light_in = query.map_or(Vec3::ZERO, |q| {
+            light_contribution::<F>(g, &q, &mat, path.dir)
+        });
+        (path.throughput, light_in, query)
+    });
+    let emission = emitted::<F>(path, &surface, &mat, emission_weight);
     let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_SCATTER);
     let pdf = shade_hit::<F>(g, path, &surface, &mat, rnd, last);
     path.mis_pdf = if sample_here { pdf } else { 0.0 };
@@ -378,6 +384,11 @@ pub fn trace_ray<const F: u32>(
             path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_ROULETTE).x,
         );
     }
+    if let Some((throughput_in, light_in, query)) = light {
+        let occluded = query.is_some_and(|q| trace_any::<F>(bvh, &q.ray, 0.0, q.t_max));
+        path.radiance += throughput_in * if occluded { Vec3::ZERO } else { light_in };
+    }
+    path.radiance += emission;
 }
 
 /// Russian roulette: the path goes on with probability `q = min(max throughput,
@@ -493,23 +504,58 @@ pub fn mis_weight(a: f32, b: f32) -> f32 {
     if a2 + b2 > 0.0 { a2 / (a2 + b2) } else { 0.0 }
 }
 
-/// Next-event estimation at a hit reached along `dir_in` on a material that
-/// [`samples_lights`]: the light of the list
-/// chosen by `rnd.z` (with probability `cdf - previous cdf`), a uniform point on it from
-/// `rnd.x, rnd.y` (see [`lobe_first`]), and a shadow ray to it; returns the reflected radiance it carries
-/// (`f cos θ_surface · L_e · cos θ_light · area / (distance² · p_select)`, [`eval_material`]), zero
-/// when the point is behind the surface (geometric or shading normal), the surface is behind a
-/// one-sided light, or the shadow ray is occluded; times
-/// its multiple-importance weight against the material's own sampling.
+/// A light sample's shadow ray and what its contribution needs besides the ray's verdict
+/// ([`light_query`]'s result; [`light_contribution`] reads it). A value type, not a buffer
+/// layout: the WGSL's `LightQuery` has the same fields and a `valid` flag where this is an
+/// `Option`.
+#[derive(Clone, Copy, Debug)]
+pub struct LightQuery {
+    /// The shadow ray, from the surface toward the sampled point or direction.
+    pub ray: Ray,
+    /// The shadow ray's reach: the light's distance times [`SHADOW_T_SCALE`], or [`T_MAX`]
+    /// toward the sky.
+    pub t_max: f32,
+    /// The direction toward the light.
+    pub wi: Vec3,
+    /// The shading normal on the incoming ray's side.
+    pub ns_facing: Vec3,
+    /// Whether the incoming ray meets the geometric normal's front.
+    pub front: bool,
+    /// The environment was chosen.
+    pub is_env: bool,
+    /// An emissive sphere was chosen.
+    pub is_sphere: bool,
+    /// The chosen light's index in the list.
+    pub light: u32,
+    /// The environment's guide cell of `origin` ([`environment_cell`]).
+    pub cell: u32,
+    /// Where a reflected ray leaves the surface ([`offset_ray_origin`]).
+    pub origin: Vec3,
+    /// The environment sample's pdf (0 for the other kinds).
+    pub env_pdf: f32,
+    /// The squared distance to the light's point (0 toward the sky).
+    pub dist2: f32,
+    /// The cosine at the light's point (1 for the sky and spheres).
+    pub cos_l: f32,
+    /// The chosen light's selection probability.
+    pub p_select: f32,
+}
+
+/// Next-event estimation's light sample at a hit reached along `dir_in` on a material that
+/// [`samples_lights`]: the light of the list chosen by `rnd.z` (with probability `cdf -
+/// previous cdf`), a uniform point on it from `rnd.x, rnd.y` (see [`lobe_first`]), and the
+/// shadow ray toward it; `None` when nothing can arrive (the point behind the surface,
+/// geometric or shading normal, the surface behind a one-sided light, an empty selection).
+/// The first half of [`sample_lights`]: [`trace_ray`] traces the ray after the hit's shading
+/// (the WGSL through one call of the walk for both its rays).
 #[inline]
-pub fn sample_lights<const F: u32>(
+pub fn light_query<const F: u32>(
     g: &Globals,
-    bvh: &GpuBvh,
     hit: &SurfaceHit,
     mat: &GpuMaterial,
     dir_in: Vec3,
     rnd: Vec4,
-) -> Vec3 {
+) -> Option<LightQuery> {
     // The first light whose running probability exceeds rnd.z (rnd.xy, the segment's 2D net
     // under the Sobol' samplers, places the point: `lobe_first`).
     let mut lo = 0u32;
@@ -541,10 +587,9 @@ pub fn sample_lights<const F: u32>(
     // The environment's guide cell: that of the origin a reflected ray leaves from, the same
     // point whose cell weighs such a ray if it escapes (`trace_ray`).
     let cell = environment_cell(g, origin);
-    let emission = Vec3::from(light.emission);
     // The light's direction, the shadow ray's reach and the side it leaves from, per kind;
     // then one shadow ray and one BSDF evaluation whatever the kind (as the WGSL, where that
-    // means one inlined traversal and material switch instead of two).
+    // means one material switch instead of two).
     let is_env = (has(F, Feature::ConstantEnvironment) || has(F, Feature::EnvironmentMap))
         && light.kind == LIGHT_ENVIRONMENT;
     let is_sphere = has(F, Feature::Spheres) && light.kind == LIGHT_SPHERE;
@@ -556,7 +601,7 @@ pub fn sample_lights<const F: u32>(
         env_pdf = pdf;
         side = light_side::<F>(mat, ns_facing, ng_facing, wi);
         if !(env_pdf > 0.0 && p_select > 0.0 && side != 0.0) {
-            return Vec3::ZERO;
+            return None;
         }
         (t_max, dist2, cos_l) = (T_MAX, 0.0, 1.0);
     } else {
@@ -564,12 +609,8 @@ pub fn sample_lights<const F: u32>(
         let point = if is_sphere {
             // A point of the cap seen from the origin: it faces the origin (cos_l = 1).
             let center = Vec3::from(light.p0);
-            let Some(point) =
-                sample_sphere_cap(center, light.e1[0], origin, Vec2::new(rnd.x, rnd.y))
-            else {
-                return Vec3::ZERO; // inside the sphere: only the scattered ray finds it
-            };
-            point
+            // Inside the sphere: only the scattered ray finds it.
+            sample_sphere_cap(center, light.e1[0], origin, Vec2::new(rnd.x, rnd.y))?
         } else {
             // Uniform on the triangle (the square-root parameterisation).
             let su = rnd.x.sqrt();
@@ -579,7 +620,7 @@ pub fn sample_lights<const F: u32>(
         let to = point - origin;
         dist2 = to.length_squared();
         if !(p_select > 0.0 && dist2 > 0.0) {
-            return Vec3::ZERO;
+            return None;
         }
         let dist = dist2.sqrt();
         wi = to / dist;
@@ -599,7 +640,7 @@ pub fn sample_lights<const F: u32>(
             }
         };
         if !(side != 0.0 && cos_l > 0.0) {
-            return Vec3::ZERO;
+            return None;
         }
     }
     // Through rough glass the shadow ray leaves from behind the surface (the distance to the
@@ -609,29 +650,77 @@ pub fn sample_lights<const F: u32>(
     } else {
         offset_ray_origin(hit, dir_in, -ng_facing)
     };
-    let shadow = Ray {
-        origin: from,
-        dir: wi,
-    };
-    if trace_any::<F>(bvh, &shadow, 0.0, t_max) {
-        return Vec3::ZERO;
-    }
-    let f = eval_material::<F>(g, mat, dir_in, ns_facing, wi, front);
-    if is_env {
+    Some(LightQuery {
+        ray: Ray {
+            origin: from,
+            dir: wi,
+        },
+        t_max,
+        wi,
+        ns_facing,
+        front,
+        is_env,
+        is_sphere,
+        light: lo,
+        cell,
+        origin,
+        env_pdf,
+        dist2,
+        cos_l,
+        p_select,
+    })
+}
+
+/// The reflected radiance a light sample ([`light_query`]) carries if its shadow ray is not
+/// blocked: `f cos θ_surface · L_e · cos θ_light · area / (distance² · p_select)`
+/// ([`eval_material`]; for the sky and spheres their own densities), times its
+/// multiple-importance weight against the material's own sampling.
+#[inline]
+pub fn light_contribution<const F: u32>(
+    g: &Globals,
+    q: &LightQuery,
+    mat: &GpuMaterial,
+    dir_in: Vec3,
+) -> Vec3 {
+    let f = eval_material::<F>(g, mat, dir_in, q.ns_facing, q.wi, q.front);
+    if q.is_env {
         let w = mis_weight(
-            g.scene.environment_select * environment_pdf::<F>(g, wi, cell),
+            g.scene.environment_select * environment_pdf::<F>(g, q.wi, q.cell),
             f.pdf,
         );
-        return f.value * environment_radiance::<F>(g, wi) * (w / (p_select * env_pdf));
+        return f.value * environment_radiance::<F>(g, q.wi) * (w / (q.p_select * q.env_pdf));
     }
-    if is_sphere {
+    let light = g.lights[q.light as usize];
+    let emission = Vec3::from(light.emission);
+    if q.is_sphere {
         let r = light.e1[0];
-        let cap_pdf = sphere_cap_pdf(Vec3::from(light.p0), r, origin);
+        let cap_pdf = sphere_cap_pdf(Vec3::from(light.p0), r, q.origin);
         let w = mis_weight(sphere_light_pdf(g, emission, r, cap_pdf), f.pdf);
-        return f.value * emission * (w / (p_select * cap_pdf));
+        return f.value * emission * (w / (q.p_select * cap_pdf));
     }
-    let w = mis_weight(light_pdf(g, emission, dist2, cos_l), f.pdf);
-    f.value * emission * (cos_l * light.area / (dist2 * p_select) * w)
+    let w = mis_weight(light_pdf(g, emission, q.dist2, q.cos_l), f.pdf);
+    f.value * emission * (q.cos_l * light.area / (q.dist2 * q.p_select) * w)
+}
+
+/// Next-event estimation at a hit reached along `dir_in` on a material that
+/// [`samples_lights`]: [`light_query`]'s sample, its shadow ray, and [`light_contribution`]
+/// if the ray is not blocked; zero when nothing arrives. What the wavefront's `next_event`
+/// stage computes in one piece.
+#[inline]
+pub fn sample_lights<const F: u32>(
+    g: &Globals,
+    bvh: &GpuBvh,
+    hit: &SurfaceHit,
+    mat: &GpuMaterial,
+    dir_in: Vec3,
+    rnd: Vec4,
+) -> Vec3 {
+    match light_query::<F>(g, hit, mat, dir_in, rnd) {
+        Some(q) if !trace_any::<F>(bvh, &q.ray, 0.0, q.t_max) => {
+            light_contribution::<F>(g, &q, mat, dir_in)
+        }
+        _ => Vec3::ZERO,
+    }
 }
 
 /// The WGSL source of the functions above.

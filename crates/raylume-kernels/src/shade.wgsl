@@ -119,67 +119,101 @@ fn path_rand4_at(sp: SobolPixel, pixel: u32, sample: u32, bounce: u32, dim: u32)
 // nee_records at queue slot `slot` (wavefront.wgsl `store_nee_record`); `slot` is unused
 // otherwise.
 fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32, slot: u32) -> bool {
-    let hit = trace_closest(Ray((*path).origin, (*path).dir), 0.0, T_MAX);
-    if (hit.prim == INVALID_INDEX) {
-        // shade.rs: weighed against the shadow ray toward the environment.
-        var w_env = 1.0;
-        if (NEXT_EVENT && (*path).mis_pdf > 0.0 && scene.environment_select > 0.0) {
-            w_env = mis_weight((*path).mis_pdf, scene.environment_select * environment_pdf((*path).dir, environment_cell((*path).origin)));
-        }
-        (*path).radiance += (*path).throughput * environment_radiance((*path).dir) * w_env;
-        (*path).alive = false;
-        return false;
-    }
-    let surface = surface_at(hit, (*path).origin, (*path).dir);
-    let mat = material_at(surface);
-    let last = depth >= scene.max_bounces;
-    let sp = sampler_pixel(pixel);
-    // An emissive triangle hit by a direction sampled where the lights were sampled too:
-    // weigh the scattered ray's estimate against the shadow ray's (shade.rs).
-    var emission_weight = 1.0;
+    // The path's ray and then, where the lights are sampled, the shadow ray go through one
+    // call of the walk (the driver inlines each call: one copy of the traversal, where two
+    // calls compiled slower and, with the shading's state live across the second, traced
+    // slower). The hit is shaded before the shadow ray is traced (as shade.rs): the light
+    // sample's contribution, the emission and the scattered ray; only the two terms wait
+    // across the walk, to be added in the order of the next_event stage's sums (the light's,
+    // if its ray is not blocked, then the emission).
+    var ray = Ray((*path).origin, (*path).dir);
+    var t_max = T_MAX;
+    var shadow = false;
+    var occluded = false;
     var sample_here = false;
+    var throughput_in = vec3<f32>(0.0);
+    var light_in = vec3<f32>(0.0);
+    var emission = vec3<f32>(0.0);
+    loop {
+        let hit = trace_query(ray, 0.0, t_max, shadow);
+        if (shadow) {
+            occluded = hit.prim != INVALID_INDEX;
+            break;
+        }
+        if (hit.prim == INVALID_INDEX) {
+            // shade.rs: weighed against the shadow ray toward the environment.
+            var w_env = 1.0;
+            if (NEXT_EVENT && (*path).mis_pdf > 0.0 && scene.environment_select > 0.0) {
+                w_env = mis_weight((*path).mis_pdf, scene.environment_select * environment_pdf((*path).dir, environment_cell((*path).origin)));
+            }
+            (*path).radiance += (*path).throughput * environment_radiance((*path).dir) * w_env;
+            (*path).alive = false;
+            return false;
+        }
+        let surface = surface_at(hit, (*path).origin, (*path).dir);
+        let mat = material_at(surface);
+        let last = depth >= scene.max_bounces;
+        let sp = sampler_pixel(pixel);
+        var emission_weight = 1.0;
+        var lq: LightQuery;
 //#if emission|constant_environment|environment_map
-    // A plain render's pipelines (NEXT_EVENT false, gpu::PathVariant) hold none of this: its
-    // own `if`, which the override makes constant (tests/compose.rs follows it).
-    if (NEXT_EVENT) {
-        if ((HAS_EMISSION || HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && (HAS_DIFFUSE || HAS_PLASTIC || HAS_ROUGH_METAL || HAS_ROUGH_GLASS)) {
-            let prim = bvh_primitives[hit.prim];
-            if ((*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_TRIANGLE) {
-                let n = cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz);
-                let cos_l = abs(dot(n, (*path).dir)) / length(n);
-                emission_weight = mis_weight((*path).mis_pdf, light_pdf(mat.emission, hit.t * hit.t, cos_l));
-            }
+        if (NEXT_EVENT) {
+            if ((HAS_EMISSION || HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && (HAS_DIFFUSE || HAS_PLASTIC || HAS_ROUGH_METAL || HAS_ROUGH_GLASS)) {
+                let prim = bvh_primitives[hit.prim];
+                if ((*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_TRIANGLE) {
+                    let n = cross(prim.b.xyz - prim.a.xyz, prim.c.xyz - prim.a.xyz);
+                    let cos_l = abs(dot(n, (*path).dir)) / length(n);
+                    emission_weight = mis_weight((*path).mis_pdf, light_pdf(mat.emission, hit.t * hit.t, cos_l));
+                }
 //#if spheres
-            if (HAS_SPHERES && (*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_SPHERE) {
-                let cap_pdf = sphere_cap_pdf(prim.a.xyz, prim.a.w, (*path).origin);
-                emission_weight = mis_weight((*path).mis_pdf, sphere_light_pdf(mat.emission, prim.a.w, cap_pdf));
-            }
+                if (HAS_SPHERES && (*path).mis_pdf > 0.0 && bitcast<u32>(prim.b.w) == PRIM_SPHERE) {
+                    let cap_pdf = sphere_cap_pdf(prim.a.xyz, prim.a.w, (*path).origin);
+                    emission_weight = mis_weight((*path).mis_pdf, sphere_light_pdf(mat.emission, prim.a.w, cap_pdf));
+                }
 //#endif
-            sample_here = scene.light_count > 0u && samples_lights(mat) && !last;
-            if (sample_here) {
-                let rnd_light = path_rand4_at(sp, pixel, sample, depth, DIM_LIGHT);
-                if (!DEFER_NEE) {
-                    (*path).radiance += (*path).throughput * sample_lights(surface, mat, (*path).dir, rnd_light);
-                } else {
-                    // next_event adds the light sample, then the emission (below), to the
-                    // radiance as it is now: the sums of the other schedules, in their order.
-                    store_nee_record(slot, NeeRecord(surface.position, surface.offset, surface.geometric_normal,
-                        surface.back_offset, surface.shading_normal, surface.material, mat.color, NEE_PENDING,
-                        (*path).dir, 0u, (*path).throughput, 0u, rnd_light,
-                        emitted(*path, surface, mat, emission_weight), 0u));
+                sample_here = scene.light_count > 0u && samples_lights(mat) && !last;
+                if (sample_here) {
+                    let rnd_light = path_rand4_at(sp, pixel, sample, depth, DIM_LIGHT);
+                    if (!DEFER_NEE) {
+                        throughput_in = (*path).throughput;
+                        lq = light_query(surface, mat, (*path).dir, rnd_light);
+                        if (lq.valid) {
+                            light_in = light_contribution(lq, mat, (*path).dir);
+                        }
+                    } else {
+                        // next_event adds the light sample, then the emission (below), to the
+                        // radiance as it is now: the sums of the other schedules, in their order.
+                        store_nee_record(slot, NeeRecord(surface.position, surface.offset, surface.geometric_normal,
+                            surface.back_offset, surface.shading_normal, surface.material, mat.color, NEE_PENDING,
+                            (*path).dir, 0u, (*path).throughput, 0u, rnd_light,
+                            emitted(*path, surface, mat, emission_weight), 0u));
+                    }
                 }
             }
         }
-    }
 //#endif
-    if (!(DEFER_NEE && sample_here)) {
-        (*path).radiance += emitted(*path, surface, mat, emission_weight);
+        if (!(DEFER_NEE && sample_here)) {
+            emission = emitted(*path, surface, mat, emission_weight);
+        }
+        let rnd = path_rand4_at(sp, pixel, sample, depth, DIM_SCATTER);
+        let pdf = shade_hit(path, surface, mat, rnd, last);
+        (*path).mis_pdf = select(0.0, pdf, sample_here);
+        if ((*path).alive && depth >= scene.rr_depth) {
+            russian_roulette(path, path_rand4_at(sp, pixel, sample, depth, DIM_ROULETTE).x);
+        }
+        if (lq.valid) {
+            ray = lq.ray;
+            t_max = lq.t_max;
+            shadow = true;
+            continue;
+        }
+        break;
     }
-    let rnd = path_rand4_at(sp, pixel, sample, depth, DIM_SCATTER);
-    let pdf = shade_hit(path, surface, mat, rnd, last);
-    (*path).mis_pdf = select(0.0, pdf, sample_here);
-    if ((*path).alive && depth >= scene.rr_depth) {
-        russian_roulette(path, path_rand4_at(sp, pixel, sample, depth, DIM_ROULETTE).x);
+    if (sample_here && !DEFER_NEE) {
+        (*path).radiance += throughput_in * select(light_in, vec3<f32>(0.0), occluded);
+    }
+    if (!(DEFER_NEE && sample_here)) {
+        (*path).radiance += emission;
     }
     return sample_here && DEFER_NEE;
 }
@@ -263,10 +297,35 @@ fn mis_weight(a: f32, b: f32) -> f32 {
     return 0.0;
 }
 
-// Next-event estimation at a diffuse hit (shade.rs `sample_lights`): a point (from rnd.xy) on
-// the light chosen by rnd.z, a shadow ray to it, the reflected radiance it carries. The BSDF
-// samplers likewise get rnd.zxy (shade.rs `lobe_first`).
-fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4<f32>) -> vec3<f32> {
+// shade.rs `LightQuery`: a light sample's shadow ray and what its contribution needs besides
+// the ray's verdict; `valid` false where shade.rs has `None`.
+struct LightQuery {
+    valid: bool,
+    ray: Ray,
+    t_max: f32,
+    wi: vec3<f32>,
+    ns_facing: vec3<f32>,
+    front: bool,
+    is_env: bool,
+    is_sphere: bool,
+    light: u32,
+    cell: u32,
+    origin: vec3<f32>,
+    env_pdf: f32,
+    dist2: f32,
+    cos_l: f32,
+    p_select: f32,
+}
+
+fn no_light_query() -> LightQuery {
+    return LightQuery(false, Ray(vec3<f32>(0.0), vec3<f32>(0.0, 0.0, 1.0)), 0.0, vec3<f32>(0.0), vec3<f32>(0.0),
+        false, false, false, 0u, 0u, vec3<f32>(0.0), 0.0, 0.0, 0.0, 0.0);
+}
+
+// Next-event estimation's light sample at a hit (shade.rs `light_query`): a point (from
+// rnd.xy) on the light chosen by rnd.z and the shadow ray toward it. The BSDF samplers likewise
+// get rnd.zxy (shade.rs `lobe_first`).
+fn light_query(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4<f32>) -> LightQuery {
     var lo = 0u;
     var hi = scene.light_count - 1u;
     while (lo < hi) {
@@ -288,11 +347,7 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
     let ng_facing = select(-ng, ng, front);
     let ns_facing = select(-hit.shading_normal, hit.shading_normal, front);
     let origin = offset_ray_origin(hit, dir_in, ng_facing);
-    // shade.rs: the environment's guide cell, that of the origin a reflected ray leaves from.
     let cell = environment_cell(origin);
-    // The light's direction, the shadow ray's reach and the side it leaves from, per kind;
-    // then one shadow ray and one BSDF evaluation whatever the kind (one inlined traversal and
-    // material switch instead of two: the pipeline compiles faster).
     let is_env = (HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && light.kind == LIGHT_ENVIRONMENT;
     let is_sphere = HAS_SPHERES && light.kind == LIGHT_SPHERE;
     var wi: vec3<f32>;
@@ -302,13 +357,12 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
     var dist2 = 0.0;
     var cos_l = 1.0;
     if (is_env) {
-        // A direction toward the sky; the shadow ray must escape the scene.
         let es = sample_environment(rnd.xy, cell);
         wi = es.dir;
         env_pdf = es.pdf;
         side = light_side(mat, ns_facing, ng_facing, wi);
         if (!(env_pdf > 0.0 && p_select > 0.0 && side != 0.0)) {
-            return vec3<f32>(0.0);
+            return no_light_query();
         }
     } else {
         let su = sqrt(rnd.x);
@@ -317,7 +371,7 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
         if (is_sphere) {
             let cap = sample_sphere_cap(light.p0, light.e1.x, origin, rnd.xy);
             if (!cap.valid) {
-                return vec3<f32>(0.0);
+                return no_light_query();
             }
             point = cap.point;
         }
@@ -325,42 +379,55 @@ fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4
         let to = point - origin;
         dist2 = dot(to, to);
         if (!(p_select > 0.0 && dist2 > 0.0)) {
-            return vec3<f32>(0.0);
+            return no_light_query();
         }
         let dist = sqrt(dist2);
         wi = to / dist;
         t_max = dist * SHADOW_T_SCALE;
         side = light_side(mat, ns_facing, ng_facing, wi);
         if (!is_sphere) {
-            // A one-sided light sends nothing behind its front face (e1 x e2).
             let nl = cross(light.e1, light.e2);
             let cos_front = -dot(nl, wi) / length(nl);
             cos_l = select(cos_front, abs(cos_front), light.two_sided != 0u);
         }
         if (!(side != 0.0 && cos_l > 0.0)) {
-            return vec3<f32>(0.0);
+            return no_light_query();
         }
     }
-    // Through rough glass the shadow ray leaves from behind the surface.
     var shadow_from = origin;
     if (side < 0.0) {
         shadow_from = offset_ray_origin(hit, dir_in, -ng_facing);
     }
-    if (trace_any(Ray(shadow_from, wi), 0.0, t_max)) {
-        return vec3<f32>(0.0);
+    return LightQuery(true, Ray(shadow_from, wi), t_max, wi, ns_facing, front, is_env, is_sphere, lo, cell,
+        origin, env_pdf, dist2, cos_l, p_select);
+}
+
+// shade.rs `light_contribution`: the reflected radiance the sample carries if its shadow ray
+// is not blocked, times its MIS weight.
+fn light_contribution(q: LightQuery, mat: GpuMaterial, dir_in: vec3<f32>) -> vec3<f32> {
+    let f = eval_material(mat, dir_in, q.ns_facing, q.wi, q.front);
+    if (q.is_env) {
+        let we = mis_weight(scene.environment_select * environment_pdf(q.wi, q.cell), f.pdf);
+        return f.value * environment_radiance(q.wi) * (we / (q.p_select * q.env_pdf));
     }
-    let f = eval_material(mat, dir_in, ns_facing, wi, front);
-    if (is_env) {
-        let we = mis_weight(scene.environment_select * environment_pdf(wi, cell), f.pdf);
-        return f.value * environment_radiance(wi) * (we / (p_select * env_pdf));
-    }
+    let light = lights[q.light];
 //#if spheres
-    if (is_sphere) {
-        let cap_pdf = sphere_cap_pdf(light.p0, light.e1.x, origin);
+    if (q.is_sphere) {
+        let cap_pdf = sphere_cap_pdf(light.p0, light.e1.x, q.origin);
         let ws = mis_weight(sphere_light_pdf(light.emission, light.e1.x, cap_pdf), f.pdf);
-        return f.value * light.emission * (ws / (p_select * cap_pdf));
+        return f.value * light.emission * (ws / (q.p_select * cap_pdf));
     }
 //#endif
-    let w = mis_weight(light_pdf(light.emission, dist2, cos_l), f.pdf);
-    return f.value * light.emission * (cos_l * light.area / (dist2 * p_select) * w);
+    let w = mis_weight(light_pdf(light.emission, q.dist2, q.cos_l), f.pdf);
+    return f.value * light.emission * (q.cos_l * light.area / (q.dist2 * q.p_select) * w);
+}
+
+// shade.rs `sample_lights`: the light sample, its shadow ray and its contribution in one
+// piece (the wavefront's next_event stage).
+fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4<f32>) -> vec3<f32> {
+    let q = light_query(hit, mat, dir_in, rnd);
+    if (!q.valid || trace_any(q.ray, 0.0, q.t_max)) {
+        return vec3<f32>(0.0);
+    }
+    return light_contribution(q, mat, dir_in);
 }

@@ -165,16 +165,27 @@ fn compose_rejects_open_blocks() {
     compose("//#if glass\nx\n", Features::all());
 }
 
-/// The functions `entry` can reach once the overrides are set to `constants` (naga's own
-/// processing, as wgpu does it at pipeline creation): calls in the branches of an `if` whose
-/// condition the overrides make a constant are followed into the taken branch only. (A
-/// condition combined with run-time values by `&&` is lowered through a local variable and
-/// counts as unknown: the WGSL gives `NEXT_EVENT` an `if` of its own.)
+/// The functions `entry` can reach once the overrides are set to `constants`: [`calls`]'
+/// names.
 fn reachable(
     module: &naga::Module,
     constants: &[(&str, f64)],
     entry: &str,
 ) -> std::collections::BTreeSet<String> {
+    calls(module, constants, entry).into_keys().collect()
+}
+
+/// How many times each function is called from `entry` once the overrides are set to
+/// `constants` (naga's own processing, as wgpu does it at pipeline creation), counted along
+/// every chain of calls: the copies a driver that inlines every call compiles. Calls in the
+/// branches of an `if` whose condition the overrides make a constant are followed into the
+/// taken branch only. (A condition combined with run-time values by `&&` is lowered through a
+/// local variable and counts as unknown: the WGSL gives `NEXT_EVENT` an `if` of its own.)
+fn calls(
+    module: &naga::Module,
+    constants: &[(&str, f64)],
+    entry: &str,
+) -> std::collections::BTreeMap<String, usize> {
     let info = naga::valid::Validator::new(
         naga::valid::ValidationFlags::all(),
         naga::valid::Capabilities::all(),
@@ -211,7 +222,7 @@ fn reachable(
         f: &naga::Function,
         block: &naga::Block,
         known: &dyn Fn(&naga::Function, naga::Handle<naga::Expression>) -> Option<bool>,
-        seen: &mut std::collections::BTreeSet<String>,
+        seen: &mut std::collections::BTreeMap<String, usize>,
     ) {
         for s in block.iter() {
             match s {
@@ -241,10 +252,8 @@ fn reachable(
                 }
                 naga::Statement::Call { function, .. } => {
                     let g = &module.functions[*function];
-                    let name = g.name.clone().unwrap_or_default();
-                    if seen.insert(name) {
-                        walk(module, g, &g.body, known, seen);
-                    }
+                    *seen.entry(g.name.clone().unwrap_or_default()).or_default() += 1;
+                    walk(module, g, &g.body, known, seen);
                 }
                 _ => {}
             }
@@ -255,9 +264,49 @@ fn reachable(
         .iter()
         .find(|ep| ep.name == entry)
         .unwrap();
-    let mut seen = std::collections::BTreeSet::new();
+    let mut seen = std::collections::BTreeMap::new();
     walk(&module, &ep.function, &ep.function.body, &known, &mut seen);
     seen
+}
+
+/// Every path tracing pipeline holds one traversal: `trace_ray` sends the path's ray and the
+/// shadow ray through one call of the walk, and a driver inlines each call (on the H200 the
+/// living room's megakernel with a second copy for the shadow ray compiled ~0.1 s slower and
+/// traced its NEE paths 8 % slower). The next_event stage's one call is its shadow ray's.
+#[test]
+fn each_path_tracing_pipeline_inlines_one_walk() {
+    for (layout, walk) in [
+        (BvhLayout::Wide, "wide_walk"),
+        (BvhLayout::Binary, "binary_walk"),
+    ] {
+        let module = validate(Features::all(), layout);
+        for estimator in [Estimator::Plain, Estimator::Nee] {
+            for stage in [false, true] {
+                let variant =
+                    PathVariant::of(estimator, Sampler::Sobol).with_next_event_stage(stage);
+                for entry in TracerPipelines::entries(Schedule::Wavefront, variant)
+                    .iter()
+                    .chain(&["trace_paths", "trace_paths_persistent"])
+                    .filter(|e| {
+                        ["propagate", "next_event"].contains(e) || e.starts_with("trace_paths")
+                    })
+                {
+                    let n = calls(
+                        &module,
+                        &entry_constants(Features::all(), entry, variant),
+                        entry,
+                    )
+                    .get(walk)
+                    .copied()
+                    .unwrap_or(0);
+                    assert_eq!(
+                        n, 1,
+                        "{layout:?} {entry} for {variant:?}: {n} copies of `{walk}`"
+                    );
+                }
+            }
+        }
+    }
 }
 
 /// A plain render's path tracing pipelines (`NEXT_EVENT` false: `gpu::PathVariant`) cannot
@@ -280,7 +329,7 @@ fn plain_pipelines_reach_no_light_sampling() {
             // With the next_event stage the wavefront's propagate leaves the light samples to
             // it (below); the MIS weight of the emission it hits stays.
             let deferred = entry == "propagate" && stage;
-            for f in ["sample_lights", "eval_material"] {
+            for f in ["light_query", "light_contribution", "eval_material"] {
                 assert_eq!(
                     seen.contains(f),
                     want && !deferred,
@@ -326,7 +375,7 @@ fn the_wavefront_compiles_light_sampling_apart() {
         )
     };
     let (propagate, next_event) = (seen("propagate"), seen("next_event"));
-    for f in ["trace_closest", "shade_hit", "sample_rough_plastic"] {
+    for f in ["trace_query", "shade_hit", "sample_rough_plastic"] {
         assert!(propagate.contains(f), "propagate: `{f}`: {propagate:?}");
         assert!(!next_event.contains(f), "next_event: `{f}`: {next_event:?}");
     }
