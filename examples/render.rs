@@ -69,8 +69,9 @@ struct Args {
     /// once, so with `auto` it runs what `off` runs and says so.)
     #[arg(long, default_value = "off")]
     reorder: ReorderPolicy,
-    /// GPU schedule: megakernel (bounces in registers, the default), persistent (the
-    /// megakernel with path regeneration) or wavefront (the paper's kernels).
+    /// GPU schedule: persistent (the default: bounces in registers, a thread starting the
+    /// next sample when its path ends), megakernel (a thread a sample) or wavefront (the
+    /// paper's kernels).
     #[arg(long)]
     schedule: Option<Schedule>,
     /// BVH node layout: wide (eight children a node, compressed; the default) or binary.

@@ -241,7 +241,6 @@ impl std::str::FromStr for Estimator {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Schedule {
     /// `trace_paths`: one thread per pixel sample, all bounces in registers.
-    #[default]
     Megakernel,
     /// The paper's: `raygen`, then one `propagate` launch per bounce over the live rays.
     Wavefront,
@@ -249,7 +248,10 @@ pub enum Schedule {
     /// [`PERSISTENT_THREADS`] threads take pixel samples from a counter one bounce at a time,
     /// so a thread whose path ended starts the next sample while the other lanes of its warp
     /// trace on. The same paths and image as [`Schedule::Megakernel`] (the CPU mirror runs
-    /// both alike).
+    /// both alike). The default: on the H200 it traced every project scene 7-31 % faster
+    /// than the megakernel, NEE or plain, at 10, 100 and 1,000 spp (`docs/RESULTS.md`); on a
+    /// software adapter it runs one sample a thread (the megakernel's work, in scanlines).
+    #[default]
     Persistent,
 }
 

@@ -445,8 +445,10 @@ pub struct Tracer {
     /// The top bits of the 30-bit key that `On` and `Auto` sort by (1..=30, default 30: the
     /// paper's whole key; 16 takes half the radix passes). See [`Reorder::key_bits`].
     pub reorder_key_bits: u32,
-    /// The GPU schedule (default [`Schedule::Megakernel`]: all bounces in registers;
-    /// [`Schedule::Wavefront`]: the paper's kernels, one per bounce). The CPU ignores it.
+    /// The GPU schedule (default [`Schedule::Persistent`]: all bounces in registers, a thread
+    /// starting the next sample when its path ends; [`Schedule::Megakernel`]: a thread a
+    /// sample; [`Schedule::Wavefront`]: the paper's kernels, one per bounce). The CPU ignores
+    /// it.
     pub schedule: Schedule,
     /// Whether the wavefront takes its light samples (NEE) in a `next_event` stage of their
     /// own after each bounce's `propagate`, two pipelines the driver compiles side by side
