@@ -63,8 +63,9 @@ struct Args {
     /// 30 = the paper's whole key, 4 radix passes; 16 = 2 passes). `auto` uses the first.
     #[arg(long, default_value = "30", value_delimiter = ',')]
     reorder_bits: Vec<u32>,
-    /// Comma-separated schedules `off` is timed with (megakernel, wavefront, persistent).
-    #[arg(long, default_value = "megakernel", value_delimiter = ',')]
+    /// Comma-separated schedules `off` is timed with (persistent, megakernel, wavefront);
+    /// the library's default (persistent) when not given.
+    #[arg(long, default_value = "persistent", value_delimiter = ',')]
     schedule: Vec<Schedule>,
     /// Comma-separated BVH layouts every configuration is timed with (wide, binary); the
     /// library's default (wide) when not given.
