@@ -329,7 +329,7 @@ pub const NEE_ENDED: u32 = 2;
 
 /// Next-event estimation at one vertex of a wavefront ray, deferred by `propagate` to the
 /// `next_event` stage that runs after it (its own pipeline, compiled beside `propagate`'s):
-/// what `sample_lights` reads of the hit (`SurfaceHit` without its uv), the material's
+/// what `light_query` reads of the hit (`SurfaceHit` without its uv), the material's
 /// textured color, the incoming direction, the throughput before the vertex scatters and the
 /// light's random numbers, and the vertex's emission term, which the stage adds after the
 /// light sample (the order of the other schedules' sums). One per slot of the bounce's ray queue.

@@ -10,7 +10,7 @@
 //! uniforms ask for it (`rr_depth`, [`russian_roulette`]). With the light
 //! list, a hit on a material [`samples_lights`] (diffuse, rough metal, plastic, rough glass)
 //! also sends a
-//! shadow ray to a point on an emitter of the list ([`sample_lights`]): uniform on an emissive
+//! shadow ray to a point on an emitter of the list ([`light_query`], [`light_contribution`]): uniform on an emissive
 //! triangle, or uniform in the cone of directions of an emissive sphere's visible cap
 //! ([`crate::sampling::sample_sphere_cap`]), so that small bright spheres are found at a few
 //! samples. The two estimates of the light an emitter sends there,
@@ -229,7 +229,7 @@ pub fn shade_hit<const F: u32>(
 /// a segment's four: the direction from `(rnd.x, rnd.y)`, the first pair, which the Sobol'
 /// samplers make a (0, 2)-net over a pixel's samples, and the lobe from `rnd.z` (the next
 /// pair's first number). `(rnd.y, rnd.z)` would pair numbers of two nets, stratified each on
-/// its own axis but not together. Light sampling follows the same rule (`sample_lights`:
+/// its own axis but not together. Light sampling follows the same rule ([`light_query`]:
 /// the light from `rnd.z`, the point or direction from `rnd.xy`).
 #[inline]
 pub fn lobe_first(rnd: Vec4) -> Vec3 {
@@ -478,7 +478,7 @@ pub fn eval_material<const F: u32>(
     bsdf_eval_zero()
 }
 
-/// The solid-angle pdf with which [`sample_lights`] picks a direction toward a point of a light
+/// The solid-angle pdf with which [`light_query`] picks a direction toward a point of a light
 /// emitting `emission`, `dist2` away, seen at `cos_l` to its normal: its selection probability
 /// (area times luminance over the list's total) over its area, converted to solid angle. The
 /// area cancels.
@@ -487,7 +487,7 @@ pub fn light_pdf(g: &Globals, emission: Vec3, dist2: f32, cos_l: f32) -> f32 {
     emission.dot(Vec3::from(LUMINANCE)) * dist2 / (g.scene.light_power * cos_l)
 }
 
-/// The solid-angle pdf with which [`sample_lights`] picks a direction toward a point of an
+/// The solid-angle pdf with which [`light_query`] picks a direction toward a point of an
 /// emissive sphere of radius `r` emitting `emission`, seen from a point where the sphere's
 /// cone has pdf `cap_pdf` ([`sphere_cap_pdf`], 0 inside the sphere): its selection
 /// probability (`4 π r²` times luminance over the list's total) times `cap_pdf`.
@@ -546,8 +546,8 @@ pub struct LightQuery {
 /// previous cdf`), a uniform point on it from `rnd.x, rnd.y` (see [`lobe_first`]), and the
 /// shadow ray toward it; `None` when nothing can arrive (the point behind the surface,
 /// geometric or shading normal, the surface behind a one-sided light, an empty selection).
-/// The first half of [`sample_lights`]: [`trace_ray`] traces the ray after the hit's shading
-/// (the WGSL through one call of the walk for both its rays).
+/// [`trace_ray`] traces the ray after the hit's shading (the WGSL through one call of the walk
+/// for both its rays), and [`light_contribution`] says what arrives if it is not blocked.
 #[inline]
 pub fn light_query<const F: u32>(
     g: &Globals,
@@ -700,27 +700,6 @@ pub fn light_contribution<const F: u32>(
     }
     let w = mis_weight(light_pdf(g, emission, q.dist2, q.cos_l), f.pdf);
     f.value * emission * (q.cos_l * light.area / (q.dist2 * q.p_select) * w)
-}
-
-/// Next-event estimation at a hit reached along `dir_in` on a material that
-/// [`samples_lights`]: [`light_query`]'s sample, its shadow ray, and [`light_contribution`]
-/// if the ray is not blocked; zero when nothing arrives. What the wavefront's `next_event`
-/// stage computes in one piece.
-#[inline]
-pub fn sample_lights<const F: u32>(
-    g: &Globals,
-    bvh: &GpuBvh,
-    hit: &SurfaceHit,
-    mat: &GpuMaterial,
-    dir_in: Vec3,
-    rnd: Vec4,
-) -> Vec3 {
-    match light_query::<F>(g, hit, mat, dir_in, rnd) {
-        Some(q) if !trace_any::<F>(bvh, &q.ray, 0.0, q.t_max) => {
-            light_contribution::<F>(g, &q, mat, dir_in)
-        }
-        _ => Vec3::ZERO,
-    }
 }
 
 /// The WGSL source of the functions above.

@@ -154,9 +154,13 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
         let mat = material_at(surface);
         let last = depth >= scene.max_bounces;
         let sp = sampler_pixel(pixel);
+        // An emissive triangle hit by a direction sampled where the lights were sampled too:
+        // weigh the scattered ray's estimate against the shadow ray's (shade.rs).
         var emission_weight = 1.0;
         var lq: LightQuery;
 //#if emission|constant_environment|environment_map
+        // A plain render's pipelines (NEXT_EVENT false, gpu::PathVariant) hold none of this:
+        // its own `if`, which the override makes constant (tests/compose.rs follows it).
         if (NEXT_EVENT) {
             if ((HAS_EMISSION || HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && (HAS_DIFFUSE || HAS_PLASTIC || HAS_ROUGH_METAL || HAS_ROUGH_GLASS)) {
                 let prim = bvh_primitives[hit.prim];
@@ -420,14 +424,4 @@ fn light_contribution(q: LightQuery, mat: GpuMaterial, dir_in: vec3<f32>) -> vec
 //#endif
     let w = mis_weight(light_pdf(light.emission, q.dist2, q.cos_l), f.pdf);
     return f.value * light.emission * (q.cos_l * light.area / (q.dist2 * q.p_select) * w);
-}
-
-// shade.rs `sample_lights`: the light sample, its shadow ray and its contribution in one
-// piece (the wavefront's next_event stage).
-fn sample_lights(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4<f32>) -> vec3<f32> {
-    let q = light_query(hit, mat, dir_in, rnd);
-    if (!q.valid || trace_any(q.ray, 0.0, q.t_max)) {
-        return vec3<f32>(0.0);
-    }
-    return light_contribution(q, mat, dir_in);
 }

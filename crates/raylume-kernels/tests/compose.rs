@@ -380,7 +380,8 @@ fn the_wavefront_compiles_light_sampling_apart() {
         assert!(!next_event.contains(f), "next_event: `{f}`: {next_event:?}");
     }
     for f in [
-        "sample_lights",
+        "light_query",
+        "light_contribution",
         "trace_any",
         "eval_material",
         "eval_rough_plastic",

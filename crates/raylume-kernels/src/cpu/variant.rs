@@ -1,6 +1,6 @@
 //! The CPU mirror specialised on a scene's features, as the GPU's pipelines are.
 //!
-//! The per-bounce functions (`shade::trace_ray`, `shade_hit`, `sample_lights`,
+//! The per-bounce functions (`shade::trace_ray`, `shade_hit`, `light_query`,
 //! `surface::surface_at`, ...) take the feature set as a const generic `F` (the bits of
 //! [`Features`]) and test [`has`] where the WGSL tests its `HAS_*` override constants, so that
 //! the variant compiled for a scene without a feature holds none of its code: the compiler

@@ -158,15 +158,21 @@ fn set_nee_record_state(slot: u32, state: u32) {
 }
 
 // The `next_event` stage's part: the light sample trace_ray left in
-// nee_records[slot] at a vertex, taken as trace_ray takes it in the other schedules. Returns
-// its contribution (the throughput at the vertex times sample_lights); the caller adds it,
-// then `rec.emitted`.
+// nee_records[slot] at a vertex, taken as trace_ray takes it in the other schedules (the
+// contribution evaluated before the shadow ray, which then decides whether it counts).
+// Returns the throughput at the vertex times it; the caller adds that, then `rec.emitted`.
 fn deferred_light_sample(rec: NeeRecord) -> vec3<f32> {
     let surface = SurfaceHit(rec.position, rec.geometric_normal, rec.shading_normal, vec2<f32>(0.0),
                              rec.material, rec.offset, rec.back_offset);
     var mat = materials[rec.material];
     mat.color = rec.color;
-    return rec.throughput * sample_lights(surface, mat, rec.dir_in, rec.rnd);
+    let q = light_query(surface, mat, rec.dir_in, rec.rnd);
+    var light_in = vec3<f32>(0.0);
+    if (q.valid) {
+        light_in = light_contribution(q, mat, rec.dir_in);
+    }
+    let occluded = q.valid && trace_any(q.ray, 0.0, q.t_max);
+    return rec.throughput * select(light_in, vec3<f32>(0.0), occluded);
 }
 
 // Next-event estimation of bounce `bounce.depth`, after its `propagate` (whose pipeline
