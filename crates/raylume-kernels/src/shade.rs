@@ -9,8 +9,8 @@
 //! scatters one new direction sampled from the material; Russian roulette only when the
 //! uniforms ask for it (`rr_depth`, [`russian_roulette`]). With the light
 //! list, a hit on a material [`samples_lights`] (diffuse, rough metal, plastic, rough glass)
-//! also sends a
-//! shadow ray to a point on an emitter of the list ([`light_query`], [`light_contribution`]): uniform on an emissive
+//! also sends a shadow ray to a point on an emitter of the list ([`light_query`],
+//! [`light_contribution`]): uniform on an emissive
 //! triangle, or uniform in the cone of directions of an emissive sphere's visible cap
 //! ([`crate::sampling::sample_sphere_cap`]), so that small bright spheres are found at a few
 //! samples. The two estimates of the light an emitter sends there,
