@@ -19,7 +19,10 @@ pub use guide::{GUIDE_WORKGROUP_SIZE, GuideLearner, PendingGuide, guide_source};
 pub use lbvh::{LBVH_WORKGROUP_SIZE, LbvhBuilder, ResidentBvh, lbvh_source};
 pub use pipelines::{PathVariant, TracerPipelines, entry_constants};
 pub use policy::{BatchPlan, BatchPolicy, BatchTiming, DepthTiming, StageTime};
-pub use shader::{Specialisation, compose, pipeline_constants, tracer_source, tracer_source_for};
+pub use shader::{
+    Specialisation, compose, pipeline_constants, tracer_source, tracer_source_for,
+    tracer_source_uncomposed,
+};
 
 use std::sync::Arc;
 use std::time::Instant;

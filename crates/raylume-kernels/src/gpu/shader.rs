@@ -133,6 +133,16 @@ pub fn tracer_source_for(
     layout: BvhLayout,
     features: Features,
 ) -> String {
+    compose(
+        &tracer_source_uncomposed(max_workgroups_per_dimension, layout),
+        features,
+    )
+}
+
+/// The tracer's WGSL before [`compose`]: every feature's code, inside its `//#if` markers
+/// (what `tracer_source_for` composes; `examples/shader_stats.rs --write-source` writes it
+/// for variants to be compiled without a rebuild).
+pub fn tracer_source_uncomposed(max_workgroups_per_dimension: u32, layout: BvhLayout) -> String {
     let mut s = String::from("// raylume-kernels: the tracer (assembled by gpu/shader.rs)\n");
     s += &wgsl_constants();
     s += &format!("const MAX_WORKGROUPS_PER_DIMENSION: u32 = {max_workgroups_per_dimension}u;\n");
@@ -147,7 +157,7 @@ pub fn tracer_source_for(
         s += &format!("\n// ---- {name} ----\n");
         s += src;
     }
-    compose(&s, features)
+    s
 }
 
 /// The override constants of a pipeline specialised on `features`.
