@@ -29,10 +29,12 @@ pub struct PathVariant {
     /// The wavefront's light samples taken by a `next_event` stage of their own after
     /// `propagate` (whose pipeline then holds no light sampling, shadow ray or BSDF
     /// evaluation: the driver compiles the two halves side by side, a first image's wait),
-    /// instead of inside it. Off by default: on the H200 (6f0fa32, NEE, 100 spp) it makes the
-    /// living room's wavefront faster (unsorted 0.488 -> 0.446 s, sorted 0.434 -> 0.427 s)
-    /// and the Cornell box's slower (0.113 -> 0.193 s): where the shadow ray is cheap, storing
-    /// its record costs what the ray did, and `next_event` is all extra (docs/RESULTS.md).
+    /// instead of inside it. Off by default: on the H200 (NEE, 100 spp) it made the living
+    /// room's wavefront faster at 6f0fa32 (sorted 0.434 -> 0.427 s), but since the path's ray
+    /// and its shadow ray share one walk (ba630c5) it is slower on every scene measured
+    /// (c44418f: living room sorted 0.381 -> 0.426 s, Cornell box 0.117 -> 0.200 s): storing
+    /// the record costs what the shadow ray did, and `next_event` is all extra
+    /// (docs/RESULTS.md).
     pub next_event_stage: bool,
 }
 
