@@ -107,6 +107,10 @@ fn run(args: Args) -> Result<(), String> {
     };
     let vk = Vulkan::new()?;
     println!("device: {} (driver {})", vk.device_name, vk.driver);
+    println!(
+        "| scene | features | entry point | estimator | registers | the driver's other statistics |"
+    );
+    println!("|---|---|---|---|---:|---|");
     let mut rows = Vec::new();
     for path in &args.scenes {
         let scene = Scene::load(path).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -291,12 +295,18 @@ impl Vulkan {
             .device_name_as_c_str()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
-        let driver = format!(
-            "{}.{}.{}",
-            vk::api_version_major(p.driver_version),
-            vk::api_version_minor(p.driver_version),
-            vk::api_version_patch(p.driver_version)
-        );
+        let v = p.driver_version;
+        let driver = if p.vendor_id == 0x10de {
+            // NVIDIA packs its version as 10.8.8.6 bits (580.159.04).
+            format!("{}.{}.{:02}", v >> 22, (v >> 14) & 0xff, (v >> 6) & 0xff)
+        } else {
+            format!(
+                "{}.{}.{}",
+                vk::api_version_major(v),
+                vk::api_version_minor(v),
+                vk::api_version_patch(v)
+            )
+        };
         // Every core feature the device has (whatever the SPIR-V asks for), and the
         // extension's.
         let mut f11 = vk::PhysicalDeviceVulkan11Features::default();
