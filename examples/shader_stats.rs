@@ -307,17 +307,31 @@ impl Vulkan {
                 vk::api_version_patch(v)
             )
         };
-        // Every core feature the device has (whatever the SPIR-V asks for), and the
-        // extension's.
+        // Every core feature the device has (whatever the SPIR-V asks for; robust buffer
+        // access among them, as wgpu enables it), the extension's, and, as wgpu's Vulkan
+        // backend, VK_EXT_robustness2 where the device has it (its robust buffer access
+        // changes the code the driver makes for every buffer access).
+        let robustness2 = ash::ext::robustness2::NAME;
+        let has_robustness2 = unsafe { instance.enumerate_device_extension_properties(pd) }
+            .unwrap_or_default()
+            .iter()
+            .any(|p| p.extension_name_as_c_str() == Ok(robustness2));
         let mut f11 = vk::PhysicalDeviceVulkan11Features::default();
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
+        let mut r2 = vk::PhysicalDeviceRobustness2FeaturesEXT::default();
         let mut features = vk::PhysicalDeviceFeatures2::default()
             .push_next(&mut f11)
             .push_next(&mut f12)
             .push_next(&mut f13);
+        if has_robustness2 {
+            features = features.push_next(&mut r2);
+        }
         unsafe { instance.get_physical_device_features2(pd, &mut features) };
         let core = features.features;
+        let mut r2 = vk::PhysicalDeviceRobustness2FeaturesEXT::default()
+            .robust_buffer_access2(r2.robust_buffer_access2 != 0)
+            .robust_image_access2(r2.robust_image_access2 != 0);
         let mut exec_features =
             vk::PhysicalDevicePipelineExecutablePropertiesFeaturesKHR::default()
                 .pipeline_executable_info(true);
@@ -339,11 +353,17 @@ impl Vulkan {
             .push_next(&mut f12)
             .push_next(&mut f13)
             .push_next(&mut exec_features);
+        if has_robustness2 {
+            enabled = enabled.push_next(&mut r2);
+        }
         let priorities = [1.0f32];
         let queues = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(0)
             .queue_priorities(&priorities)];
-        let extensions = [ext.as_ptr()];
+        let mut extensions = vec![ext.as_ptr()];
+        if has_robustness2 {
+            extensions.push(robustness2.as_ptr());
+        }
         let info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queues)
             .enabled_extension_names(&extensions)
