@@ -28,6 +28,10 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
+#[path = "support/scene_name.rs"]
+mod support;
+use support::scene_name;
+
 use clap::Parser;
 use raylume::{Backend, DepthSeconds, ReorderMode, ReorderPolicy, Scene, Schedule, Tracer};
 use serde::Serialize;
@@ -333,21 +337,6 @@ fn parse_feature(s: &str) -> Result<raylume::Feature, String> {
         .ok_or_else(|| format!("unknown feature '{s}'"))
 }
 
-fn stem(path: &std::path::Path) -> String {
-    let stem = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().to_string())
-        .unwrap_or_default();
-    if stem == "scene" {
-        path.parent()
-            .and_then(|p| p.file_name())
-            .map(|s| s.to_string_lossy().to_string())
-            .unwrap_or(stem)
-    } else {
-        stem
-    }
-}
-
 /// The most rounds of renders a cell runs to reach `--min-seconds`.
 const MAX_ROUNDS: u32 = 30;
 
@@ -533,7 +522,11 @@ fn run(args: Args) -> Result<(), String> {
                 });
                 if let Some(dir) = &args.images {
                     let tag = config.name().replace(' ', "-");
-                    let out = dir.join(format!("{}-{}-{tag}-{spp}spp.png", stem(path), s.backend));
+                    let out = dir.join(format!(
+                        "{}-{}-{tag}-{spp}spp.png",
+                        scene_name(path),
+                        s.backend
+                    ));
                     best.save(&out).map_err(|e| e.to_string())?;
                 }
             }

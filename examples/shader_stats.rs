@@ -1,5 +1,6 @@
-//! What the driver makes of the tracer's compute pipelines: registers per thread, local
-//! memory (spills and the traversal stack), shared memory and code size, per entry point,
+//! What the driver makes of the tracer's compute pipelines: registers per thread, registers
+//! spilled (NVIDIA reports them as `Shared Memory Size`: the tracer declares 8 bytes of
+//! workgroup memory at most), local memory (the traversal stack) and code size, per entry point,
 //! estimator and scene, as the Vulkan driver reports them through
 //! `VK_KHR_pipeline_executable_properties` (issue 13: what register use costs, how far each
 //! feature's code moves occupancy).
@@ -25,6 +26,10 @@
 use std::collections::BTreeMap;
 use std::ffi::{CStr, CString};
 use std::path::PathBuf;
+
+#[path = "support/scene_name.rs"]
+mod support;
+use support::scene_name;
 
 use ash::vk;
 use clap::Parser;
@@ -114,18 +119,7 @@ fn run(args: Args) -> Result<(), String> {
     let mut rows = Vec::new();
     for path in &args.scenes {
         let scene = Scene::load(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let name = path
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let name = match name.as_str() {
-            // Tungsten scenes are all `scene.json`: name them by their folder.
-            "scene" => path
-                .parent()
-                .and_then(|p| p.file_name())
-                .map_or(name.clone(), |s| s.to_string_lossy().into_owned()),
-            _ => name,
-        };
+        let name = scene_name(path);
         let own = Specialisation::default().features(scene.features());
         let mut sets = vec![(String::new(), own)];
         if args.each_extra_feature {
