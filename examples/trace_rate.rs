@@ -16,8 +16,15 @@
 //! the passes keep the submission's fixed cost out of the rate), the CPU's of a `rayon` loop
 //! over every core. Both backends count the rays that hit, and closest-hit and any-hit
 //! queries must agree on that count.
+//!
+//! `--dump DIR` also writes, per scene, the scene's triangles and both ray sets to
+//! `DIR/<scene>/` (`mesh.ply`, `primary.f32`, `diffuse.f32`, `hits.json`), so that another
+//! renderer can trace the very same rays through the very same triangles:
+//! `tools/peers/mitsuba_trace_rate.py` times Mitsuba 3's (Embree's on the CPU, OptiX's on
+//! the GPU) traversal of them and checks its hit counts against raylume's.
 
-use std::path::PathBuf;
+use std::io::Write;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::Parser;
@@ -26,6 +33,10 @@ use raylume::glam::{Vec2, Vec3};
 use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh, Hit, Primitive, Ray};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, wgpu};
 use rayon::prelude::*;
+
+#[path = "support/scene_name.rs"]
+mod support;
+use support::scene_name;
 
 #[derive(Parser, Debug)]
 #[command(name = "trace_rate", about = "Rays per second through the BVH alone")]
@@ -48,6 +59,9 @@ struct Args {
     /// GPU dispatches over the set per timed submission.
     #[arg(long, default_value_t = 10)]
     passes: u32,
+    /// Write each scene's triangles and ray sets here (see the module docs).
+    #[arg(long)]
+    dump: Option<PathBuf>,
 }
 
 /// One query as the kernel reads it (32 bytes).
@@ -159,6 +173,55 @@ fn rays(scene: &Scene, bvh: &GpuBvh, w: u32, h: u32) -> (Vec<Query>, Vec<Query>)
         })
         .collect();
     (primary, diffuse)
+}
+
+/// Writes the scene's triangles (a binary PLY in world space), both ray sets (per ray eight
+/// little-endian `f32`s: origin, `t_min`, direction, `t_max`) and their closest-hit counts
+/// to `dir`. Fails on a scene with spheres: another renderer would not trace the same
+/// primitives.
+fn dump(
+    dir: &Path,
+    bvh: &GpuBvh,
+    sets: [(&str, &[Query]); 2],
+) -> Result<(), Box<dyn std::error::Error>> {
+    std::fs::create_dir_all(dir)?;
+    if bvh
+        .primitives
+        .iter()
+        .any(|p| p.kind() == raylume_bvh::PRIM_SPHERE)
+    {
+        return Err("the scene has spheres; only triangles can be written as a mesh".into());
+    }
+    let n = bvh.primitives.len();
+    let mut ply = std::io::BufWriter::new(std::fs::File::create(dir.join("mesh.ply"))?);
+    write!(
+        ply,
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\n\
+         property float y\nproperty float z\nelement face {n}\n\
+         property list uchar int vertex_indices\nend_header\n",
+        3 * n
+    )?;
+    for p in &bvh.primitives {
+        for v in [p.a, p.b, p.c] {
+            ply.write_all(bytemuck::cast_slice(&v[..3]))?;
+        }
+    }
+    for i in 0..n as i32 {
+        ply.write_all(&[3])?;
+        ply.write_all(bytemuck::cast_slice(&[3 * i, 3 * i + 1, 3 * i + 2]))?;
+    }
+    ply.flush()?;
+    let mut hits = Vec::new();
+    for (kind, qs) in sets {
+        std::fs::write(dir.join(format!("{kind}.f32")), bytemuck::cast_slice(qs))?;
+        let hit = cpu_rate(bvh, qs, false, 1).1;
+        hits.push(format!(
+            "\"{kind}\": {{\"rays\": {}, \"hit\": {hit}}}",
+            qs.len()
+        ));
+    }
+    std::fs::write(dir.join("hits.json"), format!("{{{}}}\n", hits.join(", ")))?;
+    Ok(())
 }
 
 /// Best-of-`repeat` seconds and hit count of `entry` over `queries` on the GPU.
@@ -288,6 +351,12 @@ fn main() {
             // The CPU walk's float node boxes, made before the parallel loops.
             bvh.wide_boxes();
             let (primary, diffuse) = rays(&scene, &bvh, w, h);
+            if let (Some(root), true) = (&args.dump, layout == args.bvh[0]) {
+                let dir = root.join(scene_name(path));
+                dump(&dir, &bvh, [("primary", &primary), ("diffuse", &diffuse)])
+                    .unwrap_or_else(|e| panic!("writing {}: {e}", dir.display()));
+                println!("wrote {}", dir.display());
+            }
             for (kind, qs) in [("primary", &primary), ("diffuse", &diffuse)] {
                 for backend in &args.backend {
                     let ((tc, hc), (ta, ha)) = match (backend.as_str(), &ctx) {
