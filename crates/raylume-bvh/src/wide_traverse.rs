@@ -414,6 +414,7 @@ pub fn wide_walk<const SPHERES: bool>(
         u: 0.0,
         v: 0.0,
     };
+    let leaves = Leaves::Records(primitives);
     let mut stack = [UVec2::ZERO; WIDE_STACK_SIZE];
     let mut sp = 0usize;
     // The root as the only child of a group.
@@ -435,34 +436,10 @@ pub fn wide_walk<const SPHERES: bool>(
                 node.child_base,
                 (mask & 0xff00_0000) | u32::from(node.imask()),
             );
-            let mut prims = mask & 0x00ff_ffff;
-            while prims != 0 {
-                if !SPHERES && prims.count_ones() > 1 {
-                    // The CPU's four-wide form of the loop below (same hits: see
-                    // `leaf_group4`).
-                    let found =
-                        leaf_group4(primitives, prim_base, &mut prims, &sheared, t_min, &mut hit);
-                    if found && any_hit {
-                        return hit;
-                    }
-                    continue;
-                }
-                let k = first_leading_bit(prims);
-                prims &= !(1 << k);
-                let i = prim_base + k;
-                let r =
-                    intersect_primitive::<SPHERES>(&primitives[i as usize], &sheared, t_min, hit.t);
-                if r.x < hit.t {
-                    hit = Hit {
-                        t: r.x,
-                        prim: i,
-                        u: r.y,
-                        v: r.z,
-                    };
-                    if any_hit {
-                        return hit;
-                    }
-                }
+            let prims = mask & 0x00ff_ffff;
+            if test_leaves::<SPHERES>(leaves, prim_base, prims, &sheared, t_min, any_hit, &mut hit)
+            {
+                return hit;
             }
         }
         if group.y & 0xff00_0000 == 0 {
@@ -529,37 +506,24 @@ fn walk_boxes<const SPHERES: bool>(
     };
     // (child node, its box's t_near bits): the low and high words. Uninitialised (no 1.8 KB
     // to zero for every ray); only entries below `sp` are read, each written before.
+    let leaves = Leaves::Columns(columns, primitives);
     let mut stack = [MaybeUninit::<u64>::uninit(); BOX_STACK_SIZE];
     let mut sp = 0usize;
     let mut node = 0u32;
     loop {
         let b = &boxes[node as usize];
         let (mask, near) = wide_boxes_hits(b, &wr, t_min, hit.t);
-        let mut prims = leaf_bits(b, mask & !b.imask);
-        while prims != 0 {
-            if !SPHERES && prims.count_ones() > 1 {
-                let found =
-                    leaf_block4(columns, b.prim_base, &mut prims, &sheared, t_min, &mut hit);
-                if found && any_hit {
-                    return hit;
-                }
-                continue;
-            }
-            let k = first_leading_bit(prims);
-            prims &= !(1 << k);
-            let i = b.prim_base + k;
-            let r = intersect_primitive::<SPHERES>(&primitives[i as usize], &sheared, t_min, hit.t);
-            if r.x < hit.t {
-                hit = Hit {
-                    t: r.x,
-                    prim: i,
-                    u: r.y,
-                    v: r.z,
-                };
-                if any_hit {
-                    return hit;
-                }
-            }
+        let prims = leaf_bits(b, mask & !b.imask);
+        if test_leaves::<SPHERES>(
+            leaves,
+            b.prim_base,
+            prims,
+            &sheared,
+            t_min,
+            any_hit,
+            &mut hit,
+        ) {
+            return hit;
         }
         // The hit inner children, bit `slot ^ octant` for each: the highest is entered now,
         // the others pushed lowest first, so that the next highest is on top.
@@ -597,6 +561,64 @@ fn walk_boxes<const SPHERES: bool>(
             }
         }
     }
+}
+
+/// Where a walk's four-wide triangle tests read their triangles.
+#[derive(Clone, Copy)]
+enum Leaves<'a> {
+    /// Gathered from the primitive records ([`leaf_group4`]): the quantised walk's.
+    Records(&'a [Primitive]),
+    /// From the columns ([`leaf_block4`]): the CPU walk's; the records for spheres.
+    Columns(&'a TriangleColumns, &'a [Primitive]),
+}
+
+/// The primitives `prims` (offsets from `base`) of a node's hit leaves against the ray, in
+/// the walks' order (the highest offset first), `hit` becoming the closer of it and theirs;
+/// true when `any_hit` and one was hit (the walk returns it). Without `SPHERES` up to four
+/// at a time, as `leaves` holds them (same hits: see [`leaf_group4`]).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn test_leaves<const SPHERES: bool>(
+    leaves: Leaves,
+    base: u32,
+    prims: u32,
+    sheared: &ShearedRay,
+    t_min: f32,
+    any_hit: bool,
+    hit: &mut Hit,
+) -> bool {
+    let primitives = match leaves {
+        Leaves::Records(p) | Leaves::Columns(_, p) => p,
+    };
+    let mut prims = prims;
+    while prims != 0 {
+        if !SPHERES && prims.count_ones() > 1 {
+            let found = match leaves {
+                Leaves::Records(p) => leaf_group4(p, base, &mut prims, sheared, t_min, hit),
+                Leaves::Columns(c, _) => leaf_block4(c, base, &mut prims, sheared, t_min, hit),
+            };
+            if found && any_hit {
+                return true;
+            }
+            continue;
+        }
+        let k = first_leading_bit(prims);
+        prims &= !(1 << k);
+        let i = base + k;
+        let r = intersect_primitive::<SPHERES>(&primitives[i as usize], sheared, t_min, hit.t);
+        if r.x < hit.t {
+            *hit = Hit {
+                t: r.x,
+                prim: i,
+                u: r.y,
+                v: r.z,
+            };
+            if any_hit {
+                return true;
+            }
+        }
+    }
+    false
 }
 
 /// Up to four of the primitives in `prims` (offsets from `base`; the highest bits, which the
