@@ -175,15 +175,15 @@ fn rays(scene: &Scene, bvh: &GpuBvh, w: u32, h: u32) -> (Vec<Query>, Vec<Query>)
     (primary, diffuse)
 }
 
-/// Writes the scene's triangles (a binary PLY in world space), both ray sets (per ray eight
-/// little-endian `f32`s: origin, `t_min`, direction, `t_max`) and their closest-hit counts
-/// to `dir`. Fails on a scene with spheres: another renderer would not trace the same
-/// primitives.
+/// Writes the scene's triangles (a binary PLY in world space, each once; their number is
+/// returned), both ray sets (per ray eight little-endian `f32`s: origin, `t_min`,
+/// direction, `t_max`) and their closest-hit counts to `dir`. Fails on a scene with
+/// spheres: another renderer would not trace the same primitives.
 fn dump(
     dir: &Path,
     bvh: &GpuBvh,
     sets: [(&str, &[Query]); 2],
-) -> Result<(), Box<dyn std::error::Error>> {
+) -> Result<usize, Box<dyn std::error::Error>> {
     std::fs::create_dir_all(dir)?;
     if bvh
         .primitives
@@ -192,7 +192,15 @@ fn dump(
     {
         return Err("the scene has spheres; only triangles can be written as a mesh".into());
     }
-    let n = bvh.primitives.len();
+    // Each scene triangle once: the BVH's spatial splits give a split triangle a copy per
+    // leaf it lies in, which the other renderer's own build would not have.
+    let mut seen = std::collections::HashSet::new();
+    let triangles: Vec<&Primitive> = bvh
+        .primitives
+        .iter()
+        .filter(|p| seen.insert(p.scene_index()))
+        .collect();
+    let n = triangles.len();
     let mut ply = std::io::BufWriter::new(std::fs::File::create(dir.join("mesh.ply"))?);
     write!(
         ply,
@@ -201,7 +209,7 @@ fn dump(
          property list uchar int vertex_indices\nend_header\n",
         3 * n
     )?;
-    for p in &bvh.primitives {
+    for p in &triangles {
         for v in [p.a, p.b, p.c] {
             ply.write_all(bytemuck::cast_slice(&v[..3]))?;
         }
@@ -221,7 +229,7 @@ fn dump(
         ));
     }
     std::fs::write(dir.join("hits.json"), format!("{{{}}}\n", hits.join(", ")))?;
-    Ok(())
+    Ok(n)
 }
 
 /// Best-of-`repeat` seconds and hit count of `entry` over `queries` on the GPU.
@@ -353,9 +361,9 @@ fn main() {
             let (primary, diffuse) = rays(&scene, &bvh, w, h);
             if let (Some(root), true) = (&args.dump, layout == args.bvh[0]) {
                 let dir = root.join(scene_name(path));
-                dump(&dir, &bvh, [("primary", &primary), ("diffuse", &diffuse)])
+                let n = dump(&dir, &bvh, [("primary", &primary), ("diffuse", &diffuse)])
                     .unwrap_or_else(|e| panic!("writing {}: {e}", dir.display()));
-                println!("wrote {}", dir.display());
+                println!("wrote {} ({n} triangles)", dir.display());
             }
             for (kind, qs) in [("primary", &primary), ("diffuse", &diffuse)] {
                 for backend in &args.backend {

@@ -504,9 +504,9 @@ fn walk_boxes<const SPHERES: bool>(
         u: 0.0,
         v: 0.0,
     };
+    let leaves = Leaves::Columns(columns, primitives);
     // (child node, its box's t_near bits): the low and high words. Uninitialised (no 1.8 KB
     // to zero for every ray); only entries below `sp` are read, each written before.
-    let leaves = Leaves::Columns(columns, primitives);
     let mut stack = [MaybeUninit::<u64>::uninit(); BOX_STACK_SIZE];
     let mut sp = 0usize;
     let mut node = 0u32;
