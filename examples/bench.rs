@@ -107,6 +107,10 @@ struct Args {
     /// `Tracer::next_event_stage`).
     #[arg(long)]
     next_event_stage: bool,
+    /// Comma-separated: the wavefront without (off, the default) and with (on) its walk stage
+    /// (`Tracer::walk_stage`; wide BVH on an adapter with subgroups).
+    #[arg(long, default_value = "off", value_delimiter = ',', value_parser = parse_on_off)]
+    walk_stage: Vec<bool>,
     /// Russian roulette from this path segment on (Mitsuba 3's `path` starts at 5), or off
     /// (the paper's, the default here).
     #[arg(long, default_value = "off", value_parser = parse_rr_depth)]
@@ -182,12 +186,15 @@ struct Config {
     specialisation: raylume::Specialisation,
     /// A feature compiled in although the scene lacks it (`--extra-feature`).
     extra: Option<raylume::Feature>,
+    /// The wavefront's walk stage (`--walk-stage`).
+    walk_stage: bool,
 }
 
 impl Config {
     /// Column name: `megakernel`, `wavefront`, `on sort-index`, `on sort-index/16`, `auto`,
-    /// with ` wide` after it for the wide BVH layout and ` generic` or ` overrides` when the
-    /// pipelines are not specialised the library's default way.
+    /// with ` wide` after it for the wide BVH layout, ` generic` or ` overrides` when the
+    /// pipelines are not specialised the library's default way, and ` +walk` with the walk
+    /// stage.
     fn name(&self) -> String {
         let bits = if self.key_bits == 30 {
             String::new()
@@ -208,9 +215,14 @@ impl Config {
         } else {
             format!("{base} {}", self.specialisation.name())
         };
-        match self.extra {
+        let base = match self.extra {
             Some(f) => format!("{base} +{}", f.name()),
             None => base,
+        };
+        if self.walk_stage {
+            format!("{base} +walk")
+        } else {
+            base
         }
     }
 }
@@ -282,6 +294,11 @@ fn configs(args: &Args) -> Vec<Config> {
                 .chain(args.extra_feature.iter().map(|f| Some(*f)))
                 .map(move |extra| Config { extra, ..c })
         })
+        .flat_map(|c| {
+            args.walk_stage
+                .iter()
+                .map(move |&walk_stage| Config { walk_stage, ..c })
+        })
         .collect()
 }
 
@@ -302,6 +319,7 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                 layout,
                 specialisation: raylume::Specialisation::default(),
                 extra: None,
+                walk_stage: false,
             })),
             ReorderPolicy::On => {
                 for &key_bits in &args.reorder_bits {
@@ -313,6 +331,7 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                         layout,
                         specialisation: raylume::Specialisation::default(),
                         extra: None,
+                        walk_stage: false,
                     }))
                 }
             }
@@ -324,6 +343,7 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                 layout,
                 specialisation: raylume::Specialisation::default(),
                 extra: None,
+                walk_stage: false,
             }),
         }
     }
@@ -354,6 +374,7 @@ fn apply(tracer: &mut Tracer, config: &Config) {
     if let Some(f) = config.extra {
         tracer.extra_features.insert(f);
     }
+    tracer.walk_stage = config.walk_stage;
 }
 
 fn run(args: Args) -> Result<(), String> {

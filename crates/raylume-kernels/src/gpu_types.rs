@@ -460,6 +460,7 @@ pub fn wgsl_constants() -> String {
     s += &u("NEE_PENDING", NEE_PENDING);
     s += &u("NEE_ENDED", NEE_ENDED);
     s += &u("WORKGROUP_SIZE", crate::workgroup_size());
+    s += &u("WALK_STAGE_COUNTER", crate::WALK_STAGE_COUNTER);
     s += &u(
         "MEGAKERNEL_WORKGROUP_SIZE",
         crate::megakernel_workgroup_size(),

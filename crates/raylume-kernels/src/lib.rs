@@ -260,6 +260,46 @@ pub enum Schedule {
 /// `RAYLUME_PERSISTENT_THREADS` overrides it on hardware adapters (for measuring).
 pub const PERSISTENT_THREADS: u32 = 1 << 20;
 
+/// Workgroups the wavefront's walk stage ([`gpu::PathVariant::walk_stage`]) launches at most
+/// on a hardware adapter: its threads walk the bounce's queue, each taking the next ray when
+/// its own is done, so a few resident waves suffice (2048 x 64 threads: ~1,000 a
+/// multiprocessor on the H200). A software adapter gets a thread per ray (its loop limit, see
+/// [`PERSISTENT_THREADS`]). `RAYLUME_WALK_STAGE_GROUPS` overrides it on hardware adapters
+/// (for measuring).
+pub const WALK_STAGE_GROUPS: u32 = 2048;
+
+/// The walk stage refills the idle lanes of a subgroup (32 on NVIDIA) once this many wait for
+/// a ray, or all of them do: one atomic per refill, while the others walk on (measured on the
+/// H200, `docs/RESULTS.md`). `RAYLUME_WALK_STAGE_REFILL` overrides it (for measuring).
+pub const WALK_STAGE_REFILL: u32 = 8;
+
+/// The word of the wavefront's queue counts that counts the walk stage's queue slots taken
+/// (words 0 and 1 are the two queues' lengths, 3 the persistent schedule's sample counter).
+pub const WALK_STAGE_COUNTER: u32 = 2;
+
+/// [`WALK_STAGE_GROUPS`], or `RAYLUME_WALK_STAGE_GROUPS` when set to a positive number (read
+/// once per process).
+pub fn walk_stage_groups() -> u32 {
+    static GROUPS: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
+    *GROUPS
+        .get_or_init(|| positive_from_env("RAYLUME_WALK_STAGE_GROUPS").unwrap_or(WALK_STAGE_GROUPS))
+}
+
+/// [`WALK_STAGE_REFILL`], or `RAYLUME_WALK_STAGE_REFILL` when set to a positive number (read
+/// once per process).
+pub fn walk_stage_refill() -> u32 {
+    static REFILL: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
+    *REFILL
+        .get_or_init(|| positive_from_env("RAYLUME_WALK_STAGE_REFILL").unwrap_or(WALK_STAGE_REFILL))
+}
+
+fn positive_from_env(name: &str) -> Option<u32> {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse::<u32>().ok())
+        .filter(|&v| v > 0)
+}
+
 impl Schedule {
     /// Lower-case name for logs and stats.
     pub const fn name(self) -> &'static str {

@@ -116,8 +116,8 @@ fn path_rand4_at(sp: SobolPixel, pixel: u32, sample: u32, bounce: u32, dim: u32)
 }
 
 // Returns true when the vertex's light sample was left for `next_event` (DEFER_NEE) in
-// nee_records at queue slot `slot` (wavefront.wgsl `store_nee_record`); `slot` is unused
-// otherwise.
+// nee_records at queue slot `slot` (wavefront.wgsl `store_nee_record`). `slot` is also where
+// the walk stage left the path ray's hit (HITS_TRACED); it is unused otherwise.
 fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32, slot: u32) -> bool {
     // The path's ray and then, where the lights are sampled, the shadow ray go through one
     // call of the walk (the driver inlines each call: one copy of the traversal, where two
@@ -135,7 +135,14 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     var light_in = vec3<f32>(0.0);
     var emission = vec3<f32>(0.0);
     loop {
-        let hit = trace_query(ray, 0.0, t_max, shadow);
+        // With a walk stage (HITS_TRACED, propagate only) the path ray's hit is already traced,
+        // at this ray's queue slot; the shadow ray is walked here.
+        var hit: Hit;
+        if (HITS_TRACED && !shadow) {
+            hit = load_queue_hit(slot);
+        } else {
+            hit = trace_query(ray, 0.0, t_max, shadow);
+        }
         if (shadow) {
             occluded = hit.prim != INVALID_INDEX;
             break;

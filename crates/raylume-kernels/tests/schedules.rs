@@ -443,3 +443,67 @@ fn one_tracer_alternates_schedules_within_the_binding_limit() {
         assert_eq!(out.radiance, fresh(schedule).radiance, "{schedule:?}");
     }
 }
+
+/// The wavefront's walk stage (`trace_hits`, walk_stage.wgsl) walks each ray of a bounce's
+/// queue as `propagate` would, only in another thread: the same hits, so the same image bit
+/// for bit, with either estimator (NEE walks its shadow rays in `propagate` still), sorted
+/// queues or not, and the binary layout (which has no walk stage) untouched.
+#[test]
+fn the_walk_stage_traces_the_hits_propagate_would() {
+    let Some(ctx) =
+        raylume_gpu::testing::context_or_skip("the_walk_stage_traces_the_hits_propagate_would")
+    else {
+        return;
+    };
+    if !ctx.has_subgroups() {
+        eprintln!("the adapter has no subgroups: the wavefront has no walk stage to test");
+        return;
+    }
+    let sorted = raylume_kernels::Reorder::from_depth(raylume_kernels::ReorderMode::SortIndex, 1);
+    for (name, scene) in [
+        ("cornell", cornell_box()),
+        ("spheres", spheres()),
+        ("textured", textured()),
+        ("environment", environment_lit()),
+    ] {
+        let bvh = bvh(&scene);
+        for estimator in [Estimator::Plain, Estimator::Nee] {
+            for reorder in [raylume_kernels::Reorder::OFF, sorted] {
+                let s = TraceSettings {
+                    reorder,
+                    ..settings(24, 16, 3, 5, Schedule::Wavefront)
+                };
+                let mut tracer = GpuTracer::new(ctx, &scene, &bvh).unwrap();
+                tracer.set_estimator(estimator);
+                let walked = tracer.render(&s, &mut |_, _| {}).unwrap();
+                assert!(walked.timing("trace_hits").is_none());
+                tracer.set_walk_stage(true);
+                assert!(tracer.walk_stage(), "wide BVH and subgroups: a walk stage");
+                let staged = tracer.render(&s, &mut |_, _| {}).unwrap();
+                let what = format!("{name}, {estimator:?}, {}", reorder.describe(5));
+                assert!(
+                    staged.timing("trace_hits").is_some(),
+                    "{what}: no walk stage ran"
+                );
+                assert_eq!(staged.rays_traced, walked.rays_traced, "{what}");
+                let differ = staged
+                    .radiance
+                    .iter()
+                    .zip(&walked.radiance)
+                    .filter(|(a, b)| a != b)
+                    .count();
+                assert_eq!(differ, 0, "{what}: {differ} pixels differ");
+            }
+        }
+    }
+    // The binary layout has no walk stage: asked for, the wavefront walks in propagate.
+    let scene = cornell_box();
+    let binary = bvh_with_layout(&scene, raylume_bvh::BvhLayout::Binary);
+    let mut tracer = GpuTracer::new(ctx, &scene, &binary).unwrap();
+    tracer.set_walk_stage(true);
+    assert!(!tracer.walk_stage());
+    let out = tracer
+        .render(&settings(8, 8, 1, 3, Schedule::Wavefront), &mut |_, _| {})
+        .unwrap();
+    assert!(out.timing("trace_hits").is_none());
+}

@@ -374,7 +374,9 @@ impl BatchPolicy for AutoPolicy<'_> {
         self.depths.resize(max_bounces as usize + 1, (0.0, 0.0));
         for (d, e) in self.depths.iter_mut().enumerate() {
             let d = d as u32;
-            e.0 += t.stage_seconds("propagate", d) + t.stage_seconds("next_event", d);
+            e.0 += t.stage_seconds("propagate", d)
+                + t.stage_seconds("trace_hits", d)
+                + t.stage_seconds("next_event", d);
             e.1 += t.stage_seconds("sort_keys", d) + t.stage_seconds("permute_rays", d);
         }
         if t.index + 1 == self.batches && self.samples > 0 {

@@ -459,6 +459,11 @@ pub struct Tracer {
     /// but costs a small scene a stage's overhead (the Cornell box's 0.113 -> 0.193 s);
     /// [`raylume_kernels::gpu::PathVariant::next_event_stage`].
     pub next_event_stage: bool,
+    /// Whether the wavefront walks each bounce's path rays in a stage of their own before
+    /// `propagate` shades them (`trace_hits`: a fixed set of GPU threads, each taking the
+    /// next ray of the queue when its walk ends; wide BVH and subgroups only, else ignored;
+    /// the same images); [`raylume_kernels::gpu::PathVariant::walk_stage`]. Default: off.
+    pub walk_stage: bool,
     /// The estimator: next-event estimation with multiple importance sampling
     /// ([`Estimator::Nee`], the default: far less noise per sample where emitters light the
     /// scene; each reflecting hit also casts a shadow ray), or the paper's plain one
@@ -870,6 +875,7 @@ impl std::fmt::Debug for Tracer {
             .field("estimator", &self.estimator)
             .field("sampler", &self.sampler)
             .field("next_event_stage", &self.next_event_stage)
+            .field("walk_stage", &self.walk_stage)
             .field("russian_roulette", &self.russian_roulette)
             .field("target_error", &self.target_error)
             .field("bloom", &self.bloom)
@@ -954,6 +960,7 @@ impl Tracer {
             reorder_key_bits: raylume_sort::RAY_KEY_BITS,
             schedule: Schedule::default(),
             next_event_stage: false,
+            walk_stage: false,
             estimator: Estimator::Nee,
             sampler: Sampler::Sobol,
             russian_roulette: Some(Self::DEFAULT_RUSSIAN_ROULETTE),
@@ -1157,7 +1164,8 @@ impl Tracer {
             specialisation: self.specialisation,
             schedule,
             variant: PathVariant::of(self.estimator, self.sampler)
-                .with_next_event_stage(self.next_event_stage),
+                .with_next_event_stage(self.next_event_stage)
+                .with_walk_stage(self.walk_stage),
             guides: self.guides(scene),
         }
     }
@@ -2075,6 +2083,7 @@ impl Tracer {
         mark(&self.timeline, "render: pipelines in hand");
         let mut tracer = GpuTracer::with_scene(ctx, uploaded, pipelines)?;
         tracer.set_next_event_stage(self.next_event_stage);
+        tracer.set_walk_stage(self.walk_stage);
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
         let guides = self.guides(scene);
@@ -2110,6 +2119,9 @@ impl Tracer {
         stats.schedule = schedules_run(&out);
         if out.timings.iter().any(|&(stage, _)| stage == "next_event") {
             stats.schedule += " + next_event stage";
+        }
+        if out.timings.iter().any(|&(stage, _)| stage == "trace_hits") {
+            stats.schedule += " + walk stage";
         }
         stats.take_trace(out.rays_traced, out.dropped_samples, &out.timings);
         stats.depth_seconds = out

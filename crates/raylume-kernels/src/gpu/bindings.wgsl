@@ -40,6 +40,10 @@
 // queue: each NeeRecord as NEE_RECORD_WORDS words of 16 bytes in a structure of arrays
 // (shade.wgsl `store_nee_record`); a placeholder unless the render's wavefront samples lights.
 @group(1) @binding(9) var<storage, read_write> nee_records: array<vec4<u32>>;
+// The walk stage's closest hits (walk_stage.wgsl `trace_hits`), per slot of the bounce's ray
+// queue, for `propagate` (HITS_TRACED): (t, primitive, u, v) as words; a placeholder unless
+// the render's wavefront has a walk stage.
+@group(1) @binding(10) var<storage, read_write> queue_hits: array<vec4<u32>>;
 
 // Group 2, only in `prepare_propagate`'s layout: the indirect dispatch size of the next
 // `propagate` (a buffer used for an indirect dispatch must not be bound in that dispatch).
@@ -72,6 +76,13 @@ override NEXT_EVENT: bool = true;
 // and the BSDF evaluation toward the light are then dead code there, and live in
 // `next_event`'s pipeline, which the driver compiles beside it).
 override DEFER_NEE: bool = false;
+// True in `propagate`'s pipelines of a wavefront with a walk stage: trace_ray takes the path
+// ray's closest hit from queue_hits (walk_stage.wgsl traced it) instead of walking the tree;
+// a shadow ray is still walked there.
+override HITS_TRACED: bool = false;
+// The walk stage refills a subgroup's idle lanes once this many wait (or all of them do):
+// WALK_STAGE_REFILL in lib.rs, set at pipeline creation.
+override WALK_STAGE_REFILL: u32 = 8u;
 // The sampler the pipeline is compiled for (SAMPLER_INDEPENDENT, _ZSOBOL or _SOBOL; the
 // others' code is then dead), or SAMPLER_FROM_SCENE: the uniforms' `sampler` decides.
 // TracerPipelines compiles the path tracing pipelines per sampler; see `path_sampler`.

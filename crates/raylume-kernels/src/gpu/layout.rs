@@ -99,6 +99,7 @@ pub(crate) fn bind_group_layouts(device: &wgpu::Device) -> [wgpu::BindGroupLayou
             storage_entry(6, false),
             storage_entry(7, false),
             storage_entry(9, false),
+            storage_entry(10, false),
             uniform_entry(8, true),
         ],
     });

@@ -546,6 +546,8 @@ pub struct GpuTracer<'a> {
     batch_ray_limit: Option<u64>,
     /// [`GpuTracer::set_next_event_stage`].
     next_event_stage: bool,
+    /// [`GpuTracer::set_walk_stage`].
+    walk_stage: bool,
     /// See [`GpuTracer::set_persistent_threads`].
     persistent_threads: Option<u32>,
     upload_seconds: f64,
@@ -695,6 +697,7 @@ impl<'a> GpuTracer<'a> {
             last_batch: None,
             batch_ray_limit: None,
             next_event_stage: false,
+            walk_stage: false,
             persistent_threads: None,
             upload_seconds: start.elapsed().as_secs_f64(),
         })
@@ -729,11 +732,26 @@ impl<'a> GpuTracer<'a> {
         self.next_event_stage = on;
     }
 
+    /// Whether the wavefront's path rays are walked by a stage of their own before
+    /// `propagate` ([`PathVariant::walk_stage`]; default: off). Where the pipelines have no
+    /// walk stage ([`TracerPipelines::has_walk_stage`]: the binary BVH, or an adapter
+    /// without subgroups) the wavefront walks in `propagate` whatever this says.
+    pub fn set_walk_stage(&mut self, on: bool) {
+        self.walk_stage = on;
+    }
+
+    /// Whether the next wavefront renders have a walk stage: asked for
+    /// ([`GpuTracer::set_walk_stage`]) and possible ([`TracerPipelines::has_walk_stage`]).
+    pub fn walk_stage(&self) -> bool {
+        self.walk_stage && self.pipelines.has_walk_stage()
+    }
+
     /// The path variant of the next renders: their estimator and sampler, and whether the
-    /// wavefront has its `next_event` stage.
+    /// wavefront has its `next_event` stage and its walk stage.
     pub(crate) fn path_variant(&self) -> PathVariant {
         PathVariant::of(self.data.estimator, self.data.sampler)
             .with_next_event_stage(self.next_event_stage)
+            .with_walk_stage(self.walk_stage())
     }
 
     /// The estimator of the next renders (default: the paper's plain one).

@@ -36,6 +36,12 @@ pub struct PathVariant {
     /// the record costs what the shadow ray did, and `next_event` is all extra
     /// (docs/RESULTS.md).
     pub next_event_stage: bool,
+    /// The wavefront's path rays walked by a stage of their own before `propagate`
+    /// (`trace_hits`, walk_stage.wgsl: a fixed set of threads, each taking the next ray of
+    /// the queue when its walk ends, so that a subgroup's lanes do not idle while its longest
+    /// walk goes on), `propagate` shading the hits it left. Only with the wide BVH on an
+    /// adapter with subgroups ([`TracerPipelines::has_walk_stage`]). The same images.
+    pub walk_stage: bool,
 }
 
 impl PathVariant {
@@ -44,6 +50,7 @@ impl PathVariant {
         estimator: None,
         sampler: None,
         next_event_stage: false,
+        walk_stage: false,
     };
 
     /// The variant of renders with `estimator` and `sampler` (no `next_event` stage).
@@ -52,6 +59,7 @@ impl PathVariant {
             estimator: Some(estimator),
             sampler: Some(sampler),
             next_event_stage: false,
+            walk_stage: false,
         }
     }
 
@@ -59,6 +67,14 @@ impl PathVariant {
     pub fn with_next_event_stage(self, on: bool) -> Self {
         PathVariant {
             next_event_stage: on,
+            ..self
+        }
+    }
+
+    /// This variant with the wavefront's walk stage on or off.
+    pub fn with_walk_stage(self, on: bool) -> Self {
+        PathVariant {
+            walk_stage: on,
             ..self
         }
     }
@@ -101,6 +117,12 @@ pub fn entry_constants(
     if entry == "propagate" && variant.defers_light_samples() {
         constants.push(("DEFER_NEE", 1.0));
     }
+    if entry == "propagate" && variant.walk_stage {
+        constants.push(("HITS_TRACED", 1.0));
+    }
+    if entry == "trace_hits" {
+        constants.push(("WALK_STAGE_REFILL", f64::from(crate::walk_stage_refill())));
+    }
     constants
 }
 
@@ -113,6 +135,10 @@ const TRACES_PATHS: [&str; 4] = [
     "next_event",
 ];
 
+/// The wavefront's walk stage (`trace_hits`), appended to the tracer's module where the
+/// adapter has subgroups and the BVH is wide.
+const WALK_STAGE_WGSL: &str = include_str!("walk_stage.wgsl");
+
 /// The tracer's shader module (every entry point, the traversal of one [`BvhLayout`]), its
 /// bind group and pipeline layouts, and its compute pipelines specialised on a feature set,
 /// each compiled on first use or ahead of it ([`TracerPipelines::compile`]). It depends on no
@@ -123,6 +149,8 @@ const TRACES_PATHS: [&str; 4] = [
 pub struct TracerPipelines {
     features: Features,
     specialisation: Specialisation,
+    /// The module holds the walk stage's `trace_hits` ([`Self::has_walk_stage`]).
+    walk_stage: bool,
     bvh_layout: BvhLayout,
     pub(crate) scene_layout: wgpu::BindGroupLayout,
     pub(crate) work_layout: wgpu::BindGroupLayout,
@@ -167,14 +195,31 @@ impl TracerPipelines {
         match schedule {
             Schedule::Megakernel => &["trace_paths", "resolve"],
             Schedule::Persistent => &["trace_paths_persistent", "resolve"],
-            Schedule::Wavefront if variant.defers_light_samples() => &[
-                "raygen",
-                "prepare_propagate",
-                "propagate",
-                "next_event",
-                "resolve",
-            ],
-            Schedule::Wavefront => &["raygen", "prepare_propagate", "propagate", "resolve"],
+            Schedule::Wavefront => match (variant.defers_light_samples(), variant.walk_stage) {
+                (true, true) => &[
+                    "raygen",
+                    "prepare_propagate",
+                    "trace_hits",
+                    "propagate",
+                    "next_event",
+                    "resolve",
+                ],
+                (true, false) => &[
+                    "raygen",
+                    "prepare_propagate",
+                    "propagate",
+                    "next_event",
+                    "resolve",
+                ],
+                (false, true) => &[
+                    "raygen",
+                    "prepare_propagate",
+                    "trace_hits",
+                    "propagate",
+                    "resolve",
+                ],
+                (false, false) => &["raygen", "prepare_propagate", "propagate", "resolve"],
+            },
         }
     }
 
@@ -227,19 +272,22 @@ impl TracerPipelines {
                         Some(&permute_group_layout),
                     ],
                 );
-                let module = ctx.shader_module(
-                    "raylume tracer",
-                    &tracer_source_for(
-                        ctx.limits.max_compute_workgroups_per_dimension,
-                        bvh_layout,
-                        composed_for,
-                    ),
+                let mut source = tracer_source_for(
+                    ctx.limits.max_compute_workgroups_per_dimension,
+                    bvh_layout,
+                    composed_for,
                 );
+                if Self::walk_stage_possible(ctx, bvh_layout) {
+                    source += "\n// ---- gpu/walk_stage.wgsl ----\n";
+                    source += WALK_STAGE_WGSL;
+                }
+                let module = ctx.shader_module("raylume tracer", &source);
                 (tracer, prepare, permute, module)
             })?;
         Ok(Arc::new(Self {
             features,
             specialisation,
+            walk_stage: Self::walk_stage_possible(ctx, bvh_layout),
             bvh_layout,
             scene_layout,
             work_layout,
@@ -270,6 +318,17 @@ impl TracerPipelines {
         self.bvh_layout
     }
 
+    /// Whether the module holds the wavefront's walk stage ([`PathVariant::walk_stage`]):
+    /// with the wide BVH on an adapter with subgroups (the stage's lanes share the queue's
+    /// slots through subgroup operations).
+    pub fn has_walk_stage(&self) -> bool {
+        self.walk_stage
+    }
+
+    fn walk_stage_possible(ctx: &GpuContext, bvh_layout: BvhLayout) -> bool {
+        ctx.has_subgroups() && bvh_layout == BvhLayout::Wide
+    }
+
     /// Seconds spent so far making the module and compiling pipelines.
     pub fn seconds(&self) -> f64 {
         *self.seconds.lock().unwrap_or_else(|e| e.into_inner())
@@ -286,6 +345,8 @@ impl TracerPipelines {
         schedule: Schedule,
         variant: PathVariant,
     ) -> Result<(), KernelError> {
+        // Without the walk stage in the module, the wavefront walks in `propagate`.
+        let variant = variant.with_walk_stage(variant.walk_stage && self.walk_stage);
         let missing: Vec<&'static str> = {
             let compiled = self.compiled.lock().unwrap_or_else(|e| e.into_inner());
             Self::entries(schedule, variant)
@@ -329,11 +390,12 @@ impl TracerPipelines {
     /// entry points that trace paths, [`PathVariant::ANY`] for the rest (compiled once) and
     /// for every entry point of [`Specialisation::Generic`] pipelines (the baseline holds
     /// every estimator's and sampler's code too); the `next_event` stage matters to
-    /// `propagate` alone.
+    /// `propagate` and `next_event` alone, the walk stage to `propagate` alone.
     fn variant(&self, entry: &str, variant: PathVariant) -> PathVariant {
         match TRACES_PATHS.contains(&entry) && self.specialisation != Specialisation::Generic {
-            true if matches!(entry, "propagate" | "next_event") => variant,
-            true => variant.with_next_event_stage(false),
+            true if entry == "propagate" => variant,
+            true if entry == "next_event" => variant.with_walk_stage(false),
+            true => variant.with_next_event_stage(false).with_walk_stage(false),
             false => PathVariant::ANY,
         }
     }

@@ -33,6 +33,8 @@ struct Prepared {
     permute: bool,
     /// Persistent threads when the caller set none.
     default_threads: u32,
+    /// The walk stage's threads at most (a thread per ray on a software adapter).
+    walk_threads: u32,
     /// Seconds the preparation took.
     seconds: f64,
 }
@@ -181,6 +183,7 @@ impl GpuTracer<'_> {
 
         let variant = self.path_variant();
         let next_event = wavefront && variant.defers_light_samples();
+        let walk_stage = wavefront && variant.walk_stage;
         let pixels = settings.width * settings.height;
         // Every schedule a batch may run must fit: the wavefront's 64-byte states (and, when
         // it samples lights, its 128-byte light-sample records) bound it.
@@ -201,6 +204,7 @@ impl GpuTracer<'_> {
             wavefront,
             permute,
             next_event,
+            walk_stage,
             capacity,
             pixels,
             batches: batches.len() as u32,
@@ -274,6 +278,13 @@ impl GpuTracer<'_> {
                 .filter(|&t| t > 0)
                 .unwrap_or(crate::PERSISTENT_THREADS)
         };
+        // The walk stage's threads: a thread per ray on a software adapter (its loop limit, as
+        // above), else a few resident waves that take the queue's rays in turn.
+        let walk_threads = if ctx.info.is_software {
+            u32::MAX
+        } else {
+            crate::walk_stage_groups().saturating_mul(workgroup_size())
+        };
         Ok(Prepared {
             batches,
             pipes,
@@ -281,6 +292,7 @@ impl GpuTracer<'_> {
             base,
             permute,
             default_threads,
+            walk_threads,
             seconds: t_prepare.elapsed().as_secs_f64(),
         })
     }
@@ -367,6 +379,7 @@ impl GpuTracer<'_> {
                 max_dim,
             ),
             pixel_groups: dispatch_size(b.pixel_count, workgroup_size(), max_dim),
+            walk_groups: dispatch_size(b.rays().min(p.walk_threads), workgroup_size(), max_dim),
         }
         .stages(plan, max_bounces);
         let times = clock.run(&during, &stages)?;
@@ -394,6 +407,7 @@ impl GpuTracer<'_> {
         let mut timings = vec![("upload", self.upload_seconds), ("prepare", prepare)];
         for (label, name) in [
             ("raygen", "raygen"),
+            ("trace_hits", "trace_hits"),
             ("propagate", "propagate"),
             ("next_event", "next_event"),
             ("sort_keys", "sort"),
@@ -498,7 +512,7 @@ impl GpuTracer<'_> {
     }
 }
 
-/// Adds the bounce-stage times of one batch (`propagate`, `next_event`, `sort_keys`,
+/// Adds the bounce-stage times of one batch (`trace_hits`, `propagate`, `next_event`, `sort_keys`,
 /// `permute_rays`, each
 /// with its depth) to the render's per-depth totals.
 fn add_depth_times(depths: &mut Vec<DepthTiming>, times: &[StageTime]) {
@@ -510,7 +524,8 @@ fn add_depth_times(depths: &mut Vec<DepthTiming>, times: &[StageTime]) {
         let e = &mut depths[d as usize];
         e.depth = d;
         match st.label {
-            "propagate" => e.propagate += st.seconds,
+            // The walk stage's share of the bounce's path rays counts as propagate's.
+            "propagate" | "trace_hits" => e.propagate += st.seconds,
             "next_event" => e.next_event += st.seconds,
             "sort_keys" => e.sort += st.seconds,
             "permute_rays" => e.permute += st.seconds,

@@ -41,6 +41,8 @@ fn prepare_propagate() {
     dispatch_args[1] = y;
     dispatch_args[2] = 1u;
     atomicStore(&queue_counts[1u - q], 0u);
+    // The walk stage's count of the queue slots taken (it runs after this, before propagate).
+    atomicStore(&queue_counts[WALK_STAGE_COUNTER], 0u);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -111,6 +113,17 @@ fn propagate(
             ray_keys[out] = key >> bounce.sort_shift;
         }
     }
+}
+
+// The walk stage's closest hit of queue slot `slot` (walk_stage.wgsl), and what propagate's
+// trace_ray reads of it (HITS_TRACED).
+fn store_queue_hit(slot: u32, hit: Hit) {
+    queue_hits[slot] = vec4<u32>(bitcast<u32>(hit.t), hit.prim, bitcast<u32>(hit.u), bitcast<u32>(hit.v));
+}
+
+fn load_queue_hit(slot: u32) -> Hit {
+    let w = queue_hits[slot];
+    return Hit(bitcast<f32>(w.x), w.y, bitcast<f32>(w.z), bitcast<f32>(w.w));
 }
 
 // Word k of the NeeRecord of queue slot `slot` in nee_records: the records are a structure of

@@ -18,6 +18,8 @@ pub(crate) struct WorkKey {
     /// The wavefront samples lights (`next_event`): per-ray light-sample records are
     /// allocated.
     pub next_event: bool,
+    /// The wavefront has a walk stage (`trace_hits`): per-ray hit records are allocated.
+    pub walk_stage: bool,
     /// Rays in the largest batch.
     pub capacity: u32,
     pub pixels: u32,
@@ -37,6 +39,7 @@ impl WorkKey {
             && (self.wavefront || !need.wavefront)
             && (self.permute || !need.permute)
             && (self.next_event || !need.next_event)
+            && (self.walk_stage || !need.walk_stage)
     }
 
     /// Bytes per ray of the largest per-ray buffer: the light-sample records, else the ray
@@ -66,6 +69,7 @@ impl WorkKey {
             wavefront: self.wavefront || need.wavefront,
             permute: self.permute || need.permute,
             next_event: self.next_event || need.next_event,
+            walk_stage: self.walk_stage || need.walk_stage,
             capacity: self.capacity.max(need.capacity),
             pixels: need.pixels,
             batches: self.batches.max(need.batches),
@@ -150,6 +154,12 @@ impl WorkBuffers {
             per_ray(wavefront && key.next_event, size_of::<NeeRecord>() as u64),
             copy,
         )?;
+        // The walk stage's hits (a placeholder without it).
+        let queue_hits = ctx.storage_buffer_zeroed(
+            "walk stage hits",
+            per_ray(wavefront && key.walk_stage, 16),
+            copy,
+        )?;
         let queue_counts = ctx.storage_buffer_zeroed("queue counts", 16, copy)?;
         let dispatch_args =
             ctx.storage_buffer_zeroed("propagate dispatch size", 16, wgpu::BufferUsages::INDIRECT)?;
@@ -193,6 +203,7 @@ impl WorkBuffers {
                                 entry(6, &accumulation),
                                 entry(7, &batch_stats),
                                 entry(9, &nee_records),
+                                entry(10, &queue_hits),
                                 wgpu::BindGroupEntry {
                                     binding: 8,
                                     resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
@@ -232,6 +243,7 @@ impl WorkBuffers {
                 &ray_keys,
                 &queue_counts,
                 &nee_records,
+                &queue_hits,
                 &sample_radiance,
                 &accumulation,
                 &batch_stats,

@@ -1,0 +1,84 @@
+// The wavefront's walk stage (PathVariant::walk_stage; wide BVH and subgroups only): before
+// `propagate`, the closest hit of every ray of the bounce's queue, into queue_hits at its queue
+// slot, for `propagate` to shade (HITS_TRACED). A fixed number of threads walk the queue: a
+// lane whose ray is done takes the next one (Aila & Laine 2009, "replacing terminated rays")
+// once WALK_STAGE_REFILL lanes of its subgroup wait for one, or all of them do, so that the
+// lanes of a subgroup stay busy while its longest walk goes on instead of idling until it
+// ends. Each ray's walk is wide_walk's, step for step (the same nodes, primitives and hit:
+// tests/walk_stage.rs), so images do not change; only which lane takes which step does.
+// Appended to the tracer's module only on adapters with subgroups (gpu/pipelines.rs).
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn trace_hits() {
+    let n = atomicLoad(&queue_counts[bounce.depth & 1u]);
+    let none = 0xffffffffu;
+    var slot = none;
+    var wr: WideRay;
+    var sheared: ShearedRay;
+    var hit = Hit(0.0, INVALID_INDEX, 0.0, 0.0);
+    var stack: array<vec2<u32>, WIDE_STACK_SIZE>;
+    var sp = 0u;
+    var group = vec2<u32>(0u, 0u);
+    loop {
+        // Lanes without a ray take the next slots of the queue, one atomic per subgroup.
+        let waiting = slot == none;
+        let want = subgroupAdd(select(0u, 1u, waiting));
+        if want >= WALK_STAGE_REFILL || subgroupAll(waiting) {
+            let rank = subgroupExclusiveAdd(select(0u, 1u, waiting));
+            var base = 0u;
+            if waiting && rank == 0u {
+                base = atomicAdd(&queue_counts[WALK_STAGE_COUNTER], want);
+            }
+            base = subgroupMax(base);
+            if waiting {
+                if base + rank >= n {
+                    break;
+                }
+                slot = base + rank;
+                let state = ray_states[ray_queue_in[slot]];
+                let ray = Ray(state.origin, state.dir);
+                wr = wide_ray(ray);
+                sheared = shear_ray(ray);
+                hit = Hit(min(T_MAX, T_MAX_LIMIT), INVALID_INDEX, 0.0, 0.0);
+                sp = 0u;
+                // The root as the only child of a group.
+                group = vec2<u32>(0u, 0x80000000u);
+            }
+        }
+        if slot == none {
+            continue;
+        }
+        // One iteration of wide_walk's loop (closest hit, t_min 0).
+        if (group.y & 0xff000000u) != 0u {
+            let bit = firstLeadingBit(group.y);
+            let index = wide_child_index(group, bit, wr.oct_inv4);
+            group.y &= ~(1u << bit);
+            if (group.y & 0xff000000u) != 0u {
+                stack[sp] = group;
+                sp += 1u;
+            }
+            let node = bvh_nodes[index];
+            let mask = intersect_wide_node(node, wr, 0.0, hit.t);
+            group = vec2<u32>(node.child_base, (mask & 0xff000000u) | (node.e_imask >> 24u));
+            var prims = mask & 0x00ffffffu;
+            while prims != 0u {
+                let k = firstLeadingBit(prims);
+                prims &= ~(1u << k);
+                let i = node.prim_base + k;
+                let r = intersect_primitive(bvh_primitives[i], sheared, 0.0, hit.t);
+                if r.x < hit.t {
+                    hit = Hit(r.x, i, r.y, r.z);
+                }
+            }
+        }
+        if (group.y & 0xff000000u) == 0u {
+            if sp == 0u {
+                store_queue_hit(slot, hit);
+                slot = none;
+            } else {
+                sp -= 1u;
+                group = stack[sp];
+            }
+        }
+    }
+}
