@@ -85,7 +85,7 @@ struct Query {
 }
 @group(0) @binding(2) var<storage, read> queries: array<Query>;
 // Per query, 1 when it hit (a plain store: no atomics to contend on).
-@group(0) @binding(3) var<storage, read_write> hit_flags: array<u32>;
+@group(0) @binding(3) var<storage, read_write> hit: array<u32>;
 
 @compute @workgroup_size(64)
 fn closest(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -94,7 +94,7 @@ fn closest(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let q = queries[id.x];
     let h = trace_closest(Ray(q.origin, q.dir), q.t_min, q.t_max);
-    hit_flags[id.x] = select(0u, 1u, h.prim != INVALID_INDEX);
+    hit[id.x] = select(0u, 1u, h.prim != INVALID_INDEX);
 }
 
 @compute @workgroup_size(64)
@@ -103,87 +103,7 @@ fn any(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let q = queries[id.x];
-    hit_flags[id.x] = select(0u, 1u, trace_any(Ray(q.origin, q.dir), q.t_min, q.t_max));
-}
-"#;
-
-const KERNEL_RT: &str = r#"
-@group(0) @binding(4) var<storage, read_write> rt_counter: array<atomic<u32>>;
-
-// Persistent walk replacing terminated rays (Aila & Laine 2009): a lane whose ray is done
-// takes the next query when at least RT_K lanes of its subgroup wait (or all of them do).
-@compute @workgroup_size(64)
-fn closest_rt() {
-    let n = arrayLength(&queries);
-    let NONE = 0xffffffffu;
-    var qi = NONE;
-    var wr: WideRay;
-    var sheared: ShearedRay;
-    var hit = Hit(0.0, INVALID_INDEX, 0.0, 0.0);
-    var t_min = 0.0;
-    var stack: array<vec2<u32>, WIDE_STACK_SIZE>;
-    var sp = 0u;
-    var group = vec2<u32>(0u, 0u);
-    loop {
-        let need = qi == NONE;
-        let want = subgroupAdd(select(0u, 1u, need));
-        if want >= RT_K || subgroupAll(need) {
-            let rank = subgroupExclusiveAdd(select(0u, 1u, need));
-            var base = 0u;
-            if need && rank == 0u {
-                base = atomicAdd(&rt_counter[0], want);
-            }
-            base = subgroupMax(base);
-            if need {
-                let idx = base + rank;
-                if idx >= n {
-                    break;
-                }
-                qi = idx;
-                let q = queries[idx];
-                let ray = Ray(q.origin, q.dir);
-                wr = wide_ray(ray);
-                sheared = shear_ray(ray);
-                t_min = q.t_min;
-                hit = Hit(min(q.t_max, T_MAX_LIMIT), INVALID_INDEX, 0.0, 0.0);
-                sp = 0u;
-                group = vec2<u32>(0u, 0x80000000u);
-            }
-        }
-        if qi != NONE {
-            if (group.y & 0xff000000u) != 0u {
-                let bit = firstLeadingBit(group.y);
-                let index = wide_child_index(group, bit, wr.oct_inv4);
-                group.y &= ~(1u << bit);
-                if (group.y & 0xff000000u) != 0u {
-                    stack[sp] = group;
-                    sp += 1u;
-                }
-                let node = bvh_nodes[index];
-                let mask = intersect_wide_node(node, wr, t_min, hit.t);
-                group = vec2<u32>(node.child_base, (mask & 0xff000000u) | (node.e_imask >> 24u));
-                var prims = mask & 0x00ffffffu;
-                while prims != 0u {
-                    let k = firstLeadingBit(prims);
-                    prims &= ~(1u << k);
-                    let i = node.prim_base + k;
-                    let r = intersect_primitive(bvh_primitives[i], sheared, t_min, hit.t);
-                    if r.x < hit.t {
-                        hit = Hit(r.x, i, r.y, r.z);
-                    }
-                }
-            }
-            if (group.y & 0xff000000u) == 0u {
-                if sp == 0u {
-                    hit_flags[qi] = select(0u, 1u, hit.prim != INVALID_INDEX);
-                    qi = NONE;
-                } else {
-                    sp -= 1u;
-                    group = stack[sp];
-                }
-            }
-        }
-    }
+    hit[id.x] = select(0u, 1u, trace_any(Ray(q.origin, q.dir), q.t_min, q.t_max));
 }
 "#;
 
@@ -321,17 +241,7 @@ fn gpu_rate(
     repeat: u32,
     passes: u32,
 ) -> (f64, u32) {
-    let (entry, rt_k) = match entry.strip_prefix("closest_rt") {
-        Some(k) => ("closest_rt", Some(k.parse::<u32>().unwrap())),
-        None => (entry, None),
-    };
-    let source = match rt_k {
-        Some(k) => format!(
-            "{}\n{KERNEL}\nconst RT_K: u32 = {k}u;\n{KERNEL_RT}",
-            bvh.traverse_wgsl()
-        ),
-        None => format!("{}\n{KERNEL}", bvh.traverse_wgsl()),
-    };
+    let source = format!("{}\n{KERNEL}", bvh.traverse_wgsl());
     // As the renders' kernels are made (`GpuContext::shader_module`: on Vulkan without naga's
     // bounds checks and loop bounding), so that the rate is the traversal they run.
     let module = ctx.shader_module("trace_rate", &source);
@@ -357,23 +267,15 @@ fn gpu_rate(
     let count = ctx
         .storage_buffer_zeroed("hit", 4 * n as u64, wgpu::BufferUsages::COPY_SRC)
         .unwrap();
-    let rt_counter = ctx
-        .storage_buffer_zeroed("rt_counter", 4, wgpu::BufferUsages::COPY_DST)
-        .unwrap();
-    let mut entries = vec![(0, &nodes), (1, &prims), (2, &qbuf), (3, &count)];
-    if rt_k.is_some() {
-        entries.push((4, &rt_counter));
-    }
     let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("trace_rate"),
         layout: &pipeline.get_bind_group_layout(0),
-        entries: &entries
-            .iter()
-            .map(|&(binding, b)| wgpu::BindGroupEntry {
+        entries: &[(0, &nodes), (1, &prims), (2, &qbuf), (3, &count)].map(|(binding, b)| {
+            wgpu::BindGroupEntry {
                 binding,
                 resource: b.as_entire_binding(),
-            })
-            .collect::<Vec<_>>(),
+            }
+        }),
     });
     let mut best = f64::INFINITY;
     let mut hits = 0;
@@ -381,18 +283,7 @@ fn gpu_rate(
     for run in 0..=repeat {
         let t = Instant::now();
         let mut enc = ctx.device.create_command_encoder(&Default::default());
-        if rt_k.is_some() {
-            let groups: u32 = std::env::var("RLX_GROUPS")
-                .map(|v| v.parse().unwrap())
-                .unwrap_or(132 * 32);
-            for _ in 0..passes {
-                enc.clear_buffer(&rt_counter, 0, None);
-                let mut pass = enc.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&pipeline);
-                pass.set_bind_group(0, &bind_group, &[]);
-                pass.dispatch_workgroups(groups, 1, 1);
-            }
-        } else {
+        {
             let mut pass = enc.begin_compute_pass(&Default::default());
             pass.set_pipeline(&pipeline);
             pass.set_bind_group(0, &bind_group, &[]);
@@ -467,26 +358,7 @@ fn main() {
                 GpuBvh::from_scene_with_layout(&scene, BvhQuality::Quality, layout).expect("BVH");
             // The CPU walk's float node boxes, made before the parallel loops.
             bvh.wide_boxes();
-            let (primary, mut diffuse) = rays(&scene, &bvh, w, h);
-            if std::env::var("RLX_SORT").is_ok() {
-                let (mut lo, mut hi) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-                for t in &scene.triangles {
-                    for p in t.positions {
-                        lo = lo.min(Vec3::from(p));
-                        hi = hi.max(Vec3::from(p));
-                    }
-                }
-                let ext = hi - lo;
-                diffuse.sort_by_key(|q| {
-                    raylume_sort::morton::ray_sort_key(
-                        Vec3::from(q.origin),
-                        Vec3::from(q.dir),
-                        lo,
-                        ext,
-                    )
-                });
-                println!("RLX sorted diffuse rays");
-            }
+            let (primary, diffuse) = rays(&scene, &bvh, w, h);
             if let (Some(root), true) = (&args.dump, layout == args.bvh[0]) {
                 let dir = root.join(scene_name(path));
                 let n = dump(&dir, &bvh, [("primary", &primary), ("diffuse", &diffuse)])
@@ -506,19 +378,6 @@ fn main() {
                         ),
                     };
                     assert_eq!(hc, ha, "closest and any-hit disagree on what is hit");
-                    if let (Ok(ks), "gpu", Some(ctx)) =
-                        (std::env::var("RLX_RT"), backend.as_str(), &ctx)
-                    {
-                        for k in ks.split(',') {
-                            let e = format!("closest_rt{k}");
-                            let (t, hcount) = gpu_rate(ctx, &bvh, qs, &e, args.repeat, args.passes);
-                            println!(
-                                "RT k={k} {kind}: {:.1} Mrays/s (plain {:.1}), hits {hcount} vs {hc}",
-                                qs.len() as f64 / t / 1e6,
-                                qs.len() as f64 / tc / 1e6
-                            );
-                        }
-                    }
                     println!(
                         "| {} | {} | {} | {backend} | {kind} ({}) | {:.0} | {:.0} | {:.1} % |",
                         path.display(),
