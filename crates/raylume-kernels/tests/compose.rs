@@ -273,7 +273,8 @@ fn calls(
 /// shadow ray through one call of the walk, and a driver inlines each call (on the H200, with
 /// a second copy for the shadow ray and the hit's state live across it, the living room's NEE
 /// paths traced 8-46 % slower: megakernel 0.485 against 0.448 s, persistent 0.776 against
-/// 0.417 s at 100 spp). The next_event stage's one call is its shadow ray's.
+/// 0.417 s at 100 spp). The next_event stage's one call is its shadow ray's; with the walk
+/// stage, `propagate`'s is its shadow ray's too (the path ray's hit is read from the stage).
 #[test]
 fn each_path_tracing_pipeline_inlines_one_walk() {
     for (layout, walk) in [
@@ -282,9 +283,11 @@ fn each_path_tracing_pipeline_inlines_one_walk() {
     ] {
         let module = validate(Features::all(), layout);
         for estimator in [Estimator::Plain, Estimator::Nee] {
-            for stage in [false, true] {
-                let variant =
-                    PathVariant::of(estimator, Sampler::Sobol).with_next_event_stage(stage);
+            for (stage, walk_stage) in [(false, false), (true, false), (false, true), (true, true)]
+            {
+                let variant = PathVariant::of(estimator, Sampler::Sobol)
+                    .with_next_event_stage(stage)
+                    .with_walk_stage(walk_stage);
                 for entry in TracerPipelines::entries(Schedule::Wavefront, variant)
                     .iter()
                     .chain(&["trace_paths", "trace_paths_persistent"])
