@@ -9,7 +9,9 @@
 #   . .gl/on-device.sh && bash .gpu/table1-device.sh     # there (the device tool's run)
 #
 # Settings (environment): T1_SCENES (Table 1's scenes), T1_SPP (1,10,100), T1_SCHEDULES
-# (megakernel,wavefront,persistent), T1_BVH (binary,wide), T1_REORDER (off,on), T1_QUICK=1 (the
+# (megakernel,wavefront,persistent), T1_BVH (binary,wide), T1_REORDER (off,on), T1_WALK (off,on:
+# the wavefront's walk stage, bench --walk-stage; it changes nothing of the other schedules,
+# whose `+walk` columns repeat them), T1_QUICK=1 (the
 # Cornell box and the living room only), T1_PERSISTENT_THREADS (the persistent schedule's thread
 # counts tried besides the default, RAYLUME_PERSISTENT_THREADS), T1_PARTS (which parts run: "plain
 # nee threads mitsuba first-image large specialise", all by default; `specialise` is issue 14's:
@@ -62,7 +64,7 @@ device() {
   nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv | tee $R/gpu.txt
   S=${T1_SCENES:-"scenes/cornell-box.toml scenes/living-room/scene.json scenes/teapot.toml scenes/glass-teapot.toml scenes/spheres.toml scenes/cornell-plus.toml"}
   [ "${T1_QUICK:-0}" = 1 ] && S="scenes/cornell-box.toml scenes/living-room/scene.json"
-  local common="--backend gpu --spp ${T1_SPP:-1,10,100} --repeat 3 --schedule ${T1_SCHEDULES:-megakernel,wavefront,persistent} --reorder ${T1_REORDER:-off,on} --bvh ${T1_BVH:-binary,wide}"
+  local common="--backend gpu --spp ${T1_SPP:-1,10,100} --repeat 3 --schedule ${T1_SCHEDULES:-megakernel,wavefront,persistent} --reorder ${T1_REORDER:-off,on} --bvh ${T1_BVH:-binary,wide} --walk-stage ${T1_WALK:-off,on}"
   local parts=" ${T1_PARTS:-plain nee threads mitsuba first-image large specialise parts workgroup} "
   if [[ $parts == *" plain "* ]]; then
   echo "== Table 1, plain estimator (at $(el) s)"
