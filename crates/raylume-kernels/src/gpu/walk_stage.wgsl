@@ -9,9 +9,14 @@
 // Appended to the tracer's module only on adapters with subgroups (gpu/pipelines.rs).
 
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn trace_hits() {
+fn trace_hits(@builtin(subgroup_invocation_id) lane: u32) {
     let n = atomicLoad(&queue_counts[bounce.depth & 1u]);
     let none = 0xffffffffu;
+    // The lanes of the subgroup below this one, as ballot words.
+    let below = walk_lanes_below(lane);
+    // The subgroup's lanes still in the loop (the same in every lane: lanes leave only when
+    // a refill finds the queue's end, which every lane sees).
+    var in_loop = subgroupAdd(1u);
     var slot = none;
     var wr: WideRay;
     var sheared: ShearedRay;
@@ -20,16 +25,21 @@ fn trace_hits() {
     var sp = 0u;
     var group = vec2<u32>(0u, 0u);
     loop {
-        // Lanes without a ray take the next slots of the queue, one atomic per subgroup.
+        // Lanes without a ray take the next slots of the queue, one atomic per subgroup: one
+        // ballot an iteration decides (the refill's condition is the same in every lane).
         let waiting = slot == none;
-        let want = subgroupAdd(select(0u, 1u, waiting));
-        if want >= WALK_STAGE_REFILL || subgroupAll(waiting) {
-            let rank = subgroupExclusiveAdd(select(0u, 1u, waiting));
+        let ballot = subgroupBallot(waiting);
+        let want = walk_lane_count(ballot);
+        if want >= min(WALK_STAGE_REFILL, in_loop) {
+            let rank = walk_lane_count(ballot & below);
+            let first = walk_first_lane(ballot);
             var base = 0u;
-            if waiting && rank == 0u {
+            if lane == first {
                 base = atomicAdd(&queue_counts[WALK_STAGE_COUNTER], want);
             }
-            base = subgroupMax(base);
+            base = subgroupShuffle(base, first);
+            // The lanes whose slot is past the queue's end leave.
+            in_loop -= want - min(want, n - min(n, base));
             if waiting {
                 if base + rank >= n {
                     break;
@@ -81,4 +91,25 @@ fn trace_hits() {
             }
         }
     }
+}
+
+// The lanes of ballot words `m` (subgroups of up to 128 lanes, the most WGSL allows).
+fn walk_lane_count(m: vec4<u32>) -> u32 {
+    let c = countOneBits(m);
+    return c.x + c.y + c.z + c.w;
+}
+
+// The lowest lane of a non-empty ballot `m`.
+fn walk_first_lane(m: vec4<u32>) -> u32 {
+    let t = countTrailingZeros(m) + vec4<u32>(0u, 32u, 64u, 96u);
+    return select(select(select(t.w, t.z, m.z != 0u), t.y, m.y != 0u), t.x, m.x != 0u);
+}
+
+// The lanes below `lane`, as ballot words.
+fn walk_lanes_below(lane: u32) -> vec4<u32> {
+    let bits = vec4<u32>(lane) - vec4<u32>(0u, 32u, 64u, 96u);
+    let full = vec4<u32>(lane) >= vec4<u32>(32u, 64u, 96u, 128u);
+    let none = vec4<u32>(lane) <= vec4<u32>(0u, 32u, 64u, 96u);
+    let partial = (vec4<u32>(1u) << (bits & vec4<u32>(31u))) - vec4<u32>(1u);
+    return select(select(partial, vec4<u32>(0u), none), vec4<u32>(0xffffffffu), full);
 }
