@@ -104,7 +104,7 @@ struct Args {
     next_event_stage: bool,
     /// With `--schedule wavefront`: walk each bounce's rays in a stage of their own, whose
     /// threads take the next ray when theirs ends (faster on large scenes whose rays are not
-    /// sorted: the living room's plain paths 0.49 -> 0.40 s on the H200; slower on small
+    /// sorted: the living room's plain paths 0.486 -> 0.384 s on the H200; slower on small
     /// ones and with `--reorder on`). Wide BVH on a GPU with subgroups. See
     /// `Tracer::walk_stage`.
     #[arg(long)]
