@@ -376,7 +376,10 @@ pub struct BounceUniforms {
     /// With `sort_next`: how far the 30-bit key is shifted right, so that a sort of the low
     /// `30 - sort_shift` bits sorts by the key's top bits (`Reorder::key_bits`).
     pub sort_shift: u32,
-    pub _pad2: u32,
+    /// The walk stage's workgroups at most (`prepare_propagate` sizes its dispatch to the
+    /// bounce's rays within it): [`crate::walk_stage_groups`] on a hardware adapter, no bound
+    /// on a software one.
+    pub walk_groups: u32,
 }
 
 const _: () = assert!(size_of::<BounceUniforms>() == 16);

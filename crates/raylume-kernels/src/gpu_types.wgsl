@@ -121,5 +121,5 @@ struct BounceUniforms {
     depth: u32,
     sort_next: u32,
     sort_shift: u32,
-    _pad2: u32,
+    walk_groups: u32,
 }

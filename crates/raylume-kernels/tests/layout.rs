@@ -77,7 +77,7 @@ fn layout_matches_wgsl() {
         rust_layout!(RayState; origin, pixel, dir, sample, throughput, depth, radiance, alive),
         rust_layout!(NeeRecord; position, offset, geometric_normal, back_offset, shading_normal,
             material, color, state, dir_in, _pad0, throughput, _pad1, rnd, emitted, _pad2),
-        rust_layout!(BounceUniforms; depth, sort_next, sort_shift, _pad2),
+        rust_layout!(BounceUniforms; depth, sort_next, sort_shift, walk_groups),
     ];
     for (name, size, fields) in expected {
         raylume_gpu::testing::check_wgsl_struct(&module, &layouter, name, size, &fields);

@@ -479,20 +479,29 @@ fn the_walk_stage_traces_the_hits_propagate_would() {
                 assert!(walked.timing("trace_hits").is_none());
                 tracer.set_walk_stage(true);
                 assert!(tracer.walk_stage(), "wide BVH and subgroups: a walk stage");
-                let staged = tracer.render(&s, &mut |_, _| {}).unwrap();
-                let what = format!("{name}, {estimator:?}, {}", reorder.describe(5));
-                assert!(
-                    staged.timing("trace_hits").is_some(),
-                    "{what}: no walk stage ran"
-                );
-                assert_eq!(staged.rays_traced, walked.rays_traced, "{what}");
-                let differ = staged
-                    .radiance
-                    .iter()
-                    .zip(&walked.radiance)
-                    .filter(|(a, b)| a != b)
-                    .count();
-                assert_eq!(differ, 0, "{what}: {differ} pixels differ");
+                // A thread per ray (lavapipe's default), then two workgroups for the 1,152
+                // camera rays: each thread takes the queue's next ray when its own is done,
+                // some ten in turn (few enough steps for lavapipe's loop limit).
+                for groups in [None, Some(2)] {
+                    tracer.set_walk_stage_groups(groups);
+                    let staged = tracer.render(&s, &mut |_, _| {}).unwrap();
+                    let what = format!(
+                        "{name}, {estimator:?}, {}, {groups:?} groups",
+                        reorder.describe(5)
+                    );
+                    assert!(
+                        staged.timing("trace_hits").is_some(),
+                        "{what}: no walk stage ran"
+                    );
+                    assert_eq!(staged.rays_traced, walked.rays_traced, "{what}");
+                    let differ = staged
+                        .radiance
+                        .iter()
+                        .zip(&walked.radiance)
+                        .filter(|(a, b)| a != b)
+                        .count();
+                    assert_eq!(differ, 0, "{what}: {differ} pixels differ");
+                }
             }
         }
     }

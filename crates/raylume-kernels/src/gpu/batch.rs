@@ -50,9 +50,6 @@ pub(crate) struct BatchRecorder<'r> {
     /// The persistent schedule's dispatch: the batch's samples, at most
     /// [`crate::PERSISTENT_THREADS`] threads.
     pub persistent_groups: (u32, u32),
-    /// The walk stage's dispatch: the batch's rays, at most [`crate::walk_stage_groups`]
-    /// workgroups on a hardware adapter.
-    pub walk_groups: (u32, u32),
 }
 
 impl<'r> BatchRecorder<'r> {
@@ -161,12 +158,11 @@ impl<'r> BatchRecorder<'r> {
             let s = states;
             if self.pipes.contains_key("trace_hits") {
                 // The bounce's closest hits, for propagate to shade (prepare_propagate zeroes
-                // the stage's slot counter).
-                let (hx, hy) = self.walk_groups;
+                // the stage's slot counter and sizes its dispatch to the bounce's rays).
                 out.push(Stage::pass("trace_hits", Some(depth), move |pass| {
                     self.prepare(pass, depth, s);
                     self.bind(pass, "trace_hits", depth, s);
-                    pass.dispatch_workgroups(hx, hy, 1);
+                    pass.dispatch_workgroups_indirect(&w.dispatch_args, 16);
                 }));
             }
             out.push(Stage::pass("propagate", Some(depth), move |pass| {

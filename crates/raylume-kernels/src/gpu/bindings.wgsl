@@ -45,9 +45,10 @@
 // the render's wavefront has a walk stage.
 @group(1) @binding(10) var<storage, read_write> queue_hits: array<vec4<u32>>;
 
-// Group 2, only in `prepare_propagate`'s layout: the indirect dispatch size of the next
-// `propagate` (a buffer used for an indirect dispatch must not be bound in that dispatch).
-@group(2) @binding(0) var<storage, read_write> dispatch_args: array<u32, 4>;
+// Group 2, only in `prepare_propagate`'s layout: the indirect dispatch sizes of the next
+// `propagate` (words 0-2) and of the walk stage's `trace_hits` (words 4-6) (a buffer used for
+// an indirect dispatch must not be bound in that dispatch).
+@group(2) @binding(0) var<storage, read_write> dispatch_args: array<u32, 8>;
 // Group 2, only in `permute_rays`' layout: the other ray-state buffer, which it fills in key
 // order.
 @group(2) @binding(1) var<storage, read_write> permuted_states: array<RayState>;

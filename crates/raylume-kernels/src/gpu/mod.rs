@@ -548,6 +548,8 @@ pub struct GpuTracer<'a> {
     next_event_stage: bool,
     /// [`GpuTracer::set_walk_stage`].
     walk_stage: bool,
+    /// See [`GpuTracer::set_walk_stage_groups`].
+    walk_stage_groups: Option<u32>,
     /// See [`GpuTracer::set_persistent_threads`].
     persistent_threads: Option<u32>,
     upload_seconds: f64,
@@ -698,6 +700,7 @@ impl<'a> GpuTracer<'a> {
             batch_ray_limit: None,
             next_event_stage: false,
             walk_stage: false,
+            walk_stage_groups: None,
             persistent_threads: None,
             upload_seconds: start.elapsed().as_secs_f64(),
         })
@@ -738,6 +741,14 @@ impl<'a> GpuTracer<'a> {
     /// without subgroups) the wavefront walks in `propagate` whatever this says.
     pub fn set_walk_stage(&mut self, on: bool) {
         self.walk_stage = on;
+    }
+
+    /// Caps the walk stage's workgroups (so that its threads take several rays each even in a
+    /// small render; `None` restores the default: [`crate::walk_stage_groups`] on a hardware
+    /// adapter, a thread per ray on a software one, whose loop limit would otherwise cut
+    /// long-running threads short). The image does not depend on it.
+    pub fn set_walk_stage_groups(&mut self, groups: Option<u32>) {
+        self.walk_stage_groups = groups.map(|g| g.max(1));
     }
 
     /// Whether the next wavefront renders have a walk stage: asked for

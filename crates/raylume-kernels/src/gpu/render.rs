@@ -33,8 +33,8 @@ struct Prepared {
     permute: bool,
     /// Persistent threads when the caller set none.
     default_threads: u32,
-    /// The walk stage's threads at most (a thread per ray on a software adapter).
-    walk_threads: u32,
+    /// The walk stage's workgroups at most (`BounceUniforms::walk_groups`).
+    walk_groups: u32,
     /// Seconds the preparation took.
     seconds: f64,
 }
@@ -278,12 +278,13 @@ impl GpuTracer<'_> {
                 .filter(|&t| t > 0)
                 .unwrap_or(crate::PERSISTENT_THREADS)
         };
-        // The walk stage's threads: a thread per ray on a software adapter (its loop limit, as
-        // above), else a few resident waves that take the queue's rays in turn.
-        let walk_threads = if ctx.info.is_software {
-            u32::MAX
-        } else {
-            crate::walk_stage_groups().saturating_mul(workgroup_size())
+        // The walk stage's workgroups at most: a thread per ray on a software adapter (its
+        // loop limit, as above), else about as many as stay resident, taking the queue's rays
+        // in turn (prepare_propagate sizes each bounce's dispatch within this).
+        let walk_groups = match self.walk_stage_groups {
+            Some(g) => g,
+            None if ctx.info.is_software => u32::MAX,
+            None => crate::walk_stage_groups(),
         };
         Ok(Prepared {
             batches,
@@ -292,7 +293,7 @@ impl GpuTracer<'_> {
             base,
             permute,
             default_threads,
-            walk_threads,
+            walk_groups,
             seconds: t_prepare.elapsed().as_secs_f64(),
         })
     }
@@ -359,7 +360,7 @@ impl GpuTracer<'_> {
             self.work
                 .as_mut()
                 .expect("allocated by prepare")
-                .write_bounces(ctx, max_bounces, plan.reorder);
+                .write_bounces(ctx, max_bounces, plan.reorder, p.walk_groups);
         }
         let work = self.work.as_ref().expect("allocated by prepare");
         let max_dim = ctx.limits.max_compute_workgroups_per_dimension;
@@ -379,7 +380,6 @@ impl GpuTracer<'_> {
                 max_dim,
             ),
             pixel_groups: dispatch_size(b.pixel_count, workgroup_size(), max_dim),
-            walk_groups: dispatch_size(b.rays().min(p.walk_threads), workgroup_size(), max_dim),
         }
         .stages(plan, max_bounces);
         let times = clock.run(&during, &stages)?;

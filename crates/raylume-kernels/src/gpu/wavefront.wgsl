@@ -40,6 +40,17 @@ fn prepare_propagate() {
     dispatch_args[0] = x;
     dispatch_args[1] = y;
     dispatch_args[2] = 1u;
+    // The walk stage's threads: as many as the rays, at most bounce.walk_groups workgroups
+    // (they take the queue's rays in turn).
+    let walk = min(groups, bounce.walk_groups);
+    let wx = min(walk, MAX_WORKGROUPS_PER_DIMENSION);
+    var wy = 1u;
+    if (wx > 0u) {
+        wy = (walk + wx - 1u) / wx;
+    }
+    dispatch_args[4] = wx;
+    dispatch_args[5] = wy;
+    dispatch_args[6] = 1u;
     atomicStore(&queue_counts[1u - q], 0u);
     // The walk stage's count of the queue slots taken (it runs after this, before propagate).
     atomicStore(&queue_counts[WALK_STAGE_COUNTER], 0u);

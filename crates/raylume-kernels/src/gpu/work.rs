@@ -103,7 +103,7 @@ pub(crate) struct WorkBuffers {
     /// Group 2 of `prepare_propagate`: the dispatch size it writes.
     pub args_bind_group: wgpu::BindGroup,
     /// The bounce uniforms last written (`write_bounces` skips rewriting the same).
-    written: Option<(u32, Reorder)>,
+    written: Option<(u32, Reorder, u32)>,
 }
 
 fn entry(binding: u32, b: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
@@ -161,8 +161,9 @@ impl WorkBuffers {
             copy,
         )?;
         let queue_counts = ctx.storage_buffer_zeroed("queue counts", 16, copy)?;
+        // propagate's dispatch size (words 0-2), the walk stage's (words 4-6).
         let dispatch_args =
-            ctx.storage_buffer_zeroed("propagate dispatch size", 16, wgpu::BufferUsages::INDIRECT)?;
+            ctx.storage_buffer_zeroed("propagate dispatch size", 32, wgpu::BufferUsages::INDIRECT)?;
         let accumulation =
             ctx.storage_buffer_zeroed("the accumulation image", u64::from(key.pixels) * 12, copy)?;
         let batch_stats =
@@ -285,8 +286,14 @@ impl WorkBuffers {
 
     /// Writes the bounce uniforms of a batch with `max_bounces` bounces sorted as `reorder`
     /// says (queued before the next submission), unless they are already there.
-    pub fn write_bounces(&mut self, ctx: &GpuContext, max_bounces: u32, reorder: Reorder) {
-        if self.written == Some((max_bounces, reorder)) {
+    pub fn write_bounces(
+        &mut self,
+        ctx: &GpuContext,
+        max_bounces: u32,
+        reorder: Reorder,
+        walk_groups: u32,
+    ) {
+        if self.written == Some((max_bounces, reorder, walk_groups)) {
             return;
         }
         let stride = self.bounce_stride as usize;
@@ -301,12 +308,12 @@ impl WorkBuffers {
                 } else {
                     0
                 },
-                ..Default::default()
+                walk_groups,
             };
             let at = depth as usize * stride;
             bytes[at..at + size_of::<BounceUniforms>()].copy_from_slice(bytemuck::bytes_of(&u));
         }
         ctx.queue.write_buffer(&self.bounce, 0, &bytes);
-        self.written = Some((max_bounces, reorder));
+        self.written = Some((max_bounces, reorder, walk_groups));
     }
 }
