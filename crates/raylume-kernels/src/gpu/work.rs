@@ -308,7 +308,12 @@ impl WorkBuffers {
                 } else {
                     0
                 },
-                walk_groups,
+                // Where the bounce has no walk stage, 0: propagate walks its rays itself.
+                walk_groups: if super::batch::walk_stage_at(reorder, depth) {
+                    walk_groups
+                } else {
+                    0
+                },
             };
             let at = depth as usize * stride;
             bytes[at..at + size_of::<BounceUniforms>()].copy_from_slice(bytemuck::bytes_of(&u));
