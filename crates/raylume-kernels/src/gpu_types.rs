@@ -378,9 +378,7 @@ pub struct BounceUniforms {
     pub sort_shift: u32,
     /// The walk stage's workgroups at most (`prepare_propagate` sizes its dispatch to the
     /// bounce's rays within it): [`crate::walk_stage_groups`] on a hardware adapter, no bound
-    /// on a software one; 0 at the bounces without the stage (the camera rays' and sorted
-    /// ones), where `propagate` walks (with `HITS_TRACED`, it reads the stage's hits when
-    /// this is not 0).
+    /// on a software one; 0 at the bounces without the stage (the sorted ones).
     pub walk_groups: u32,
 }
 

@@ -135,11 +135,10 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
     var light_in = vec3<f32>(0.0);
     var emission = vec3<f32>(0.0);
     loop {
-        // With a walk stage (HITS_TRACED, propagate only) at this bounce (bounce.walk_groups,
-        // 0 at the bounces without it) the path ray's hit is already traced, at this ray's
-        // queue slot; the shadow ray is walked here.
+        // With a walk stage (HITS_TRACED: the propagate of the bounces that run it) the path
+        // ray's hit is already traced, at this ray's queue slot; the shadow ray is walked here.
         var hit: Hit;
-        if (HITS_TRACED && bounce.walk_groups != 0u && !shadow) {
+        if (HITS_TRACED && !shadow) {
             hit = load_queue_hit(slot);
         } else {
             hit = trace_query(ray, 0.0, t_max, shadow);

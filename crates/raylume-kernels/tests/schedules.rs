@@ -447,8 +447,8 @@ fn one_tracer_alternates_schedules_within_the_binding_limit() {
 /// The wavefront's walk stage (`trace_hits`, walk_stage.wgsl) walks each ray of a bounce's
 /// queue as `propagate` would, only in another thread: the same hits, so the same image bit
 /// for bit, with either estimator (NEE walks its shadow rays in `propagate` still), with some
-/// bounces sorted (which `propagate` walks) or none; a render sorted at every bounce after the
-/// camera's runs no stage, and the binary layout (which has no walk stage) is untouched.
+/// bounces sorted (which `propagate` walks) or none, and the binary layout (which has no walk
+/// stage) untouched.
 #[test]
 fn the_walk_stage_traces_the_hits_propagate_would() {
     let Some(ctx) =
@@ -460,9 +460,11 @@ fn the_walk_stage_traces_the_hits_propagate_would() {
         eprintln!("the adapter has no subgroups: the wavefront has no walk stage to test");
         return;
     }
-    // Sorted from the third bounce on: the stage walks bounces 1 and 2, `propagate` the camera
-    // rays and the sorted bounces (`walk_stage_at`).
-    let sorted = raylume_kernels::Reorder::from_depth(raylume_kernels::ReorderMode::SortIndex, 3);
+    // Sorted from the third bounce on (the stage walks bounces 0 to 2, the `propagate` compiled
+    // without HITS_TRACED the sorted ones: `walk_stage_at`), and from the first (the stage
+    // walks the camera rays alone).
+    let sorted =
+        |from| raylume_kernels::Reorder::from_depth(raylume_kernels::ReorderMode::SortIndex, from);
     for (name, scene) in [
         ("cornell", cornell_box()),
         ("spheres", spheres()),
@@ -471,7 +473,7 @@ fn the_walk_stage_traces_the_hits_propagate_would() {
     ] {
         let bvh = bvh(&scene);
         for estimator in [Estimator::Plain, Estimator::Nee] {
-            for reorder in [raylume_kernels::Reorder::OFF, sorted] {
+            for reorder in [raylume_kernels::Reorder::OFF, sorted(3), sorted(1)] {
                 let s = TraceSettings {
                     reorder,
                     ..settings(24, 16, 3, 5, Schedule::Wavefront)
@@ -508,17 +510,8 @@ fn the_walk_stage_traces_the_hits_propagate_would() {
             }
         }
     }
-    // Sorted from the first bounce on, and the camera rays: no bounce for the stage.
-    let scene = cornell_box();
-    let mut tracer = GpuTracer::new(ctx, &scene, &bvh(&scene)).unwrap();
-    tracer.set_walk_stage(true);
-    let all_sorted = TraceSettings {
-        reorder: raylume_kernels::Reorder::from_depth(raylume_kernels::ReorderMode::SortIndex, 1),
-        ..settings(8, 8, 1, 3, Schedule::Wavefront)
-    };
-    let out = tracer.render(&all_sorted, &mut |_, _| {}).unwrap();
-    assert!(out.timing("trace_hits").is_none());
     // The binary layout has no walk stage: asked for, the wavefront walks in propagate.
+    let scene = cornell_box();
     let binary = bvh_with_layout(&scene, raylume_bvh::BvhLayout::Binary);
     let mut tracer = GpuTracer::new(ctx, &scene, &binary).unwrap();
     tracer.set_walk_stage(true);

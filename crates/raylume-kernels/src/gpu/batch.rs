@@ -19,15 +19,19 @@ pub(crate) fn current_queue(depth: u32) -> usize {
     (depth & 1) as usize
 }
 
-/// Whether bounce `depth` of a wavefront with a walk stage runs it: the bounces after the
-/// camera rays' whose queue is not sorted. Camera rays and sorted queues are coherent, so
-/// their lanes end their walks together and the stage's refills cost more than they save (on
-/// the H200: the living room's camera rays 12 % slower; its sorted bounces 25 % slower,
-/// gathering the ray states twice in `SortIndex` order); there `propagate` walks, as without
-/// the stage (`BounceUniforms::walk_groups` is 0).
+/// Whether bounce `depth` of a wavefront with a walk stage runs it: the bounces whose queue is
+/// not sorted. A sorted queue is coherent, so its lanes end their walks together and the
+/// stage's refills cost more than they save (on the H200 the living room's sorted bounces
+/// were 25 % slower, gathering the ray states twice in `SortIndex` order); there the
+/// `propagate` compiled without `HITS_TRACED` walks, as without the stage
+/// (`BounceUniforms::walk_groups` is 0).
 pub(crate) fn walk_stage_at(reorder: Reorder, depth: u32) -> bool {
-    depth >= 1 && !reorder.sorts_before(depth)
+    !reorder.sorts_before(depth)
 }
+
+/// The name under which a batch's pipelines hold `propagate` compiled with `HITS_TRACED` (the
+/// walk stage's bounces), beside `propagate` itself (the other bounces).
+pub(crate) const PROPAGATE_HITS: &str = "propagate (walk stage)";
 
 /// A stage injected before each wavefront bounce is traced, after its sort and permutation:
 /// how a test looks at the rays (`GpuTracer::capture_sort`, `capture.rs`) without the
@@ -166,7 +170,9 @@ impl<'r> BatchRecorder<'r> {
                 out.push(stage);
             }
             let s = states;
-            if self.pipes.contains_key("trace_hits") && walk_stage_at(plan.reorder, depth) {
+            let staged =
+                self.pipes.contains_key("trace_hits") && walk_stage_at(plan.reorder, depth);
+            if staged {
                 // The bounce's closest hits, for propagate to shade (prepare_propagate zeroes
                 // the stage's slot counter and sizes its dispatch to the bounce's rays).
                 out.push(Stage::pass("trace_hits", Some(depth), move |pass| {
@@ -175,9 +181,10 @@ impl<'r> BatchRecorder<'r> {
                     pass.dispatch_workgroups_indirect(&w.dispatch_args, 16);
                 }));
             }
+            let propagate = if staged { PROPAGATE_HITS } else { "propagate" };
             out.push(Stage::pass("propagate", Some(depth), move |pass| {
                 self.prepare(pass, depth, s);
-                self.bind(pass, "propagate", depth, s);
+                self.bind(pass, propagate, depth, s);
                 pass.dispatch_workgroups_indirect(&w.dispatch_args, 0);
             }));
             if self.pipes.contains_key("next_event") {

@@ -77,9 +77,10 @@ override NEXT_EVENT: bool = true;
 // and the BSDF evaluation toward the light are then dead code there, and live in
 // `next_event`'s pipeline, which the driver compiles beside it).
 override DEFER_NEE: bool = false;
-// True in `propagate`'s pipelines of a wavefront with a walk stage: at the bounces that run it
-// (bounce.walk_groups != 0) trace_ray takes the path ray's closest hit from queue_hits
+// True in the `propagate` pipeline of a wavefront's bounces with a walk stage (gpu/batch.rs
+// `walk_stage_at`): trace_ray takes the path ray's closest hit from queue_hits
 // (walk_stage.wgsl traced it) instead of walking the tree; a shadow ray is still walked there.
+// The other bounces run `propagate` compiled without it.
 override HITS_TRACED: bool = false;
 // The walk stage refills a subgroup's idle lanes once this many wait (or all of them do):
 // WALK_STAGE_REFILL in lib.rs, set at pipeline creation.

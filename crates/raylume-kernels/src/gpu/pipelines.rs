@@ -351,23 +351,31 @@ impl TracerPipelines {
     ) -> Result<(), KernelError> {
         // Without the walk stage in the module, the wavefront walks in `propagate`.
         let variant = variant.with_walk_stage(variant.walk_stage && self.walk_stage);
-        let missing: Vec<&'static str> = {
+        // A walk stage's wavefront also runs `propagate` without `HITS_TRACED`, at its sorted
+        // bounces (`batch::walk_stage_at`).
+        let mut wanted: Vec<(&'static str, PathVariant)> = Self::entries(schedule, variant)
+            .iter()
+            .map(|&e| (e, variant))
+            .collect();
+        if schedule == Schedule::Wavefront && variant.walk_stage {
+            wanted.push(("propagate", variant.with_walk_stage(false)));
+        }
+        let missing: Vec<(&'static str, PathVariant)> = {
             let compiled = self.compiled.lock().unwrap_or_else(|e| e.into_inner());
-            Self::entries(schedule, variant)
-                .iter()
-                .copied()
-                .filter(|&e| !compiled.contains_key(&(e, self.variant(e, variant))))
+            wanted
+                .into_iter()
+                .filter(|&(e, v)| !compiled.contains_key(&(e, self.variant(e, v))))
                 .collect()
         };
         std::thread::scope(|s| {
             let others: Vec<_> = missing
                 .iter()
                 .skip(1)
-                .map(|&entry| s.spawn(move || self.pipeline(ctx, entry, variant).map(drop)))
+                .map(|&(entry, v)| s.spawn(move || self.pipeline(ctx, entry, v).map(drop)))
                 .collect();
-            let first = missing.first().map_or(Ok(()), |&entry| {
-                self.pipeline(ctx, entry, variant).map(drop)
-            });
+            let first = missing
+                .first()
+                .map_or(Ok(()), |&(entry, v)| self.pipeline(ctx, entry, v).map(drop));
             others.into_iter().fold(first, |done, h| {
                 let r = h.join().unwrap_or_else(|p| std::panic::resume_unwind(p));
                 done.and(r)

@@ -249,6 +249,15 @@ impl GpuTracer<'_> {
                 pipes.insert(s, self.pipeline(s)?);
             }
         }
+        if variant.walk_stage && pipes.contains_key("trace_hits") {
+            // `propagate` of the walk stage's bounces reads the stage's hits; the sorted
+            // bounces' walks (`batch::walk_stage_at`).
+            pipes.insert(super::batch::PROPAGATE_HITS, pipes["propagate"].clone());
+            let walking =
+                self.pipelines
+                    .pipeline(ctx, "propagate", variant.with_walk_stage(false))?;
+            pipes.insert("propagate", walking);
+        }
         let mut key_bits: Vec<u32> = candidates
             .iter()
             .filter(|c| c.sorts(max_bounces))
