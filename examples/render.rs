@@ -104,8 +104,8 @@ struct Args {
     next_event_stage: bool,
     /// With `--schedule wavefront`: walk each bounce's rays in a stage of their own, whose
     /// threads take the next ray when theirs ends (faster on large scenes whose rays are not
-    /// sorted: the living room's plain paths 0.486 -> 0.384 s on the H200; slower on small
-    /// ones and with `--reorder on`). Wide BVH on a GPU with subgroups. See
+    /// sorted: the living room's plain paths 0.486 -> 0.383 s on the H200; slower on small
+    /// ones; a sorted bounce is walked as without it). Wide BVH on a GPU with subgroups. See
     /// `Tracer::walk_stage`.
     #[arg(long)]
     walk_stage: bool,

@@ -463,8 +463,9 @@ pub struct Tracer {
     /// `propagate` shades them (`trace_hits`: a fixed set of GPU threads, each taking the
     /// next ray of the queue when its walk ends; wide BVH and subgroups only, else ignored;
     /// the same images). On large scenes whose rays are not sorted it pays (the living room on
-    /// the H200, 100 spp: plain 0.486 -> 0.384 s, NEE 0.425 -> 0.375 s, both faster than
-    /// sorting); on small scenes and sorted queues it costs (the Cornell box +18 %);
+    /// the H200, 100 spp: plain 0.486 -> 0.383 s, NEE 0.424 -> 0.373 s, both faster than
+    /// sorting); on small scenes it costs (the Cornell box +17 %); a sorted bounce is walked
+    /// as without it;
     /// [`raylume_kernels::gpu::PathVariant::walk_stage`]. Default: off.
     pub walk_stage: bool,
     /// The estimator: next-event estimation with multiple importance sampling

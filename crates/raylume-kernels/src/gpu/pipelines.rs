@@ -41,10 +41,10 @@ pub struct PathVariant {
     /// the queue when its walk ends, so that a subgroup's lanes do not idle while its longest
     /// walk goes on), `propagate` shading the hits it left. Only with the wide BVH on an
     /// adapter with subgroups ([`TracerPipelines::has_walk_stage`]). The same images. On the
-    /// H200 (100 spp) the living room's unsorted wavefront 0.486 -> 0.384 s plain, 0.425 ->
-    /// 0.375 s NEE (faster than sorting it, which the stage does not combine with: 0.546 s);
-    /// the teapot 5-7 % faster; short walks slower (the Cornell box +18 %): off by default
-    /// (`docs/RESULTS.md`).
+    /// H200 (100 spp) the living room's unsorted wavefront 0.486 -> 0.383 s plain, 0.424 ->
+    /// 0.373 s NEE (faster than sorting it: 0.443 and 0.380 s); the teapot 8 % faster; short
+    /// walks slower (the Cornell box +17 %): off by default (`docs/RESULTS.md`). The sorted
+    /// bounces of a render that sorts are left to `propagate` (`batch::walk_stage_at`).
     pub walk_stage: bool,
 }
 
