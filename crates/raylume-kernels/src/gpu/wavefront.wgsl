@@ -27,30 +27,28 @@ fn raygen(
     }
 }
 
-@compute @workgroup_size(1)
-fn prepare_propagate() {
-    let q = bounce.depth & 1u;
-    let n = atomicLoad(&queue_counts[q]);
-    let groups = (n + WORKGROUP_SIZE - 1u) / WORKGROUP_SIZE;
+// `groups` workgroups as an indirect dispatch's (x, y) (at most
+// MAX_WORKGROUPS_PER_DIMENSION along x; x * y >= groups) at word `at` of dispatch_args.
+fn write_dispatch(at: u32, groups: u32) {
     let x = min(groups, MAX_WORKGROUPS_PER_DIMENSION);
     var y = 1u;
     if (x > 0u) {
         y = (groups + x - 1u) / x;
     }
-    dispatch_args[0] = x;
-    dispatch_args[1] = y;
-    dispatch_args[2] = 1u;
+    dispatch_args[at] = x;
+    dispatch_args[at + 1u] = y;
+    dispatch_args[at + 2u] = 1u;
+}
+
+@compute @workgroup_size(1)
+fn prepare_propagate() {
+    let q = bounce.depth & 1u;
+    let n = atomicLoad(&queue_counts[q]);
+    let groups = (n + WORKGROUP_SIZE - 1u) / WORKGROUP_SIZE;
+    write_dispatch(0u, groups);
     // The walk stage's threads: as many as the rays, at most bounce.walk_groups workgroups
     // (they take the queue's rays in turn).
-    let walk = min(groups, bounce.walk_groups);
-    let wx = min(walk, MAX_WORKGROUPS_PER_DIMENSION);
-    var wy = 1u;
-    if (wx > 0u) {
-        wy = (walk + wx - 1u) / wx;
-    }
-    dispatch_args[4] = wx;
-    dispatch_args[5] = wy;
-    dispatch_args[6] = 1u;
+    write_dispatch(4u, min(groups, bounce.walk_groups));
     atomicStore(&queue_counts[1u - q], 0u);
     // The walk stage's count of the queue slots taken (it runs after this, before propagate).
     atomicStore(&queue_counts[WALK_STAGE_COUNTER], 0u);
