@@ -374,7 +374,7 @@ fn apply(tracer: &mut Tracer, config: &Config) {
     if let Some(f) = config.extra {
         tracer.extra_features.insert(f);
     }
-    tracer.walk_stage = config.walk_stage;
+    tracer.walk_stage = Some(config.walk_stage);
 }
 
 fn run(args: Args) -> Result<(), String> {

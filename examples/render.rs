@@ -103,12 +103,13 @@ struct Args {
     #[arg(long)]
     next_event_stage: bool,
     /// With `--schedule wavefront`: walk each bounce's rays in a stage of their own, whose
-    /// threads take the next ray when theirs ends (faster on large scenes whose rays are not
-    /// sorted: the living room's plain paths 0.486 -> 0.383 s on the H200; slower on small
-    /// ones; a sorted bounce is walked as without it). Wide BVH on a GPU with subgroups. See
+    /// threads take the next ray when theirs ends: on, off, or auto (the default: on for
+    /// scenes of at least 10,000 primitives). Faster on large scenes whose rays are not sorted
+    /// (the living room's plain paths 0.486 -> 0.383 s on the H200), slower on small ones; a
+    /// sorted bounce is walked as without it. Wide BVH on a GPU with subgroups. See
     /// `Tracer::walk_stage`.
-    #[arg(long)]
-    walk_stage: bool,
+    #[arg(long, default_value = "auto", value_parser = parse_on_off_auto, action = clap::ArgAction::Set)]
+    walk_stage: OnOffAuto,
     /// Russian roulette from this path segment on (default 5, as Mitsuba 3's `path`), or off.
     #[arg(long, default_value = "5", value_parser = parse_rr_depth)]
     rr_depth: RrDepth,
@@ -117,7 +118,7 @@ struct Args {
     /// rendering), off (by the sky's radiance alone, as Mitsuba 3) or auto (the default: on
     /// when the render's rays repay the walks, e.g. not for a thumbnail).
     #[arg(long, default_value = "auto", value_parser = parse_on_off_auto, action = clap::ArgAction::Set)]
-    environment_guide: GuideChoice,
+    environment_guide: OnOffAuto,
     /// Skip the scene's bloom pass.
     #[arg(long)]
     no_bloom: bool,
@@ -159,16 +160,16 @@ fn parse_on_off(s: &str) -> Result<bool, String> {
     }
 }
 
-/// `--environment-guide`: `on`, `off` or `auto` (`None`: the library decides). A newtype:
+/// `--environment-guide`, `--walk-stage`: `on`, `off` or `auto` (`None`: the library decides). A newtype:
 /// clap takes a bare `Option` field for an optional flag.
 #[derive(Clone, Copy, Debug)]
-struct GuideChoice(Option<bool>);
+struct OnOffAuto(Option<bool>);
 
-fn parse_on_off_auto(s: &str) -> Result<GuideChoice, String> {
+fn parse_on_off_auto(s: &str) -> Result<OnOffAuto, String> {
     match s.trim() {
-        "auto" => Ok(GuideChoice(None)),
+        "auto" => Ok(OnOffAuto(None)),
         other => parse_on_off(other)
-            .map(|b| GuideChoice(Some(b)))
+            .map(|b| OnOffAuto(Some(b)))
             .map_err(|_| format!("`{s}`: on, off or auto")),
     }
 }
@@ -271,7 +272,7 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
     tracer.estimator = args.estimator;
     tracer.sampler = args.sampler;
     tracer.next_event_stage = args.next_event_stage;
-    tracer.walk_stage = args.walk_stage;
+    tracer.walk_stage = args.walk_stage.0;
     tracer.russian_roulette = args.rr_depth.0;
     tracer.environment_guide = args.environment_guide.0;
     tracer.target_error = args.target_error;
@@ -478,7 +479,7 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
              with next-event estimation (`--schedule wavefront`, `--estimator nee`)"
         );
     }
-    if args.walk_stage && !render.stats.schedule.contains("walk stage") {
+    if args.walk_stage.0 == Some(true) && !render.stats.schedule.contains("walk stage") {
         eprintln!(
             "raylume: --walk-stage did nothing: it applies to the GPU's wavefront schedule \
              (`--schedule wavefront`) over the wide BVH, on a GPU with subgroups"

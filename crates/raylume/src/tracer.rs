@@ -120,6 +120,13 @@ pub const MAX_BOUNCES: u32 = 1024;
 /// chose the Quality build (0.14-0.26 s on the H200's host) for a 0.076 s trace.
 pub const ROULETTE_TAIL_SEGMENTS: u32 = 5;
 
+/// The primitives from which [`Tracer::walk_stage`]'s default turns the wavefront's walk stage
+/// on. On the H200 (100 spp) the stage sped up the three large scenes measured (the living
+/// room's 142,973 triangles 21 %, the teapots' 123,554 5-8 %) and slowed the three small ones
+/// (4 to 38 primitives, 10-17 %), whose walks are too short for its refills to pay; the scenes
+/// between were not measured.
+pub const WALK_STAGE_MIN_PRIMITIVES: usize = 10_000;
+
 /// The threads [`Tracer::bvh_quality`]'s estimate counts a build on: at most 4, however many
 /// the pool has. The builds do not scale past a few cores: on the H200's 16-core host the 3M
 /// grid's `Fast` tree took 0.146 s more than `Fastest`'s, what the per-primitive constant
@@ -465,9 +472,9 @@ pub struct Tracer {
     /// the same images). On large scenes whose rays are not sorted it pays (the living room on
     /// the H200, 100 spp: plain 0.486 -> 0.383 s, NEE 0.424 -> 0.373 s, both faster than
     /// sorting); on small scenes it costs (the Cornell box +17 %); a sorted bounce is walked
-    /// as without it;
-    /// [`raylume_kernels::gpu::PathVariant::walk_stage`]. Default: off.
-    pub walk_stage: bool,
+    /// as without it; [`raylume_kernels::gpu::PathVariant::walk_stage`]. `None` (the
+    /// default): on for scenes of at least [`WALK_STAGE_MIN_PRIMITIVES`] primitives.
+    pub walk_stage: Option<bool>,
     /// The estimator: next-event estimation with multiple importance sampling
     /// ([`Estimator::Nee`], the default: far less noise per sample where emitters light the
     /// scene; each reflecting hit also casts a shadow ray), or the paper's plain one
@@ -964,7 +971,7 @@ impl Tracer {
             reorder_key_bits: raylume_sort::RAY_KEY_BITS,
             schedule: Schedule::default(),
             next_event_stage: false,
-            walk_stage: false,
+            walk_stage: None,
             estimator: Estimator::Nee,
             sampler: Sampler::Sobol,
             russian_roulette: Some(Self::DEFAULT_RUSSIAN_ROULETTE),
@@ -1152,6 +1159,13 @@ impl Tracer {
 
     /// The pipelines a GPU render of `scene` over a tree of `layout`, starting with
     /// `schedule`, compiles.
+    /// [`Tracer::walk_stage`] for `scene`: as set, else by its primitive count.
+    fn walk_stage_for(&self, scene: &Scene) -> bool {
+        self.walk_stage.unwrap_or_else(|| {
+            scene.triangles.len() + scene.spheres.len() >= WALK_STAGE_MIN_PRIMITIVES
+        })
+    }
+
     fn pipeline_request(
         &self,
         scene: &Scene,
@@ -1169,7 +1183,7 @@ impl Tracer {
             schedule,
             variant: PathVariant::of(self.estimator, self.sampler)
                 .with_next_event_stage(self.next_event_stage)
-                .with_walk_stage(self.walk_stage),
+                .with_walk_stage(self.walk_stage_for(scene)),
             guides: self.guides(scene),
         }
     }
@@ -2087,7 +2101,7 @@ impl Tracer {
         mark(&self.timeline, "render: pipelines in hand");
         let mut tracer = GpuTracer::with_scene(ctx, uploaded, pipelines)?;
         tracer.set_next_event_stage(self.next_event_stage);
-        tracer.set_walk_stage(self.walk_stage);
+        tracer.set_walk_stage(self.walk_stage_for(scene));
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
         let guides = self.guides(scene);

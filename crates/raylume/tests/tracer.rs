@@ -766,3 +766,46 @@ fn a_new_device_forgets_the_trees_and_scenes_of_the_old_one() {
     assert!(second.stats.bvh_builder.starts_with("LBVH on the GPU"));
     assert_eq!(second.pixels, first.pixels);
 }
+
+/// `Tracer::walk_stage`'s default turns the wavefront's walk stage on for a scene of at least
+/// `WALK_STAGE_MIN_PRIMITIVES` primitives and leaves it off below; either way, or set, the
+/// image is the same, and the stats say when the stage ran.
+#[test]
+fn the_walk_stage_by_default_walks_large_scenes_only() {
+    let Some(ctx) =
+        raylume_gpu::testing::context_or_skip("the_walk_stage_by_default_walks_large_scenes_only")
+    else {
+        return;
+    };
+    if !ctx.has_subgroups() {
+        eprintln!("the adapter has no subgroups: no walk stage to choose");
+        return;
+    }
+    let small = cornell(12, 12, 2);
+    let mut large = cornell(12, 12, 2);
+    common::add_floor_grid(&mut large);
+    assert!(small.triangles.len() < raylume::WALK_STAGE_MIN_PRIMITIVES);
+    assert!(large.triangles.len() >= raylume::WALK_STAGE_MIN_PRIMITIVES);
+    for (scene, by_default) in [(&small, false), (&large, true)] {
+        let mut images = Vec::new();
+        for setting in [None, Some(false), Some(true)] {
+            let mut t = Tracer::new(Backend::Gpu);
+            t.schedule = raylume::Schedule::Wavefront;
+            t.walk_stage = setting;
+            let r = t.render(scene).unwrap();
+            let ran = setting.unwrap_or(by_default);
+            assert_eq!(
+                r.stats.schedule,
+                if ran {
+                    "wavefront + walk stage"
+                } else {
+                    "wavefront"
+                },
+                "{} triangles, walk_stage {setting:?}",
+                scene.triangles.len()
+            );
+            images.push(r.pixels);
+        }
+        assert!(images.windows(2).all(|w| w[0] == w[1]));
+    }
+}

@@ -43,7 +43,8 @@ pub struct PathVariant {
     /// adapter with subgroups ([`TracerPipelines::has_walk_stage`]). The same images. On the
     /// H200 (100 spp) the living room's unsorted wavefront 0.486 -> 0.383 s plain, 0.424 ->
     /// 0.373 s NEE (faster than sorting it: 0.443 and 0.380 s); the teapot 8 % faster; short
-    /// walks slower (the Cornell box +17 %): off by default (`docs/RESULTS.md`). The sorted
+    /// walks slower (the Cornell box +17 %): the facade's `Tracer` turns it on for large
+    /// scenes only (`docs/RESULTS.md`). The sorted
     /// bounces of a render that sorts are left to `propagate` (`batch::walk_stage_at`).
     pub walk_stage: bool,
 }
