@@ -61,6 +61,6 @@ pub use cpu::{key_mask, sort_pairs_cpu};
 pub use error::SortError;
 pub use morton::{DEAD_RAY_KEY, LIVE_RAY_KEY_MAX, MORTON_WGSL, RAY_KEY_BITS, ray_sort_key};
 pub use radix_sort::{
-    RadixSorter, SortLen, SortOptions, SortParams, SortPass, SortPlan, Stage, sort_pairs,
-    sort_pairs_with,
+    LANE_MASK_WGSL, RadixSorter, SortLen, SortOptions, SortParams, SortPass, SortPlan, Stage,
+    sort_pairs, sort_pairs_with,
 };

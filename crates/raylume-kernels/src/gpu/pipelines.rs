@@ -283,6 +283,8 @@ impl TracerPipelines {
                     composed_for,
                 );
                 if Self::walk_stage_possible(ctx, bvh_layout) {
+                    source += "\n// ---- raylume-sort: LANE_MASK_WGSL ----\n";
+                    source += raylume_sort::LANE_MASK_WGSL;
                     source += "\n// ---- gpu/walk_stage.wgsl ----\n";
                     source += WALK_STAGE_WGSL;
                 }

@@ -5,15 +5,16 @@
 // once WALK_STAGE_REFILL lanes of its subgroup wait for one, or all of them do, so that the
 // lanes of a subgroup stay busy while its longest walk goes on instead of idling until it
 // ends. Each ray's walk is wide_walk's, step for step (the same nodes, primitives and hit:
-// tests/walk_stage.rs), so images do not change; only which lane takes which step does.
-// Appended to the tracer's module only on adapters with subgroups (gpu/pipelines.rs).
+// tests/schedules.rs), so images do not change; only which lane takes which step does.
+// Appended to the tracer's module, after raylume-sort's LANE_MASK_WGSL (its ballot masks),
+// only with the wide BVH on adapters with subgroups (gpu/pipelines.rs).
 
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn trace_hits(@builtin(subgroup_invocation_id) lane: u32) {
     let n = atomicLoad(&queue_counts[bounce.depth & 1u]);
     let none = 0xffffffffu;
     // The lanes of the subgroup below this one, as ballot words.
-    let below = walk_lanes_below(lane);
+    let below = lanes_below_mask(lane);
     // The subgroup's lanes still in the loop (the same in every lane: lanes leave only when
     // a refill finds the queue's end, which every lane sees).
     var in_loop = subgroupAdd(1u);
@@ -28,11 +29,11 @@ fn trace_hits(@builtin(subgroup_invocation_id) lane: u32) {
         // Lanes without a ray take the next slots of the queue, one atomic per subgroup: one
         // ballot an iteration decides (the refill's condition is the same in every lane).
         let waiting = slot == none;
-        let ballot = subgroupBallot(waiting);
-        let want = walk_lane_count(ballot);
+        let waiting_lanes = ballot(waiting);
+        let want = mask_count(waiting_lanes);
         if want >= min(WALK_STAGE_REFILL, in_loop) {
-            let rank = walk_lane_count(ballot & below);
-            let first = walk_first_lane(ballot);
+            let rank = mask_count(waiting_lanes & below);
+            let first = first_lane(waiting_lanes);
             var base = 0u;
             if lane == first {
                 base = atomicAdd(&queue_counts[WALK_STAGE_COUNTER], want);
@@ -91,25 +92,4 @@ fn trace_hits(@builtin(subgroup_invocation_id) lane: u32) {
             }
         }
     }
-}
-
-// The lanes of ballot words `m` (subgroups of up to 128 lanes, the most WGSL allows).
-fn walk_lane_count(m: vec4<u32>) -> u32 {
-    let c = countOneBits(m);
-    return c.x + c.y + c.z + c.w;
-}
-
-// The lowest lane of a non-empty ballot `m`.
-fn walk_first_lane(m: vec4<u32>) -> u32 {
-    let t = countTrailingZeros(m) + vec4<u32>(0u, 32u, 64u, 96u);
-    return select(select(select(t.w, t.z, m.z != 0u), t.y, m.y != 0u), t.x, m.x != 0u);
-}
-
-// The lanes below `lane`, as ballot words.
-fn walk_lanes_below(lane: u32) -> vec4<u32> {
-    let bits = vec4<u32>(lane) - vec4<u32>(0u, 32u, 64u, 96u);
-    let full = vec4<u32>(lane) >= vec4<u32>(32u, 64u, 96u, 128u);
-    let none = vec4<u32>(lane) <= vec4<u32>(0u, 32u, 64u, 96u);
-    let partial = (vec4<u32>(1u) << (bits & vec4<u32>(31u))) - vec4<u32>(1u);
-    return select(select(partial, vec4<u32>(0u), none), vec4<u32>(0xffffffffu), full);
 }

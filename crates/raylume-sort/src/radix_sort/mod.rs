@@ -24,7 +24,7 @@ mod sorter;
 
 pub use gpu_types::{SortParams, SortPass};
 pub use options::{SortOptions, SortPlan};
-pub use shader::Stage;
+pub use shader::{LANE_MASK_WGSL, Stage};
 pub use sorter::RadixSorter;
 
 use raylume_gpu::GpuContext;

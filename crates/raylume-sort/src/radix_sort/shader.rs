@@ -7,6 +7,11 @@ const COMMON: &str = include_str!("common.wgsl");
 const LANES_SUBGROUP: &str = include_str!("lanes_subgroup.wgsl");
 const MASK32: &str = include_str!("mask32.wgsl");
 const MASK128: &str = include_str!("mask128.wgsl");
+
+/// Ballot masks for subgroups of up to 128 lanes, as the sort's kernels use them (`LaneMask`,
+/// `ballot`, `mask_count`, `first_lane`, `lanes_below_mask`), for other crates' subgroup
+/// kernels (raylume-kernels' walk stage).
+pub const LANE_MASK_WGSL: &str = MASK128;
 const LANES_SHARED: &str = include_str!("lanes_shared.wgsl");
 const SETUP: &str = include_str!("setup.wgsl");
 const UPSWEEP: &str = include_str!("upsweep.wgsl");
