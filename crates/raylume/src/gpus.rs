@@ -64,6 +64,8 @@ impl Tracer {
         w.reorder_mode = self.reorder_mode;
         w.reorder_key_bits = self.reorder_key_bits;
         w.schedule = self.schedule;
+        w.next_event_stage = self.next_event_stage;
+        w.walk_stage = self.walk_stage;
         w.estimator = self.estimator;
         w.sampler = self.sampler;
         w.environment_guide = self.environment_guide;
