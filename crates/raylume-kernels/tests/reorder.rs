@@ -186,12 +186,7 @@ fn sorted_wavefront_renders_the_same_image() {
     else {
         return;
     };
-    for (name, scene) in [
-        ("cornell", cornell_box()),
-        ("spheres", spheres()),
-        ("textured", textured()),
-        ("environment", environment_lit()),
-    ] {
+    for (name, scene) in schedule_scenes() {
         let bvh = bvh(&scene);
         let mut tracer = GpuTracer::new(ctx, &scene, &bvh).unwrap();
         // 3 batches (2 + 2 + 1 samples), so buffers and sorts are reused across batches and

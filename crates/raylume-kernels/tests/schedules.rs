@@ -21,12 +21,7 @@ fn megakernel_and_wavefront_trace_the_same_paths() {
     else {
         return;
     };
-    for (name, scene) in [
-        ("cornell", cornell_box()),
-        ("spheres", spheres()),
-        ("textured", textured()),
-        ("environment", environment_lit()),
-    ] {
+    for (name, scene) in schedule_scenes() {
         let bvh = bvh(&scene);
         let mut tracer = GpuTracer::new(ctx, &scene, &bvh).unwrap();
         let s = settings(24, 16, 3, 5, Schedule::Megakernel);
@@ -465,12 +460,7 @@ fn the_walk_stage_traces_the_hits_propagate_would() {
     // walks the camera rays alone).
     let sorted =
         |from| raylume_kernels::Reorder::from_depth(raylume_kernels::ReorderMode::SortIndex, from);
-    for (name, scene) in [
-        ("cornell", cornell_box()),
-        ("spheres", spheres()),
-        ("textured", textured()),
-        ("environment", environment_lit()),
-    ] {
+    for (name, scene) in schedule_scenes() {
         let bvh = bvh(&scene);
         for estimator in [Estimator::Plain, Estimator::Nee] {
             for reorder in [raylume_kernels::Reorder::OFF, sorted(3), sorted(1)] {

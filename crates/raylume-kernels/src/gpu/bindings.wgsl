@@ -83,8 +83,8 @@ override DEFER_NEE: bool = false;
 // The other bounces run `propagate` compiled without it.
 override HITS_TRACED: bool = false;
 // The walk stage refills a subgroup's idle lanes once this many wait (or all of them do):
-// WALK_STAGE_REFILL in lib.rs, set at pipeline creation.
-override WALK_STAGE_REFILL: u32 = 8u;
+// crate::walk_stage_refill(), set at pipeline creation (no default here: Rust's is the one).
+override WALK_STAGE_REFILL: u32;
 // The sampler the pipeline is compiled for (SAMPLER_INDEPENDENT, _ZSOBOL or _SOBOL; the
 // others' code is then dead), or SAMPLER_FROM_SCENE: the uniforms' `sampler` decides.
 // TracerPipelines compiles the path tracing pipelines per sampler; see `path_sampler`.

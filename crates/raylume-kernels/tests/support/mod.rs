@@ -396,6 +396,17 @@ pub fn environment_lit() -> Scene {
     }
 }
 
+/// The four fixtures the schedule tests render (diffuse with an area light; spheres of metal
+/// and glass; textures; an environment), named.
+pub fn schedule_scenes() -> [(&'static str, Scene); 4] {
+    [
+        ("cornell", cornell_box()),
+        ("spheres", spheres()),
+        ("textured", textured()),
+        ("environment", environment_lit()),
+    ]
+}
+
 pub fn bvh(scene: &Scene) -> GpuBvh {
     GpuBvh::from_scene(scene, BvhQuality::Fast).expect("fixture BVH builds")
 }
