@@ -8,7 +8,8 @@
 //! ```text
 //! cargo run --release --example shader_stats -- scenes/living-room/scene.json
 //!     [--estimator plain,nee] [--schedule persistent,megakernel,wavefront]
-//!     [--bvh wide] [--sampler sobol] [--each-extra-feature] [--json OUT]
+//!     [--bvh wide] [--sampler sobol] [--next-event-stage] [--walk-stage]
+//!     [--each-extra-feature] [--json OUT]
 //! ```
 //!
 //! wgpu does not ask the driver for statistics, so this example compiles the pipelines
@@ -37,7 +38,7 @@ use raylume::{BvhLayout, Estimator, Feature, Sampler, Scene, Schedule};
 use raylume_gpu::wgpu::naga;
 use raylume_kernels::gpu::{
     PathVariant, Specialisation, TracerPipelines, compose, entry_constants,
-    tracer_source_uncomposed,
+    tracer_source_uncomposed, walk_stage_source,
 };
 
 #[derive(Parser, Debug)]
@@ -68,6 +69,11 @@ struct Args {
     /// Also the wavefront with its `next_event` stage (NEE only).
     #[arg(long)]
     next_event_stage: bool,
+    /// Also the wavefront with its walk stage (`trace_hits`, and `propagate` compiled to
+    /// shade the hits it leaves; wide BVH only): the module holds the stage as
+    /// `TracerPipelines` builds it on an adapter with subgroups.
+    #[arg(long)]
+    walk_stage: bool,
     /// A row per feature the scene lacks, compiled in beside the scene's.
     #[arg(long)]
     each_extra_feature: bool,
@@ -102,7 +108,13 @@ fn main() {
 }
 
 fn run(args: Args) -> Result<(), String> {
-    let full = tracer_source_uncomposed(65535, args.bvh);
+    if args.walk_stage && args.bvh != BvhLayout::Wide {
+        return Err("--walk-stage needs --bvh wide (the stage walks the wide tree)".into());
+    }
+    let mut full = tracer_source_uncomposed(65535, args.bvh);
+    if args.walk_stage {
+        full += &walk_stage_source();
+    }
     if let Some(out) = &args.write_source {
         return std::fs::write(out, full).map_err(|e| format!("{}: {e}", out.display()));
     }
@@ -150,8 +162,12 @@ fn run(args: Args) -> Result<(), String> {
                             .collect();
                     let stats = vk.statistics(&module, &info, entry, &constants)?;
                     let estimator_name = match (estimator, variant.next_event_stage) {
+                        _ if entry == "trace_hits" => "any",
+                        (Estimator::Plain, _) if variant.walk_stage => "plain+walk",
                         (Estimator::Plain, _) => "plain",
+                        (Estimator::Nee, false) if variant.walk_stage => "nee+walk",
                         (Estimator::Nee, false) => "nee",
+                        (Estimator::Nee, true) if variant.walk_stage => "nee+stage+walk",
                         (Estimator::Nee, true) => "nee+stage",
                     };
                     let row = Row {
@@ -193,7 +209,8 @@ fn run(args: Args) -> Result<(), String> {
 
 /// The path tracing entry points of the asked schedules for `estimator`, each with the
 /// variant its pipeline is compiled for (`TracerPipelines`' choice: the `next_event` stage
-/// matters to `propagate` and `next_event` only).
+/// matters to `propagate` and `next_event` only, the walk stage to `propagate` only; the
+/// stage's own `trace_hits` traces no path and is compiled once, for any variant).
 fn entries(args: &Args, estimator: Estimator) -> Vec<(&'static str, PathVariant)> {
     let base = PathVariant::of(estimator, args.sampler);
     let mut out: Vec<(&'static str, PathVariant)> = Vec::new();
@@ -207,11 +224,18 @@ fn entries(args: &Args, estimator: Estimator) -> Vec<(&'static str, PathVariant)
         if schedule == Schedule::Wavefront && args.next_event_stage && estimator == Estimator::Nee {
             variants.push(base.with_next_event_stage(true));
         }
+        if schedule == Schedule::Wavefront && args.walk_stage {
+            let walked: Vec<PathVariant> =
+                variants.iter().map(|v| v.with_walk_stage(true)).collect();
+            variants.extend(walked);
+        }
         for v in variants {
             for &entry in TracerPipelines::entries(schedule, v) {
                 match entry {
                     "trace_paths" | "trace_paths_persistent" => push(entry, base),
-                    "propagate" | "next_event" => push(entry, v),
+                    "propagate" => push(entry, v),
+                    "next_event" => push(entry, v.with_walk_stage(false)),
+                    "trace_hits" => push(entry, PathVariant::ANY),
                     _ => {}
                 }
             }

@@ -5,7 +5,7 @@
 use raylume_bvh::BvhLayout;
 use raylume_gpu::wgpu::naga;
 use raylume_kernels::gpu::{
-    PathVariant, TracerPipelines, compose, entry_constants, tracer_source_for,
+    PathVariant, TracerPipelines, compose, entry_constants, tracer_source_for, walk_stage_source,
 };
 use raylume_kernels::{Estimator, Sampler, Schedule};
 use raylume_scene::{Feature, Features};
@@ -19,8 +19,13 @@ fn code(features: Features) -> String {
         .join("\n")
 }
 
-fn validate(features: Features, layout: BvhLayout) -> naga::Module {
-    let src = tracer_source_for(65535, layout, features);
+/// The module `TracerPipelines` builds for `features` over `layout`, validated; with
+/// `walk_stage`, as on an adapter with subgroups (the walk stage appended: wide BVH only).
+fn validate_module(features: Features, layout: BvhLayout, walk_stage: bool) -> naga::Module {
+    let mut src = tracer_source_for(65535, layout, features);
+    if walk_stage {
+        src += &walk_stage_source();
+    }
     let module = naga::front::wgsl::parse_str(&src)
         .unwrap_or_else(|e| panic!("{features}: {}", e.emit_to_string(&src)));
     naga::valid::Validator::new(
@@ -30,6 +35,10 @@ fn validate(features: Features, layout: BvhLayout) -> naga::Module {
     .validate(&module)
     .unwrap_or_else(|e| panic!("{features}: {}", e.emit_to_string(&src)));
     module
+}
+
+fn validate(features: Features, layout: BvhLayout) -> naga::Module {
+    validate_module(features, layout, false)
 }
 
 /// A deterministic pseudo-random feature set.
@@ -57,6 +66,12 @@ fn every_feature_set_composes_into_a_valid_module() {
         for layout in [BvhLayout::Binary, BvhLayout::Wide] {
             validate(features, layout);
         }
+        // The module of adapters with subgroups: the walk stage beside every feature set.
+        let module = validate_module(features, BvhLayout::Wide, true);
+        assert!(
+            module.entry_points.iter().any(|e| e.name == "trace_hits"),
+            "{features}: no trace_hits"
+        );
     }
 }
 

@@ -17,7 +17,7 @@ mod work;
 pub use capture::SortCapture;
 pub use guide::{GUIDE_WORKGROUP_SIZE, GuideLearner, PendingGuide, guide_source};
 pub use lbvh::{LBVH_WORKGROUP_SIZE, LbvhBuilder, ResidentBvh, lbvh_source};
-pub use pipelines::{PathVariant, TracerPipelines, entry_constants};
+pub use pipelines::{PathVariant, TracerPipelines, entry_constants, walk_stage_source};
 pub use policy::{BatchPlan, BatchPolicy, BatchTiming, DepthTiming, StageTime};
 pub use shader::{
     Specialisation, compose, pipeline_constants, tracer_source, tracer_source_for,

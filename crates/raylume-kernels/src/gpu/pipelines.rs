@@ -144,6 +144,17 @@ const TRACES_PATHS: [&str; 4] = [
 /// adapter has subgroups and the BVH is wide.
 const WALK_STAGE_WGSL: &str = include_str!("walk_stage.wgsl");
 
+/// What [`TracerPipelines`] appends to the tracer's source ([`tracer_source_for`]) for the
+/// walk stage ([`PathVariant::walk_stage`]; wide BVH, subgroups): raylume-sort's ballot masks
+/// and `trace_hits` (`examples/shader_stats.rs --walk-stage` compiles the same).
+pub fn walk_stage_source() -> String {
+    let mut source = String::from("\n// ---- raylume-sort: LANE_MASK_WGSL ----\n");
+    source += raylume_sort::LANE_MASK_WGSL;
+    source += "\n// ---- gpu/walk_stage.wgsl ----\n";
+    source += WALK_STAGE_WGSL;
+    source
+}
+
 /// The tracer's shader module (every entry point, the traversal of one [`BvhLayout`]), its
 /// bind group and pipeline layouts, and its compute pipelines specialised on a feature set,
 /// each compiled on first use or ahead of it ([`TracerPipelines::compile`]). It depends on no
@@ -283,10 +294,7 @@ impl TracerPipelines {
                     composed_for,
                 );
                 if Self::walk_stage_possible(ctx, bvh_layout) {
-                    source += "\n// ---- raylume-sort: LANE_MASK_WGSL ----\n";
-                    source += raylume_sort::LANE_MASK_WGSL;
-                    source += "\n// ---- gpu/walk_stage.wgsl ----\n";
-                    source += WALK_STAGE_WGSL;
+                    source += &walk_stage_source();
                 }
                 let module = ctx.shader_module("raylume tracer", &source);
                 (tracer, prepare, permute, module)
