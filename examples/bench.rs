@@ -111,6 +111,10 @@ struct Args {
     /// (`Tracer::walk_stage`; wide BVH on an adapter with subgroups).
     #[arg(long, default_value = "off", value_delimiter = ',', value_parser = parse_on_off)]
     walk_stage: Vec<bool>,
+    /// Comma-separated: without (off, the default) and with (on) the wavefront's shadow stage
+    /// (`Tracer::shadow_stage`; with the walk stage and NEE).
+    #[arg(long, default_value = "off", value_delimiter = ',', value_parser = parse_on_off)]
+    shadow_stage: Vec<bool>,
     /// Russian roulette from this path segment on (Mitsuba 3's `path` starts at 5), or off
     /// (the paper's, the default here).
     #[arg(long, default_value = "off", value_parser = parse_rr_depth)]
@@ -188,13 +192,15 @@ struct Config {
     extra: Option<raylume::Feature>,
     /// The wavefront's walk stage (`--walk-stage`).
     walk_stage: bool,
+    /// The wavefront's shadow stage (`--shadow-stage`).
+    shadow_stage: bool,
 }
 
 impl Config {
     /// Column name: `megakernel`, `wavefront`, `on sort-index`, `on sort-index/16`, `auto`,
     /// with ` wide` after it for the wide BVH layout, ` generic` or ` overrides` when the
-    /// pipelines are not specialised the library's default way, and ` +walk` with the walk
-    /// stage.
+    /// pipelines are not specialised the library's default way, ` +walk` with the walk
+    /// stage and ` +shadow` with the shadow stage.
     fn name(&self) -> String {
         let bits = if self.key_bits == 30 {
             String::new()
@@ -219,8 +225,13 @@ impl Config {
             Some(f) => format!("{base} +{}", f.name()),
             None => base,
         };
-        if self.walk_stage {
+        let base = if self.walk_stage {
             format!("{base} +walk")
+        } else {
+            base
+        };
+        if self.shadow_stage {
+            format!("{base} +shadow")
         } else {
             base
         }
@@ -299,6 +310,11 @@ fn configs(args: &Args) -> Vec<Config> {
                 .iter()
                 .map(move |&walk_stage| Config { walk_stage, ..c })
         })
+        .flat_map(|c| {
+            args.shadow_stage
+                .iter()
+                .map(move |&shadow_stage| Config { shadow_stage, ..c })
+        })
         .collect()
 }
 
@@ -320,6 +336,7 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                 specialisation: raylume::Specialisation::default(),
                 extra: None,
                 walk_stage: false,
+                shadow_stage: false,
             })),
             ReorderPolicy::On => {
                 for &key_bits in &args.reorder_bits {
@@ -332,6 +349,7 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                         specialisation: raylume::Specialisation::default(),
                         extra: None,
                         walk_stage: false,
+                        shadow_stage: false,
                     }))
                 }
             }
@@ -344,6 +362,7 @@ fn configs_of_layout(args: &Args) -> Vec<Config> {
                 specialisation: raylume::Specialisation::default(),
                 extra: None,
                 walk_stage: false,
+                shadow_stage: false,
             }),
         }
     }
@@ -375,6 +394,7 @@ fn apply(tracer: &mut Tracer, config: &Config) {
         tracer.extra_features.insert(f);
     }
     tracer.walk_stage = Some(config.walk_stage);
+    tracer.shadow_stage = config.shadow_stage;
 }
 
 fn run(args: Args) -> Result<(), String> {

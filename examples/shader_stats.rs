@@ -70,8 +70,9 @@ struct Args {
     #[arg(long)]
     next_event_stage: bool,
     /// Also the wavefront with its walk stage (`trace_hits`, and `propagate` compiled to
-    /// shade the hits it leaves; wide BVH only): the module holds the stage as
-    /// `TracerPipelines` builds it on an adapter with subgroups.
+    /// shade the hits it leaves; wide BVH only), and with NEE its shadow stage
+    /// (`trace_shadows`, and `propagate` compiled to queue the shadow rays): the module holds
+    /// the stages as `TracerPipelines` builds it on an adapter with subgroups.
     #[arg(long)]
     walk_stage: bool,
     /// A row per feature the scene lacks, compiled in beside the scene's.
@@ -162,7 +163,10 @@ fn run(args: Args) -> Result<(), String> {
                             .collect();
                     let stats = vk.statistics(&module, &info, entry, &constants)?;
                     let estimator_name = match (estimator, variant.next_event_stage) {
-                        _ if entry == "trace_hits" => "any",
+                        _ if entry == "trace_hits" || entry == "trace_shadows" => "any",
+                        (Estimator::Nee, false) if variant.defers_shadow_rays() => {
+                            "nee+walk+shadow"
+                        }
                         (Estimator::Plain, _) if variant.walk_stage => "plain+walk",
                         (Estimator::Plain, _) => "plain",
                         (Estimator::Nee, false) if variant.walk_stage => "nee+walk",
@@ -228,6 +232,10 @@ fn entries(args: &Args, estimator: Estimator) -> Vec<(&'static str, PathVariant)
             let walked: Vec<PathVariant> =
                 variants.iter().map(|v| v.with_walk_stage(true)).collect();
             variants.extend(walked);
+            if estimator == Estimator::Nee {
+                // And the shadow stage after the walk stage's `propagate`.
+                variants.push(base.with_walk_stage(true).with_shadow_stage(true));
+            }
         }
         for v in variants {
             for &entry in TracerPipelines::entries(schedule, v) {
@@ -235,7 +243,7 @@ fn entries(args: &Args, estimator: Estimator) -> Vec<(&'static str, PathVariant)
                     "trace_paths" | "trace_paths_persistent" => push(entry, base),
                     "propagate" => push(entry, v),
                     "next_event" => push(entry, v.with_walk_stage(false)),
-                    "trace_hits" => push(entry, PathVariant::ANY),
+                    "trace_hits" | "trace_shadows" => push(entry, PathVariant::ANY),
                     _ => {}
                 }
             }

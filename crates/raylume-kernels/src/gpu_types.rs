@@ -464,6 +464,8 @@ pub fn wgsl_constants() -> String {
     s += &u("NEE_ENDED", NEE_ENDED);
     s += &u("WORKGROUP_SIZE", crate::workgroup_size());
     s += &u("WALK_STAGE_COUNTER", crate::WALK_STAGE_COUNTER);
+    s += &u("SHADOW_QUEUE_COUNTER", crate::SHADOW_QUEUE_COUNTER);
+    s += &u("SHADOW_STAGE_COUNTER", crate::SHADOW_STAGE_COUNTER);
     s += &u(
         "MEGAKERNEL_WORKGROUP_SIZE",
         crate::megakernel_workgroup_size(),

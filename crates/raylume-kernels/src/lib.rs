@@ -278,6 +278,19 @@ pub const WALK_STAGE_REFILL: u32 = 8;
 /// (words 0 and 1 are the two queues' lengths, 3 the persistent schedule's sample counter).
 pub const WALK_STAGE_COUNTER: u32 = 2;
 
+/// The word of the wavefront's queue counts that counts a bounce's shadow rays left by
+/// `propagate` to the shadow stage ([`gpu::PathVariant::shadow_stage`]).
+pub const SHADOW_QUEUE_COUNTER: u32 = 4;
+
+/// The word of the wavefront's queue counts that counts the shadow stage's slots taken.
+pub const SHADOW_STAGE_COUNTER: u32 = 5;
+
+/// Words (of 16 bytes) of a shadow stage record in `nee_records` (a structure of arrays by
+/// shadow queue slot, as the `next_event` stage's records): the ray (origin, `t_max`; direction,
+/// the path's ray index), the throughput at the vertex and the record's state, the light's
+/// term, the vertex's emission.
+pub const SHADOW_RECORD_WORDS: u32 = 5;
+
 /// [`WALK_STAGE_GROUPS`], or `RAYLUME_WALK_STAGE_GROUPS` when set to a positive number (read
 /// once per process).
 pub fn walk_stage_groups() -> u32 {

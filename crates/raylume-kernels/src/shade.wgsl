@@ -213,6 +213,12 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
             russian_roulette(path, path_rand4_at(sp, pixel, sample, depth, DIM_ROULETTE).x);
         }
         if (lq.valid) {
+            if (DEFER_SHADOW) {
+                // The shadow stage walks the ray, then adds the two terms in the order below
+                // (gpu/wavefront.wgsl queues them, gpu/walk_stage.wgsl `trace_shadows`).
+                deferred_shadow = DeferredShadow(lq.ray, lq.t_max, throughput_in, light_in, emission);
+                return true;
+            }
             ray = lq.ray;
             t_max = lq.t_max;
             shadow = true;

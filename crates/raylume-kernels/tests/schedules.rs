@@ -439,6 +439,72 @@ fn one_tracer_alternates_schedules_within_the_binding_limit() {
     }
 }
 
+/// The wavefront's shadow stage (`trace_shadows`, walk_stage.wgsl) walks the shadow rays that
+/// `propagate` (with `DEFER_SHADOW`) queued at the walk stage's bounces and adds their
+/// vertices' terms as `trace_ray` adds them: the same image bit for bit as the walk stage
+/// alone, with roulette ending paths at the vertices whose terms wait (their samples are
+/// written by the stage), with some bounces sorted (whose `propagate` walks its own shadow
+/// rays) or none, a thread per ray or a few taking the queue's rays in turn. It does not run
+/// for the plain estimator, which traces no shadow rays.
+#[test]
+fn the_shadow_stage_adds_what_propagate_would() {
+    let Some(ctx) =
+        raylume_gpu::testing::context_or_skip("the_shadow_stage_adds_what_propagate_would")
+    else {
+        return;
+    };
+    if !ctx.has_subgroups() {
+        eprintln!("the adapter has no subgroups: the wavefront has no walk stage to test");
+        return;
+    }
+    let sorted =
+        |from| raylume_kernels::Reorder::from_depth(raylume_kernels::ReorderMode::SortIndex, from);
+    for (name, scene) in schedule_scenes() {
+        let bvh = bvh(&scene);
+        for reorder in [raylume_kernels::Reorder::OFF, sorted(3)] {
+            let s = TraceSettings {
+                reorder,
+                ..settings(24, 16, 3, 5, Schedule::Wavefront)
+            };
+            let mut tracer = GpuTracer::new(ctx, &scene, &bvh).unwrap();
+            tracer.set_estimator(Estimator::Nee);
+            tracer.set_russian_roulette(Some(1));
+            tracer.set_walk_stage(true);
+            let walked = tracer.render(&s, &mut |_, _| {}).unwrap();
+            assert!(walked.timing("trace_shadows").is_none());
+            tracer.set_shadow_stage(true);
+            for groups in [None, Some(2)] {
+                tracer.set_walk_stage_groups(groups);
+                let staged = tracer.render(&s, &mut |_, _| {}).unwrap();
+                let what = format!("{name}, {}, {groups:?} groups", reorder.describe(5));
+                assert!(
+                    staged.timing("trace_shadows").is_some(),
+                    "{what}: no shadow stage ran"
+                );
+                assert_eq!(staged.rays_traced, walked.rays_traced, "{what}");
+                assert_eq!(staged.dropped_samples, walked.dropped_samples, "{what}");
+                let differ = staged
+                    .radiance
+                    .iter()
+                    .zip(&walked.radiance)
+                    .filter(|(a, b)| a != b)
+                    .count();
+                assert_eq!(differ, 0, "{what}: {differ} pixels differ");
+            }
+        }
+    }
+    // The plain estimator traces no shadow rays: asked for, the stage does not run.
+    let scene = cornell_box();
+    let mut tracer = GpuTracer::new(ctx, &scene, &bvh(&scene)).unwrap();
+    tracer.set_walk_stage(true);
+    tracer.set_shadow_stage(true);
+    let out = tracer
+        .render(&settings(8, 8, 1, 3, Schedule::Wavefront), &mut |_, _| {})
+        .unwrap();
+    assert!(out.timing("trace_hits").is_some());
+    assert!(out.timing("trace_shadows").is_none());
+}
+
 /// The wavefront's walk stage (`trace_hits`, walk_stage.wgsl) walks each ray of a bounce's
 /// queue as `propagate` would, only in another thread: the same hits, so the same image bit
 /// for bit, with either estimator (NEE walks its shadow rays in `propagate` still), with some

@@ -376,6 +376,7 @@ impl BatchPolicy for AutoPolicy<'_> {
             let d = d as u32;
             e.0 += t.stage_seconds("propagate", d)
                 + t.stage_seconds("trace_hits", d)
+                + t.stage_seconds("trace_shadows", d)
                 + t.stage_seconds("next_event", d);
             e.1 += t.stage_seconds("sort_keys", d) + t.stage_seconds("permute_rays", d);
         }

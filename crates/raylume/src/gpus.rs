@@ -66,6 +66,7 @@ impl Tracer {
         w.schedule = self.schedule;
         w.next_event_stage = self.next_event_stage;
         w.walk_stage = self.walk_stage;
+        w.shadow_stage = self.shadow_stage;
         w.estimator = self.estimator;
         w.sampler = self.sampler;
         w.environment_guide = self.environment_guide;

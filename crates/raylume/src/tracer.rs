@@ -475,6 +475,13 @@ pub struct Tracer {
     /// as without it; [`raylume_kernels::gpu::PathVariant::walk_stage`]. `None` (the
     /// default): on for scenes of at least [`WALK_STAGE_MIN_PRIMITIVES`] primitives.
     pub walk_stage: Option<bool>,
+    /// Whether the wavefront, where its walk stage runs and the estimator samples lights
+    /// (NEE, without the `next_event` stage), walks the shadow rays in a stage of their own
+    /// after `propagate` (`trace_shadows`, whose threads take the next ray as the walk
+    /// stage's do; the same images). Off by default: an experiment, not yet timed on a GPU
+    /// (on the H200 `propagate`, which walks them one ray a thread, took 63 % of the living
+    /// room's NEE trace); [`raylume_kernels::gpu::PathVariant::shadow_stage`].
+    pub shadow_stage: bool,
     /// The estimator: next-event estimation with multiple importance sampling
     /// ([`Estimator::Nee`], the default: far less noise per sample where emitters light the
     /// scene; each reflecting hit also casts a shadow ray), or the paper's plain one
@@ -887,6 +894,7 @@ impl std::fmt::Debug for Tracer {
             .field("sampler", &self.sampler)
             .field("next_event_stage", &self.next_event_stage)
             .field("walk_stage", &self.walk_stage)
+            .field("shadow_stage", &self.shadow_stage)
             .field("russian_roulette", &self.russian_roulette)
             .field("target_error", &self.target_error)
             .field("bloom", &self.bloom)
@@ -972,6 +980,7 @@ impl Tracer {
             schedule: Schedule::default(),
             next_event_stage: false,
             walk_stage: None,
+            shadow_stage: false,
             estimator: Estimator::Nee,
             sampler: Sampler::Sobol,
             russian_roulette: Some(Self::DEFAULT_RUSSIAN_ROULETTE),
@@ -1183,7 +1192,8 @@ impl Tracer {
             schedule,
             variant: PathVariant::of(self.estimator, self.sampler)
                 .with_next_event_stage(self.next_event_stage)
-                .with_walk_stage(self.walk_stage_for(scene)),
+                .with_walk_stage(self.walk_stage_for(scene))
+                .with_shadow_stage(self.shadow_stage),
             guides: self.guides(scene),
         }
     }
@@ -2102,6 +2112,7 @@ impl Tracer {
         let mut tracer = GpuTracer::with_scene(ctx, uploaded, pipelines)?;
         tracer.set_next_event_stage(self.next_event_stage);
         tracer.set_walk_stage(self.walk_stage_for(scene));
+        tracer.set_shadow_stage(self.shadow_stage);
         tracer.set_estimator(self.estimator);
         tracer.set_sampler(self.sampler);
         let guides = self.guides(scene);
@@ -2140,6 +2151,13 @@ impl Tracer {
         }
         if out.timings.iter().any(|&(stage, _)| stage == "trace_hits") {
             stats.schedule += " + walk stage";
+        }
+        if out
+            .timings
+            .iter()
+            .any(|&(stage, _)| stage == "trace_shadows")
+        {
+            stats.schedule += " + shadow stage";
         }
         stats.take_trace(out.rays_traced, out.dropped_samples, &out.timings);
         stats.depth_seconds = out

@@ -809,3 +809,38 @@ fn the_walk_stage_by_default_walks_large_scenes_only() {
         assert!(images.windows(2).all(|w| w[0] == w[1]));
     }
 }
+
+/// `Tracer::shadow_stage` reaches the GPU tracer: asked for with the walk stage and NEE, the
+/// render's schedule says the shadow stage ran, and the image is the one without it.
+#[test]
+fn the_shadow_stage_is_asked_for_through_the_tracer() {
+    let Some(ctx) =
+        raylume_gpu::testing::context_or_skip("the_shadow_stage_is_asked_for_through_the_tracer")
+    else {
+        return;
+    };
+    if !ctx.has_subgroups() {
+        eprintln!("the adapter has no subgroups: no walk stage, so no shadow stage");
+        return;
+    }
+    let scene = cornell(12, 12, 2);
+    let mut images = Vec::new();
+    for shadow_stage in [false, true] {
+        let mut t = Tracer::new(Backend::Gpu);
+        t.schedule = raylume::Schedule::Wavefront;
+        t.estimator = raylume::Estimator::Nee;
+        t.walk_stage = Some(true);
+        t.shadow_stage = shadow_stage;
+        let r = t.render(&scene).unwrap();
+        assert_eq!(
+            r.stats.schedule,
+            if shadow_stage {
+                "wavefront + walk stage + shadow stage"
+            } else {
+                "wavefront + walk stage"
+            }
+        );
+        images.push(r.pixels);
+    }
+    assert!(images[0] == images[1], "the shadow stage changed the image");
+}

@@ -187,6 +187,14 @@ impl<'r> BatchRecorder<'r> {
                 self.bind(pass, propagate, depth, s);
                 pass.dispatch_workgroups_indirect(&w.dispatch_args, 0);
             }));
+            if staged && self.pipes.contains_key("trace_shadows") {
+                // The shadow rays that propagate queued (at most one a ray of the bounce: the
+                // walk stage's dispatch size suffices).
+                out.push(Stage::pass("trace_shadows", Some(depth), move |pass| {
+                    self.bind(pass, "trace_shadows", depth, s);
+                    pass.dispatch_workgroups_indirect(&w.dispatch_args, 16);
+                }));
+            }
             if self.pipes.contains_key("next_event") {
                 // The light samples propagate left, over the same rays (the dispatch size
                 // prepare_propagate wrote for it).

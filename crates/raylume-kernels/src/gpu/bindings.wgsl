@@ -30,7 +30,10 @@
 // when the next bounce is sorted (bounce.sort_next), per slot of the next queue, live rays only.
 @group(1) @binding(3) var<storage, read_write> ray_keys: array<u32>;
 // Lengths of the two queues: [d & 1] is bounce d's input, [1 - (d & 1)] its output.
-@group(1) @binding(4) var<storage, read_write> queue_counts: array<atomic<u32>, 4>;
+// Then the walk stage's slots taken (WALK_STAGE_COUNTER), the persistent schedule's sample
+// counter (3), the shadow stage's queue length and slots taken (SHADOW_QUEUE_COUNTER,
+// SHADOW_STAGE_COUNTER).
+@group(1) @binding(4) var<storage, read_write> queue_counts: array<atomic<u32>, 8>;
 // The image: running sums, then the mean, RGB triples per pixel.
 @group(1) @binding(6) var<storage, read_write> accumulation: array<f32>;
 // Per batch: rays traced (low word, high word), samples dropped, unused.
@@ -82,6 +85,11 @@ override DEFER_NEE: bool = false;
 // (walk_stage.wgsl traced it) instead of walking the tree; a shadow ray is still walked there.
 // The other bounces run `propagate` compiled without it.
 override HITS_TRACED: bool = false;
+// True in the `propagate` pipeline of the bounces with a walk stage when the render also runs
+// the shadow stage (PathVariant::shadow_stage, NEE): trace_ray takes the light sample and
+// evaluates it, but leaves its shadow ray, with the two terms of the vertex that wait on it,
+// in `deferred_shadow` for propagate to queue; `trace_shadows` walks them and adds the terms.
+override DEFER_SHADOW: bool = false;
 // The walk stage refills a subgroup's idle lanes once this many wait (or all of them do):
 // crate::walk_stage_refill(), set at pipeline creation (no default here: Rust's is the one).
 override WALK_STAGE_REFILL: u32;

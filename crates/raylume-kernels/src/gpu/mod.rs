@@ -548,6 +548,8 @@ pub struct GpuTracer<'a> {
     next_event_stage: bool,
     /// [`GpuTracer::set_walk_stage`].
     walk_stage: bool,
+    /// [`GpuTracer::set_shadow_stage`].
+    shadow_stage: bool,
     /// See [`GpuTracer::set_walk_stage_groups`].
     walk_stage_groups: Option<u32>,
     /// See [`GpuTracer::set_persistent_threads`].
@@ -700,6 +702,7 @@ impl<'a> GpuTracer<'a> {
             batch_ray_limit: None,
             next_event_stage: false,
             walk_stage: false,
+            shadow_stage: false,
             walk_stage_groups: None,
             persistent_threads: None,
             upload_seconds: start.elapsed().as_secs_f64(),
@@ -743,6 +746,19 @@ impl<'a> GpuTracer<'a> {
         self.walk_stage = on;
     }
 
+    /// Whether the shadow rays of the walk stage's bounces are walked by a stage of their own
+    /// after `propagate` ([`PathVariant::shadow_stage`]; default: off). It runs only where
+    /// the walk stage does, with an estimator that samples lights and without the
+    /// `next_event` stage ([`PathVariant::defers_shadow_rays`]); the image is the same.
+    pub fn set_shadow_stage(&mut self, on: bool) {
+        self.shadow_stage = on;
+    }
+
+    /// Whether the next renders ask for the shadow stage ([`GpuTracer::set_shadow_stage`]).
+    pub fn shadow_stage(&self) -> bool {
+        self.shadow_stage
+    }
+
     /// Caps the walk stage's workgroups (so that its threads take several rays each even in a
     /// small render; `None` restores the default: [`crate::walk_stage_groups`] on a hardware
     /// adapter, a thread per ray on a software one, whose loop limit would otherwise cut
@@ -763,6 +779,7 @@ impl<'a> GpuTracer<'a> {
         PathVariant::of(self.data.estimator, self.data.sampler)
             .with_next_event_stage(self.next_event_stage)
             .with_walk_stage(self.walk_stage())
+            .with_shadow_stage(self.shadow_stage)
     }
 
     /// The estimator of the next renders (default: the paper's plain one).

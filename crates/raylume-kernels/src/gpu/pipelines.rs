@@ -47,6 +47,16 @@ pub struct PathVariant {
     /// scenes only (`docs/RESULTS.md`). The sorted
     /// bounces of a render that sorts are left to `propagate` (`batch::walk_stage_at`).
     pub walk_stage: bool,
+    /// With the walk stage and NEE (not the `next_event` stage): the shadow rays of the walk
+    /// stage's bounces walked by a stage of their own after `propagate` (`trace_shadows`,
+    /// walk_stage.wgsl), whose threads take the next ray when theirs ends, as `trace_hits`'
+    /// do. `propagate` (compiled with `DEFER_SHADOW`) samples and evaluates the light as
+    /// before and queues the ray with the vertex's two terms (80 bytes); the stage adds them
+    /// in `trace_ray`'s order, so the images are the same. Off by default: an experiment for
+    /// the living room's NEE renders, where `propagate` walking the shadow rays one a thread
+    /// took 63 % of the trace on the H200 (docs/study/h200-ce89268-stages.md); not yet
+    /// timed there. [`PathVariant::defers_shadow_rays`] says when it runs.
+    pub shadow_stage: bool,
 }
 
 impl PathVariant {
@@ -56,6 +66,7 @@ impl PathVariant {
         sampler: None,
         next_event_stage: false,
         walk_stage: false,
+        shadow_stage: false,
     };
 
     /// The variant of renders with `estimator` and `sampler` (no `next_event` stage).
@@ -65,6 +76,7 @@ impl PathVariant {
             sampler: Some(sampler),
             next_event_stage: false,
             walk_stage: false,
+            shadow_stage: false,
         }
     }
 
@@ -82,6 +94,24 @@ impl PathVariant {
             walk_stage: on,
             ..self
         }
+    }
+
+    /// This variant with the wavefront's shadow stage on or off.
+    pub fn with_shadow_stage(self, on: bool) -> Self {
+        PathVariant {
+            shadow_stage: on,
+            ..self
+        }
+    }
+
+    /// Whether a wavefront render of this variant runs the shadow stage after the
+    /// `propagate` of its walk stage's bounces: it asks for both stages, samples lights (NEE,
+    /// or any estimator) and takes them in `propagate` (no `next_event` stage).
+    pub fn defers_shadow_rays(self) -> bool {
+        self.shadow_stage
+            && self.walk_stage
+            && !self.next_event_stage
+            && self.estimator != Some(Estimator::Plain)
     }
 
     /// Whether a wavefront render of this variant runs the `next_event` stage: it asks for
@@ -125,7 +155,10 @@ pub fn entry_constants(
     if entry == "propagate" && variant.walk_stage {
         constants.push(("HITS_TRACED", 1.0));
     }
-    if entry == "trace_hits" {
+    if entry == "propagate" && variant.defers_shadow_rays() {
+        constants.push(("DEFER_SHADOW", 1.0));
+    }
+    if entry == "trace_hits" || entry == "trace_shadows" {
         constants.push(("WALK_STAGE_REFILL", f64::from(crate::walk_stage_refill())));
     }
     constants
@@ -225,6 +258,14 @@ impl TracerPipelines {
                     "prepare_propagate",
                     "propagate",
                     "next_event",
+                    "resolve",
+                ],
+                (false, true) if variant.defers_shadow_rays() => &[
+                    "raygen",
+                    "prepare_propagate",
+                    "trace_hits",
+                    "propagate",
+                    "trace_shadows",
                     "resolve",
                 ],
                 (false, true) => &[
@@ -413,12 +454,18 @@ impl TracerPipelines {
     /// entry points that trace paths, [`PathVariant::ANY`] for the rest (compiled once) and
     /// for every entry point of [`Specialisation::Generic`] pipelines (the baseline holds
     /// every estimator's and sampler's code too); the `next_event` stage matters to
-    /// `propagate` and `next_event` alone, the walk stage to `propagate` alone.
+    /// `propagate` and `next_event` alone, the walk and shadow stages to `propagate` alone
+    /// (the shadow stage only where it runs, [`PathVariant::defers_shadow_rays`]).
     fn variant(&self, entry: &str, variant: PathVariant) -> PathVariant {
         match TRACES_PATHS.contains(&entry) && self.specialisation != Specialisation::Generic {
-            true if entry == "propagate" => variant,
-            true if entry == "next_event" => variant.with_walk_stage(false),
-            true => variant.with_next_event_stage(false).with_walk_stage(false),
+            true if entry == "propagate" => variant.with_shadow_stage(variant.defers_shadow_rays()),
+            true if entry == "next_event" => {
+                variant.with_walk_stage(false).with_shadow_stage(false)
+            }
+            true => variant
+                .with_next_event_stage(false)
+                .with_walk_stage(false)
+                .with_shadow_stage(false),
             false => PathVariant::ANY,
         }
     }

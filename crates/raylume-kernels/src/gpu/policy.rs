@@ -74,8 +74,8 @@ impl BatchTiming {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct DepthTiming {
     pub depth: u32,
-    /// `propagate` (with its `prepare_propagate`, and the walk stage's `trace_hits` when the
-    /// wavefront has one) at this depth.
+    /// `propagate` (with its `prepare_propagate`, and the walk stage's `trace_hits` and the
+    /// shadow stage's `trace_shadows` when the wavefront has them) at this depth.
     pub propagate: f64,
     /// `next_event`: the light samples `propagate` left, when the render samples lights.
     pub next_event: f64,

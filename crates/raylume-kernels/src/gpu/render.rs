@@ -182,7 +182,9 @@ impl GpuTracer<'_> {
             .any(|c| c.sorts(max_bounces) && c.reorder.mode == ReorderMode::SortPermute);
 
         let variant = self.path_variant();
-        let next_event = wavefront && variant.defers_light_samples();
+        // The `next_event` stage's records, or the shadow stage's (the same buffer).
+        let next_event =
+            wavefront && (variant.defers_light_samples() || variant.defers_shadow_rays());
         let walk_stage = wavefront && variant.walk_stage;
         let pixels = settings.width * settings.height;
         // Every schedule a batch may run must fit: the wavefront's 64-byte states (and, when
@@ -418,6 +420,7 @@ impl GpuTracer<'_> {
             ("raygen", "raygen"),
             ("trace_hits", "trace_hits"),
             ("propagate", "propagate"),
+            ("trace_shadows", "trace_shadows"),
             ("next_event", "next_event"),
             ("sort_keys", "sort"),
             ("permute_rays", "permute_rays"),
@@ -521,8 +524,8 @@ impl GpuTracer<'_> {
     }
 }
 
-/// Adds the bounce-stage times of one batch (`trace_hits`, `propagate`, `next_event`, `sort_keys`,
-/// `permute_rays`, each
+/// Adds the bounce-stage times of one batch (`trace_hits`, `propagate`, `trace_shadows`,
+/// `next_event`, `sort_keys`, `permute_rays`, each
 /// with its depth) to the render's per-depth totals.
 fn add_depth_times(depths: &mut Vec<DepthTiming>, times: &[StageTime]) {
     for st in times {
@@ -533,8 +536,8 @@ fn add_depth_times(depths: &mut Vec<DepthTiming>, times: &[StageTime]) {
         let e = &mut depths[d as usize];
         e.depth = d;
         match st.label {
-            // The walk stage's share of the bounce's path rays counts as propagate's.
-            "propagate" | "trace_hits" => e.propagate += st.seconds,
+            // The walk and shadow stages' shares of the bounce's rays count as propagate's.
+            "propagate" | "trace_hits" | "trace_shadows" => e.propagate += st.seconds,
             "next_event" => e.next_event += st.seconds,
             "sort_keys" => e.sort += st.seconds,
             "permute_rays" => e.permute += st.seconds,

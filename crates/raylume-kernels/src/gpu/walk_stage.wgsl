@@ -93,3 +93,120 @@ fn trace_hits(@builtin(subgroup_invocation_id) lane: u32) {
         }
     }
 }
+
+// The shadow stage (PathVariant::shadow_stage, NEE; after the `propagate` of a bounce with a
+// walk stage, compiled with DEFER_SHADOW): the shadow rays that propagate's trace_ray left in
+// the shadow queue (nee_records, store_shadow_record), walked as trace_hits walks path rays (a
+// lane takes the next one as soon as its own walk ends), each as trace_any would (any hit
+// with 0 < t < t_max: the same answer), then the vertex's two terms added to its path's
+// radiance in trace_ray's order, the light's if nothing blocks it, then the emission, so that
+// images do not change (tests/schedules.rs); a path that ended at the vertex has its sample
+// written here.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn trace_shadows(@builtin(subgroup_invocation_id) lane: u32) {
+    let n = atomicLoad(&queue_counts[SHADOW_QUEUE_COUNTER]);
+    let none = 0xffffffffu;
+    let below = lanes_below_mask(lane);
+    var in_loop = subgroupAdd(1u);
+    var slot = none;
+    var wr: WideRay;
+    var sheared: ShearedRay;
+    var t_max = 0.0;
+    var occluded = false;
+    var stack: array<vec2<u32>, WIDE_STACK_SIZE>;
+    var sp = 0u;
+    var group = vec2<u32>(0u, 0u);
+    var dropped = 0u;
+    loop {
+        // The refill of trace_hits, over the shadow queue.
+        let waiting = slot == none;
+        let waiting_lanes = ballot(waiting);
+        let want = mask_count(waiting_lanes);
+        if want >= min(WALK_STAGE_REFILL, in_loop) {
+            let rank = mask_count(waiting_lanes & below);
+            let first = first_lane(waiting_lanes);
+            var base = 0u;
+            if lane == first {
+                base = atomicAdd(&queue_counts[SHADOW_STAGE_COUNTER], want);
+            }
+            base = subgroupShuffle(base, first);
+            in_loop -= want - min(want, n - min(n, base));
+            if waiting {
+                if base + rank >= n {
+                    break;
+                }
+                slot = base + rank;
+                let w0 = nee_records[nee_word(0u, slot)];
+                let w1 = nee_records[nee_word(1u, slot)];
+                let ray = Ray(bitcast<vec3<f32>>(w0.xyz), bitcast<vec3<f32>>(w1.xyz));
+                wr = wide_ray(ray);
+                sheared = shear_ray(ray);
+                // wide_walk's bound: a hit counts below it.
+                t_max = min(bitcast<f32>(w0.w), T_MAX_LIMIT);
+                occluded = false;
+                sp = 0u;
+                group = vec2<u32>(0u, 0x80000000u);
+            }
+        }
+        if slot == none {
+            continue;
+        }
+        // One iteration of wide_walk's loop (any hit, t_min 0).
+        if (group.y & 0xff000000u) != 0u {
+            let bit = firstLeadingBit(group.y);
+            let index = wide_child_index(group, bit, wr.oct_inv4);
+            group.y &= ~(1u << bit);
+            if (group.y & 0xff000000u) != 0u {
+                stack[sp] = group;
+                sp += 1u;
+            }
+            let node = bvh_nodes[index];
+            let mask = intersect_wide_node(node, wr, 0.0, t_max);
+            group = vec2<u32>(node.child_base, (mask & 0xff000000u) | (node.e_imask >> 24u));
+            var prims = mask & 0x00ffffffu;
+            while prims != 0u {
+                let k = firstLeadingBit(prims);
+                prims &= ~(1u << k);
+                let r = intersect_primitive(bvh_primitives[node.prim_base + k], sheared, 0.0, t_max);
+                if r.x < t_max {
+                    occluded = true;
+                    break;
+                }
+            }
+        }
+        if occluded || (group.y & 0xff000000u) == 0u {
+            if occluded || sp == 0u {
+                dropped += add_shadow_terms(slot, occluded);
+                slot = none;
+            } else {
+                sp -= 1u;
+                group = stack[sp];
+            }
+        }
+    }
+    // Dropped samples are rare: one atomic per lane that dropped any (flush_stats' barrier
+    // would need every lane to leave the loop together).
+    if dropped > 0u {
+        atomicAdd(&batch_stats[4u * scene.batch_index + 2u], dropped);
+    }
+}
+
+// The terms of shadow queue slot `slot` added to its path's radiance as trace_ray adds them
+// (the light's, unless `occluded`, then the emission); the sample written when the path ended
+// there. Returns 1 when that sample was dropped (write_sample).
+fn add_shadow_terms(slot: u32, occluded: bool) -> u32 {
+    let w1 = nee_records[nee_word(1u, slot)];
+    let w2 = nee_records[nee_word(2u, slot)];
+    let throughput_in = bitcast<vec3<f32>>(w2.xyz);
+    let light_in = bitcast<vec3<f32>>(nee_records[nee_word(3u, slot)].xyz);
+    let emission = bitcast<vec3<f32>>(nee_records[nee_word(4u, slot)].xyz);
+    let r = w1.w;
+    var radiance = ray_states[r].radiance;
+    radiance += throughput_in * select(light_in, vec3<f32>(0.0), occluded);
+    radiance += emission;
+    if (w2.w == NEE_ENDED) {
+        return write_sample(sample_slot(ray_states[r].pixel, ray_states[r].sample), radiance);
+    }
+    ray_states[r].radiance = radiance;
+    return 0u;
+}

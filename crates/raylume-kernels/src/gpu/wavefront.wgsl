@@ -52,6 +52,9 @@ fn prepare_propagate() {
     atomicStore(&queue_counts[1u - q], 0u);
     // The walk stage's count of the queue slots taken (it runs after this, before propagate).
     atomicStore(&queue_counts[WALK_STAGE_COUNTER], 0u);
+    // The shadow stage's queue, filled by propagate, and its count of the slots taken.
+    atomicStore(&queue_counts[SHADOW_QUEUE_COUNTER], 0u);
+    atomicStore(&queue_counts[SHADOW_STAGE_COUNTER], 0u);
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -66,6 +69,7 @@ fn propagate(
     var traced = 0u;
     var dropped = 0u;
     var live = false;
+    var shadow = false;
     var r = 0u;
     var key = DEAD_RAY_KEY;
     if (t < n) {
@@ -77,6 +81,7 @@ fn propagate(
         let deferred = trace_ray(&path, ray.pixel, ray.sample, bounce.depth, t);
         traced = 1u;
         live = path.alive;
+        shadow = DEFER_SHADOW && deferred;
         ray.origin = path.origin;
         ray.dir = path.dir;
         ray.throughput = path.throughput;
@@ -88,8 +93,11 @@ fn propagate(
             // SORT KEY (raylume-sort's MORTON_WGSL): the paper's 30-bit origin-direction key.
             key = ray_sort_key(path.origin, path.dir, scene.scene_min, scene.scene_extent);
         } else if (deferred) {
-            // next_event adds the vertex's light sample, then writes the sample.
-            set_nee_record_state(t, NEE_ENDED);
+            // next_event (or, DEFER_SHADOW, trace_shadows) adds the vertex's light sample,
+            // then writes the sample.
+            if (DEFER_NEE) {
+                set_nee_record_state(t, NEE_ENDED);
+            }
         } else {
             // The sample's own slot, not `r`: permute_rays may have moved its state.
             dropped = write_sample(sample_slot(ray.pixel, ray.sample), path.radiance);
@@ -104,15 +112,29 @@ fn propagate(
     if (live) {
         slot = atomicAdd(&wg_live, 1u);
     }
+    // Likewise the shadow rays left to the shadow stage, in its queue.
+    var shadow_slot = 0u;
+    if (DEFER_SHADOW && shadow) {
+        shadow_slot = atomicAdd(&wg_shadows, 1u);
+    }
     workgroupBarrier();
     if (local == 0u) {
         let count = atomicLoad(&wg_live);
         if (count > 0u) {
             wg_base = atomicAdd(&queue_counts[1u - q], count);
         }
+        if (DEFER_SHADOW) {
+            let shadows = atomicLoad(&wg_shadows);
+            if (shadows > 0u) {
+                wg_shadow_base = atomicAdd(&queue_counts[SHADOW_QUEUE_COUNTER], shadows);
+            }
+        }
     }
     flush_stats(local, traced, dropped);
     workgroupBarrier();
+    if (DEFER_SHADOW && shadow) {
+        store_shadow_record(wg_shadow_base + shadow_slot, r, live);
+    }
     if (live) {
         let out = wg_base + slot;
         ray_queue_out[out] = r;
@@ -122,6 +144,33 @@ fn propagate(
             ray_keys[out] = key >> bounce.sort_shift;
         }
     }
+}
+
+// The shadow stage (PathVariant::shadow_stage; DEFER_SHADOW in the propagate of the bounces
+// with a walk stage): the light sample trace_ray took, whose shadow ray it left unwalked, and
+// the vertex's two terms that wait on that ray (the light's, then the emission).
+struct DeferredShadow {
+    ray: Ray,
+    t_max: f32,
+    throughput: vec3<f32>,
+    light: vec3<f32>,
+    emission: vec3<f32>,
+}
+
+var<private> deferred_shadow: DeferredShadow;
+var<workgroup> wg_shadows: atomic<u32>;
+var<workgroup> wg_shadow_base: u32;
+
+// deferred_shadow as the record of shadow queue slot `i`, for path ray `r`, which goes on
+// (`live`) or ended at this vertex (trace_shadows then writes its sample). SHADOW_RECORD_WORDS
+// words in nee_records' structure of arrays (nee_word).
+fn store_shadow_record(i: u32, r: u32, live: bool) {
+    let d = deferred_shadow;
+    nee_records[nee_word(0u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.ray.origin), bitcast<u32>(d.t_max));
+    nee_records[nee_word(1u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.ray.dir), r);
+    nee_records[nee_word(2u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.throughput), select(NEE_ENDED, NEE_PENDING, live));
+    nee_records[nee_word(3u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.light), 0u);
+    nee_records[nee_word(4u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.emission), 0u);
 }
 
 // The walk stage's closest hit of queue slot `slot` (walk_stage.wgsl), and what propagate's

@@ -160,7 +160,7 @@ impl WorkBuffers {
             per_ray(wavefront && key.walk_stage, 16),
             copy,
         )?;
-        let queue_counts = ctx.storage_buffer_zeroed("queue counts", 16, copy)?;
+        let queue_counts = ctx.storage_buffer_zeroed("queue counts", 32, copy)?;
         // propagate's dispatch size (words 0-2), the walk stage's (words 4-6).
         let dispatch_args =
             ctx.storage_buffer_zeroed("propagate dispatch size", 32, wgpu::BufferUsages::INDIRECT)?;
