@@ -183,13 +183,18 @@ impl GpuTracer<'_> {
 
         let variant = self.path_variant();
         // The `next_event` stage's records, or the shadow stage's (the same buffer).
-        let next_event =
-            wavefront && (variant.defers_light_samples() || variant.defers_shadow_rays());
+        let record_words = match (wavefront, variant) {
+            (true, v) if v.defers_light_samples() => {
+                (size_of::<crate::gpu_types::NeeRecord>() / 16) as u32
+            }
+            (true, v) if v.defers_shadow_rays() => crate::SHADOW_RECORD_WORDS,
+            _ => 0,
+        };
         let walk_stage = wavefront && variant.walk_stage;
         let pixels = settings.width * settings.height;
-        // Every schedule a batch may run must fit: the wavefront's 64-byte states (and, when
-        // it samples lights, its 128-byte light-sample records) bound it.
-        let per_ray = work::WorkKey::per_ray_bytes(wavefront, next_event);
+        // Every schedule a batch may run must fit: the wavefront's 64-byte states (and its
+        // deferred records: 128-byte light samples, 80-byte shadow rays) bound it.
+        let per_ray = work::WorkKey::per_ray_bytes(wavefront, record_words);
         let max_rays =
             (ctx.max_binding_bytes() / per_ray).min(self.batch_ray_limit.unwrap_or(u64::MAX));
         let mut batches = crate::batches::plan_render(
@@ -205,7 +210,7 @@ impl GpuTracer<'_> {
         let need = work::WorkKey {
             wavefront,
             permute,
-            next_event,
+            record_words,
             walk_stage,
             capacity,
             pixels,

@@ -6,7 +6,7 @@ use raylume_gpu::{GpuContext, wgpu};
 
 use crate::KernelError;
 use crate::Reorder;
-use crate::gpu_types::{BounceUniforms, NeeRecord, RayState};
+use crate::gpu_types::{BounceUniforms, RayState};
 
 /// What the buffers were sized for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -15,9 +15,10 @@ pub(crate) struct WorkKey {
     pub wavefront: bool,
     /// Some batch may run `ReorderMode::SortPermute`: a second state buffer is allocated.
     pub permute: bool,
-    /// The wavefront samples lights (`next_event`): per-ray light-sample records are
-    /// allocated.
-    pub next_event: bool,
+    /// 16-byte words a ray of the wavefront's deferred records (`nee_records`): the
+    /// `next_event` stage's light samples (`size_of::<NeeRecord>() / 16`), the shadow
+    /// stage's rays ([`crate::SHADOW_RECORD_WORDS`]), or 0 (a placeholder).
+    pub record_words: u32,
     /// The wavefront has a walk stage (`trace_hits`): per-ray hit records are allocated.
     pub walk_stage: bool,
     /// Rays in the largest batch.
@@ -38,17 +39,17 @@ impl WorkKey {
             && self.bounces >= need.bounces
             && (self.wavefront || !need.wavefront)
             && (self.permute || !need.permute)
-            && (self.next_event || !need.next_event)
+            && self.record_words >= need.record_words
             && (self.walk_stage || !need.walk_stage)
     }
 
     /// Bytes per ray of the largest per-ray buffer: the light-sample records, else the ray
     /// states, else the sample slots (12 bytes).
-    pub fn per_ray_bytes(wavefront: bool, next_event: bool) -> u64 {
-        if wavefront && next_event {
-            size_of::<NeeRecord>() as u64
-        } else if wavefront {
-            size_of::<RayState>() as u64
+    /// The largest binding's bytes a ray: the records', the states' (the wavefront), or
+    /// the sample's radiance.
+    pub fn per_ray_bytes(wavefront: bool, record_words: u32) -> u64 {
+        if wavefront {
+            (size_of::<RayState>() as u64).max(16 * u64::from(record_words))
         } else {
             12
         }
@@ -56,7 +57,7 @@ impl WorkKey {
 
     /// Bytes of the largest buffer allocated for this key, which must fit one storage binding.
     pub fn largest_binding(&self) -> u64 {
-        u64::from(self.capacity) * Self::per_ray_bytes(self.wavefront, self.next_event)
+        u64::from(self.capacity) * Self::per_ray_bytes(self.wavefront, self.record_words)
     }
 
     /// The smallest key covering both `self` and `need` (which must have the same image):
@@ -68,7 +69,7 @@ impl WorkKey {
         WorkKey {
             wavefront: self.wavefront || need.wavefront,
             permute: self.permute || need.permute,
-            next_event: self.next_event || need.next_event,
+            record_words: self.record_words.max(need.record_words),
             walk_stage: self.walk_stage || need.walk_stage,
             capacity: self.capacity.max(need.capacity),
             pixels: need.pixels,
@@ -147,11 +148,14 @@ impl WorkBuffers {
             ctx.storage_buffer_zeroed("ray queue 1", per_ray(wavefront, 4), copy)?,
         ];
         let ray_keys = ctx.storage_buffer_zeroed("ray sort keys", per_ray(wavefront, 4), copy)?;
-        // The wavefront's deferred light samples (`next_event`; a placeholder without it),
-        // kept alive by the bind groups.
+        // The wavefront's deferred light samples or shadow rays (a placeholder without
+        // them), kept alive by the bind groups.
         let nee_records = ctx.storage_buffer_zeroed(
             "deferred light samples",
-            per_ray(wavefront && key.next_event, size_of::<NeeRecord>() as u64),
+            per_ray(
+                wavefront && key.record_words > 0,
+                16 * u64::from(key.record_words),
+            ),
             copy,
         )?;
         // The walk stage's hits (a placeholder without it).
