@@ -83,6 +83,19 @@ pub fn context_or_skip(test: &str) -> Option<&'static GpuContext> {
     }
 }
 
+/// [`context_or_skip`]'s context when its adapter has subgroups (the wavefront's walk and
+/// shadow stages need them), else `None` after reporting the skip (a GPU without subgroups
+/// is not an error, even with `RAYLUME_REQUIRE_GPU=1`: those stages are then not built).
+pub fn subgroup_context_or_skip(test: &str) -> Option<&'static GpuContext> {
+    let ctx = context_or_skip(test)?;
+    if ctx.has_subgroups() {
+        Some(ctx)
+    } else {
+        report_skip(test, "the adapter has no subgroups");
+        None
+    }
+}
+
 /// A context of its own on the same adapter as [`context_or_skip`]'s, whose storage-binding
 /// limit is lowered to `max_binding_bytes` ([`GpuContext::new_with_binding_limit`]): what the
 /// tests of the "too large for a binding" paths use, so that they run on every adapter, an

@@ -10,7 +10,9 @@ use glam::Vec3;
 use raylume_bvh::GpuBvh;
 use raylume_gpu::wgpu;
 use raylume_kernels::gpu_types::DEAD_RAY_KEY;
-use raylume_kernels::{CpuTracer, Estimator, GpuTracer, KernelError, Schedule, TraceSettings};
+use raylume_kernels::{
+    CpuTracer, Estimator, GpuTracer, KernelError, Schedule, TraceOutput, TraceSettings,
+};
 use raylume_scene::{Environment, Features, Texture};
 use support::*;
 
@@ -439,6 +441,20 @@ fn one_tracer_alternates_schedules_within_the_binding_limit() {
     }
 }
 
+/// A stage that only moves work between threads leaves the render as it was: the same rays
+/// traced, the same samples dropped, the same image bit for bit.
+fn assert_same_render(staged: &TraceOutput, walked: &TraceOutput, what: &str) {
+    assert_eq!(staged.rays_traced, walked.rays_traced, "{what}");
+    assert_eq!(staged.dropped_samples, walked.dropped_samples, "{what}");
+    let differ = staged
+        .radiance
+        .iter()
+        .zip(&walked.radiance)
+        .filter(|(a, b)| a != b)
+        .count();
+    assert_eq!(differ, 0, "{what}: {differ} pixels differ");
+}
+
 /// The wavefront's shadow stage (`trace_shadows`, walk_stage.wgsl) walks the shadow rays that
 /// `propagate` (with `DEFER_SHADOW`) queued at the walk stage's bounces and adds their
 /// vertices' terms as `trace_ray` adds them: the same image bit for bit as the walk stage
@@ -448,15 +464,11 @@ fn one_tracer_alternates_schedules_within_the_binding_limit() {
 /// for the plain estimator, which traces no shadow rays.
 #[test]
 fn the_shadow_stage_adds_what_propagate_would() {
-    let Some(ctx) =
-        raylume_gpu::testing::context_or_skip("the_shadow_stage_adds_what_propagate_would")
-    else {
+    let Some(ctx) = raylume_gpu::testing::subgroup_context_or_skip(
+        "the_shadow_stage_adds_what_propagate_would",
+    ) else {
         return;
     };
-    if !ctx.has_subgroups() {
-        eprintln!("the adapter has no subgroups: the wavefront has no walk stage to test");
-        return;
-    }
     let sorted =
         |from| raylume_kernels::Reorder::from_depth(raylume_kernels::ReorderMode::SortIndex, from);
     for (name, scene) in schedule_scenes() {
@@ -481,15 +493,7 @@ fn the_shadow_stage_adds_what_propagate_would() {
                     staged.timing("trace_shadows").is_some(),
                     "{what}: no shadow stage ran"
                 );
-                assert_eq!(staged.rays_traced, walked.rays_traced, "{what}");
-                assert_eq!(staged.dropped_samples, walked.dropped_samples, "{what}");
-                let differ = staged
-                    .radiance
-                    .iter()
-                    .zip(&walked.radiance)
-                    .filter(|(a, b)| a != b)
-                    .count();
-                assert_eq!(differ, 0, "{what}: {differ} pixels differ");
+                assert_same_render(&staged, &walked, &what);
             }
         }
     }
@@ -512,15 +516,11 @@ fn the_shadow_stage_adds_what_propagate_would() {
 /// stage) untouched.
 #[test]
 fn the_walk_stage_traces_the_hits_propagate_would() {
-    let Some(ctx) =
-        raylume_gpu::testing::context_or_skip("the_walk_stage_traces_the_hits_propagate_would")
-    else {
+    let Some(ctx) = raylume_gpu::testing::subgroup_context_or_skip(
+        "the_walk_stage_traces_the_hits_propagate_would",
+    ) else {
         return;
     };
-    if !ctx.has_subgroups() {
-        eprintln!("the adapter has no subgroups: the wavefront has no walk stage to test");
-        return;
-    }
     // Sorted from the third bounce on (the stage walks bounces 0 to 2, the `propagate` compiled
     // without HITS_TRACED the sorted ones: `walk_stage_at`), and from the first (the stage
     // walks the camera rays alone).
@@ -554,14 +554,7 @@ fn the_walk_stage_traces_the_hits_propagate_would() {
                         staged.timing("trace_hits").is_some(),
                         "{what}: no walk stage ran"
                     );
-                    assert_eq!(staged.rays_traced, walked.rays_traced, "{what}");
-                    let differ = staged
-                        .radiance
-                        .iter()
-                        .zip(&walked.radiance)
-                        .filter(|(a, b)| a != b)
-                        .count();
-                    assert_eq!(differ, 0, "{what}: {differ} pixels differ");
+                    assert_same_render(&staged, &walked, &what);
                 }
             }
         }

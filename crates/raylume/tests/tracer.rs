@@ -772,13 +772,11 @@ fn a_new_device_forgets_the_trees_and_scenes_of_the_old_one() {
 /// image is the same, and the stats say when the stage ran.
 #[test]
 fn the_walk_stage_by_default_walks_large_scenes_only() {
-    let Some(ctx) =
-        raylume_gpu::testing::context_or_skip("the_walk_stage_by_default_walks_large_scenes_only")
-    else {
-        return;
-    };
-    if !ctx.has_subgroups() {
-        eprintln!("the adapter has no subgroups: no walk stage to choose");
+    if raylume_gpu::testing::subgroup_context_or_skip(
+        "the_walk_stage_by_default_walks_large_scenes_only",
+    )
+    .is_none()
+    {
         return;
     }
     let small = cornell(12, 12, 2);
@@ -814,13 +812,11 @@ fn the_walk_stage_by_default_walks_large_scenes_only() {
 /// render's schedule says the shadow stage ran, and the image is the one without it.
 #[test]
 fn the_shadow_stage_is_asked_for_through_the_tracer() {
-    let Some(ctx) =
-        raylume_gpu::testing::context_or_skip("the_shadow_stage_is_asked_for_through_the_tracer")
-    else {
-        return;
-    };
-    if !ctx.has_subgroups() {
-        eprintln!("the adapter has no subgroups: no walk stage, so no shadow stage");
+    if raylume_gpu::testing::subgroup_context_or_skip(
+        "the_shadow_stage_is_asked_for_through_the_tracer",
+    )
+    .is_none()
+    {
         return;
     }
     let scene = cornell(12, 12, 2);
