@@ -110,6 +110,11 @@ struct Args {
     /// `Tracer::walk_stage`.
     #[arg(long, default_value = "auto", value_parser = parse_on_off_auto, action = clap::ArgAction::Set)]
     walk_stage: OnOffAuto,
+    /// With the walk stage and NEE: walk the shadow rays in a stage of their own after each
+    /// bounce's shading, whose threads take the next ray when theirs ends (an experiment, off
+    /// by default; the same image). See `Tracer::shadow_stage`.
+    #[arg(long)]
+    shadow_stage: bool,
     /// Russian roulette from this path segment on (default 5, as Mitsuba 3's `path`), or off.
     #[arg(long, default_value = "5", value_parser = parse_rr_depth)]
     rr_depth: RrDepth,
@@ -273,6 +278,7 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
     tracer.sampler = args.sampler;
     tracer.next_event_stage = args.next_event_stage;
     tracer.walk_stage = args.walk_stage.0;
+    tracer.shadow_stage = args.shadow_stage;
     tracer.russian_roulette = args.rr_depth.0;
     tracer.environment_guide = args.environment_guide.0;
     tracer.target_error = args.target_error;
@@ -483,6 +489,12 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
         eprintln!(
             "raylume: --walk-stage did nothing: it applies to the GPU's wavefront schedule \
              (`--schedule wavefront`) over the wide BVH, on a GPU with subgroups"
+        );
+    }
+    if args.shadow_stage && !render.stats.schedule.contains("shadow stage") {
+        eprintln!(
+            "raylume: --shadow-stage did nothing: it applies where the walk stage runs, with \
+             next-event estimation (`--schedule wavefront --walk-stage on --estimator nee`)"
         );
     }
     eprintln!("raylume: wrote {}", args.output.display());

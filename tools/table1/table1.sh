@@ -22,7 +22,9 @@
 # variants (tools/features/cornell_variants.py) on the GPU and the CPU; `parts` is issue 16's: a render whole and as 4 parts in
 # separate processes (the overhead of splitting), merged, and --backend gpus on the one GPU;
 # `workgroup` times the Cornell box and the living room with RAYLUME_WORKGROUP_SIZE in
-# T1_WORKGROUPS (default "32 64 128 256");
+# T1_WORKGROUPS (default "32 64 128 256"); `stages` (not in the default set) gives the living
+# room's seconds per GPU pass with its own BSDFs and with every BSDF one kind, and times the
+# shadow stage against propagate's own shadow walks (docs/study/h200-ce89268-stages.md);
 # `large` is issue 19's: the 3M-triangle
 # grid of tools/large made there and rendered from file to a 10-spp PNG by raylume and by
 # Mitsuba, T1_GRID quads a side, default 1224, T1_ROUNDS rounds of a process per BVH builder in
@@ -178,6 +180,52 @@ device() {
         > $R/wg-$wg-$est.md 2> $R/wg-$wg-$est.log || echo "bench: exit $?"
       grep -E '^\| scenes.* \| 100 \|' $R/wg-$wg-$est.md || true
     done
+  done
+  fi
+  if [[ $parts == *" stages "* ]]; then
+  # Where the living room's wavefront time goes (docs/study/h200-ce89268-stages.md): the
+  # GPU's seconds per pass (render --stats) as is, with every BSDF one kind (is propagate's
+  # cost the materials' divergence?), and with NEE's shadow rays in the shadow stage; then
+  # the shadow stage against propagate's own walks, two rounds.
+  local lr=scenes/living-room v
+  python3 - "$lr" <<'PY'
+import copy, json, sys
+d = json.load(open(sys.argv[1] + "/scene.json"))
+plastic = {"ior": 1.5, "thickness": 1.0, "sigma_a": 0.0, "distribution": "ggx", "roughness": 0.15}
+for kind in ("lambert", "rough_plastic"):
+    e = copy.deepcopy(d)
+    e["bsdfs"] = [dict({"name": b["name"], "albedo": b.get("albedo", 0.8), "type": kind},
+                       **(plastic if kind == "rough_plastic" else {})) for b in e["bsdfs"]]
+    json.dump(e, open(f"{sys.argv[1]}/scene-{kind}.json", "w"))
+PY
+  kernels() { python3 -c "
+import json, sys; d = json.load(open(sys.argv[1])); k = dict(d['kernel_seconds'])
+print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_traced'],
+      ' '.join('%s %.4f' % (n, k[n]) for n in ('raygen', 'trace_hits', 'propagate', 'trace_shadows') if n in k),
+      'propagate ns/ray %.3f' % (k['propagate'] / d['rays_traced'] * 1e9))" "$@"; }
+  for v in scene scene-lambert scene-rough_plastic; do
+    echo "== stages: $v, plain (at $(el) s)"
+    /tmp/render $lr/$v.json -o /tmp/x.png --backend gpu --schedule wavefront --walk-stage on \
+      --estimator plain --rr-depth off --sampler independent --bvh-preset quality --spp 100 \
+      --size 1000x1000 -q --no-bloom --stats $R/stages-$v.json > /dev/null 2>&1 || echo "render: exit $?"
+    kernels $R/stages-$v.json "$v plain" || true
+  done
+  for v in off on; do
+    local shadow=""; [ $v = on ] && shadow="--shadow-stage"
+    echo "== stages: NEE + roulette 5, shadow stage $v (at $(el) s)"
+    /tmp/render $lr/scene.json -o /tmp/x.png --backend gpu --schedule wavefront --walk-stage on \
+      $shadow --estimator nee --rr-depth 5 --sampler independent --environment-guide off \
+      --bvh-preset quality --spp 100 --size 1000x1000 -q --no-bloom \
+      --stats $R/stages-nee-$v.json > /dev/null 2>&1 || echo "render: exit $?"
+    kernels $R/stages-nee-$v.json "nee, shadow stage $v" || true
+  done
+  for r in 1 2; do
+    echo "== shadow stage off/on, NEE + roulette 5, round $r (at $(el) s)"
+    timeout 200 /tmp/bench --backend gpu --spp 100 --repeat 3 --schedule wavefront --reorder off \
+      --bvh wide --walk-stage on --shadow-stage off,on --estimator nee --rr-depth 5 \
+      --json $R/shadow-$r.json $lr/scene.json scenes/teapot.toml scenes/cornell-box.toml \
+      > $R/shadow-$r.md 2> $R/shadow-$r.log || echo "bench: exit $?"
+    awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/shadow-$r.md
   done
   fi
   if [[ $parts == *" parts "* ]]; then
