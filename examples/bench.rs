@@ -278,6 +278,9 @@ struct Row {
     auto_exploring_s: Vec<f64>,
     /// Per bounce depth of the best run (wavefront batches).
     depths: Vec<DepthSeconds>,
+    /// The best run's seconds per GPU pass or CPU stage (`RenderStats::kernel_seconds`: e.g.
+    /// the wavefront's `trace_hits`, `propagate`, `trace_shadows`).
+    kernel_seconds: Vec<(String, f64)>,
 }
 
 fn configs(args: &Args) -> Vec<Config> {
@@ -560,6 +563,7 @@ fn run(args: Args) -> Result<(), String> {
                     all_trace_s: std::mem::take(&mut all[ci]),
                     auto_exploring_s: std::mem::take(&mut exploring[ci]),
                     depths: s.depth_seconds.clone(),
+                    kernel_seconds: s.kernel_seconds.clone(),
                 });
                 if let Some(dir) = &args.images {
                     let tag = config.name().replace(' ', "-");
