@@ -469,11 +469,9 @@ fn the_shadow_stage_adds_what_propagate_would() {
     ) else {
         return;
     };
-    let sorted =
-        |from| raylume_kernels::Reorder::from_depth(raylume_kernels::ReorderMode::SortIndex, from);
     for (name, scene) in schedule_scenes() {
         let bvh = bvh(&scene);
-        for reorder in [raylume_kernels::Reorder::OFF, sorted(3)] {
+        for reorder in [raylume_kernels::Reorder::OFF, sorted_from(3)] {
             let s = TraceSettings {
                 reorder,
                 ..settings(24, 16, 3, 5, Schedule::Wavefront)
@@ -524,12 +522,14 @@ fn the_walk_stage_traces_the_hits_propagate_would() {
     // Sorted from the third bounce on (the stage walks bounces 0 to 2, the `propagate` compiled
     // without HITS_TRACED the sorted ones: `walk_stage_at`), and from the first (the stage
     // walks the camera rays alone).
-    let sorted =
-        |from| raylume_kernels::Reorder::from_depth(raylume_kernels::ReorderMode::SortIndex, from);
     for (name, scene) in schedule_scenes() {
         let bvh = bvh(&scene);
         for estimator in [Estimator::Plain, Estimator::Nee] {
-            for reorder in [raylume_kernels::Reorder::OFF, sorted(3), sorted(1)] {
+            for reorder in [
+                raylume_kernels::Reorder::OFF,
+                sorted_from(3),
+                sorted_from(1),
+            ] {
                 let s = TraceSettings {
                     reorder,
                     ..settings(24, 16, 3, 5, Schedule::Wavefront)

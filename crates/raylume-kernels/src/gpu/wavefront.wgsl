@@ -114,7 +114,7 @@ fn propagate(
     }
     // Likewise the shadow rays left to the shadow stage, in its queue.
     var shadow_slot = 0u;
-    if (DEFER_SHADOW && shadow) {
+    if (shadow) {
         shadow_slot = atomicAdd(&wg_shadows, 1u);
     }
     workgroupBarrier();
@@ -132,7 +132,7 @@ fn propagate(
     }
     flush_stats(local, traced, dropped);
     workgroupBarrier();
-    if (DEFER_SHADOW && shadow) {
+    if (shadow) {
         store_shadow_record(wg_shadow_base + shadow_slot, r, live);
     }
     if (live) {

@@ -398,6 +398,11 @@ pub fn environment_lit() -> Scene {
 
 /// The four fixtures the schedule tests render (diffuse with an area light; spheres of metal
 /// and glass; textures; an environment), named.
+/// The wavefront's rays sorted (by index) before every bounce from `depth` on.
+pub fn sorted_from(depth: u32) -> raylume_kernels::Reorder {
+    raylume_kernels::Reorder::from_depth(raylume_kernels::ReorderMode::SortIndex, depth)
+}
+
 pub fn schedule_scenes() -> [(&'static str, Scene); 4] {
     [
         ("cornell", cornell_box()),
