@@ -2,9 +2,9 @@
 
 use std::sync::OnceLock;
 
-use crate::intersect::TriangleColumns;
+use crate::intersect::TriangleBlock;
 use crate::stats::BvhStats;
-use crate::wide_traverse::{WideBoxes, wide_boxes};
+use crate::wide_traverse::{WideBoxes, triangle_blocks, wide_boxes};
 use crate::{BvhLayout, BvhNode, Primitive, WideNode};
 
 /// A BVH over a scene's triangles and spheres in the layout the WGSL kernels read.
@@ -33,18 +33,18 @@ pub struct GpuBvh {
     /// What the build produced and cost.
     pub stats: BvhStats,
     /// The arrays the CPU's wide walk reads instead of `wide_nodes` and `primitives`
-    /// ([`GpuBvh::wide_boxes`], [`GpuBvh::triangle_columns`]), made on the first CPU
+    /// ([`GpuBvh::wide_boxes`], [`GpuBvh::triangle_blocks`]), made on the first CPU
     /// traversal (`Default::default()` when building a `GpuBvh` by hand).
     pub cpu_arrays: CpuArrays,
 }
 
 /// What the CPU's wide walk reads instead of the GPU's arrays, made from them on first use
-/// ([`GpuBvh::wide_boxes`], [`GpuBvh::triangle_columns`]): the nodes' [`WideBoxes`] (224
-/// bytes a node) and the primitives' [`TriangleColumns`] (36 bytes a primitive), which a
-/// GPU-only render never makes. Made once; a tree whose `wide_nodes` or `primitives` are
+/// ([`GpuBvh::wide_boxes`], [`GpuBvh::triangle_blocks`]): the nodes' [`WideBoxes`] (224
+/// bytes a node) and their leaves' triangles in [`TriangleBlock`]s (144 bytes per four, about
+/// 40 bytes a primitive), which a GPU-only render never makes. Made once; a tree whose `wide_nodes` or `primitives` are
 /// changed after a CPU traversal needs [`CpuArrays::default`] again.
 #[derive(Clone, Default)]
-pub struct CpuArrays(OnceLock<(Vec<WideBoxes>, TriangleColumns)>);
+pub struct CpuArrays(OnceLock<(Vec<WideBoxes>, Vec<TriangleBlock>)>);
 
 impl std::fmt::Debug for CpuArrays {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
@@ -80,18 +80,18 @@ impl GpuBvh {
         &self.cpu_walk_arrays().0
     }
 
-    /// [`GpuBvh::primitives`] as columns, for the CPU's wide walk's four-at-once triangle
-    /// tests ([`TriangleColumns`]); made with [`GpuBvh::wide_boxes`].
-    pub fn triangle_columns(&self) -> &TriangleColumns {
+    /// The wide nodes' leaf triangles four a block, for the CPU's wide walk's four-at-once
+    /// triangle tests ([`TriangleBlock`]; a node's first is its [`WideBoxes::block_base`]);
+    /// made with [`GpuBvh::wide_boxes`].
+    pub fn triangle_blocks(&self) -> &[TriangleBlock] {
         &self.cpu_walk_arrays().1
     }
 
-    pub(crate) fn cpu_walk_arrays(&self) -> &(Vec<WideBoxes>, TriangleColumns) {
+    pub(crate) fn cpu_walk_arrays(&self) -> &(Vec<WideBoxes>, Vec<TriangleBlock>) {
         self.cpu_arrays.0.get_or_init(|| {
-            (
-                self.wide_nodes.iter().map(wide_boxes).collect(),
-                TriangleColumns::new(&self.primitives),
-            )
+            let mut boxes: Vec<WideBoxes> = self.wide_nodes.iter().map(wide_boxes).collect();
+            let blocks = triangle_blocks(&self.wide_nodes, &mut boxes, &self.primitives);
+            (boxes, blocks)
         })
     }
 }

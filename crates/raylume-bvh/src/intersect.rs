@@ -249,51 +249,37 @@ pub fn intersect_triangles4(
     triangles4_core(r, |vertex, k| [&va, &vb, &vc][vertex].col(k), t_min, t_max)
 }
 
-/// A triangle array's vertices as columns, for [`intersect_triangles4_at`]: `v[vertex][axis]
-/// [i]` is coordinate `axis` of vertex `vertex` (a, b, c) of primitive `i`, each column
-/// three zeros longer than the primitives (a degenerate triangle, never hit), so that four
-/// lanes from any primitive index can be read.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct TriangleColumns {
-    pub v: [[Vec<f32>; 3]; 3],
+/// Four triangles' vertices, interleaved for the CPU's wide walk (a node's leaves' triangles,
+/// [`triangle_blocks`](crate::wide_traverse::triangle_blocks)): `v[3 * vertex + axis]` holds
+/// coordinate `axis` of vertex `vertex` (a, b, c) of the four lanes, one load each, 144
+/// bytes in one place (nine columns of the primitive array would take nine cache lines).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C)]
+pub struct TriangleBlock {
+    pub v: [Vec4; 9],
 }
 
-impl TriangleColumns {
-    /// The columns of `primitives` (spheres' words too: read only as triangles).
-    pub fn new(primitives: &[Primitive]) -> Self {
-        let col = |f: &dyn Fn(&Primitive) -> f32| {
-            let mut c: Vec<f32> = primitives.iter().map(f).collect();
-            c.extend([0.0; 3]);
-            c
-        };
-        Self {
-            v: [
-                [col(&|p| p.a[0]), col(&|p| p.a[1]), col(&|p| p.a[2])],
-                [col(&|p| p.b[0]), col(&|p| p.b[1]), col(&|p| p.b[2])],
-                [col(&|p| p.c[0]), col(&|p| p.c[1]), col(&|p| p.c[2])],
-            ],
+impl TriangleBlock {
+    /// Puts the triangle `p`'s vertices in lane `lane` (0..4).
+    pub fn set_lane(&mut self, lane: usize, p: &Primitive) {
+        for (vertex, v) in [&p.a, &p.b, &p.c].into_iter().enumerate() {
+            for (axis, &x) in v[..3].iter().enumerate() {
+                self.v[3 * vertex + axis][lane] = x;
+            }
         }
     }
 }
 
-/// [`intersect_triangles4`] of the four consecutive primitives `first..first + 4`, read from
-/// their columns (four loads a coordinate instead of a gather and a transpose): the same
-/// values, bit for bit.
+/// [`intersect_triangles4`] of a block's four triangles (a lane of zeros, a degenerate
+/// triangle, is a miss): the same values, bit for bit.
 #[inline(always)]
-pub fn intersect_triangles4_at(
+pub fn intersect_triangle_block(
     r: &ShearedRay,
-    columns: &TriangleColumns,
-    first: u32,
+    block: &TriangleBlock,
     t_min: f32,
     t_max: f32,
 ) -> [Vec4; 3] {
-    let i = first as usize;
-    triangles4_core(
-        r,
-        |vertex, k| Vec4::from_slice(&columns.v[vertex][k][i..i + 4]),
-        t_min,
-        t_max,
-    )
+    triangles4_core(r, |vertex, k| block.v[3 * vertex + k], t_min, t_max)
 }
 
 /// The arithmetic of [`intersect_triangles4`], lane by lane that of [`intersect_triangle`];
@@ -640,15 +626,22 @@ mod tests {
             let t_max = [T_MISS, 2.0, 3.5][(lanes / 3) % 3];
             let [t, u, v] =
                 intersect_triangles4(&r, [&tris[0], &tris[1], &tris[2], &tris[3]], t_min, t_max);
-            // The same four read from columns (the CPU walk's form), from the start and from
-            // one in (its fourth lane then the columns' padding, a miss).
-            let columns = TriangleColumns::new(&tris);
+            // The same four read from a block (the CPU walk's form), and the last three
+            // shifted down a lane (a zero lane after them, as past a node's last triangle:
+            // a miss).
+            let block = |tris: &[Primitive]| {
+                let mut b = TriangleBlock::default();
+                for (j, p) in tris.iter().enumerate() {
+                    b.set_lane(j, p);
+                }
+                b
+            };
             let bits = |l: [Vec4; 3]| l.map(|x| x.to_array().map(f32::to_bits));
             assert_eq!(
-                bits(intersect_triangles4_at(&r, &columns, 0, t_min, t_max)),
+                bits(intersect_triangle_block(&r, &block(&tris), t_min, t_max)),
                 bits([t, u, v])
             );
-            let [t1, u1, v1] = intersect_triangles4_at(&r, &columns, 1, t_min, t_max);
+            let [t1, u1, v1] = intersect_triangle_block(&r, &block(&tris[1..]), t_min, t_max);
             for j in 0..3 {
                 let got = [t1[j], u1[j], v1[j]].map(f32::to_bits);
                 assert_eq!(got, [t[j + 1], u[j + 1], v[j + 1]].map(f32::to_bits));

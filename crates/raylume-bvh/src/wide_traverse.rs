@@ -48,8 +48,11 @@
 //! the walk, its order and its triangle tests are the same, so the hits are the same as the
 //! quantised walk's and the GPU's (tested against both over every test tree). Living room,
 //! diffuse rays, one core: 329-390 -> 260-330 ns a closest hit (`docs/RESULTS.md`, issue 15).
-//! Its triangles, four at a time, come from columns ([`TriangleColumns`]: four consecutive
-//! primitives a load per coordinate) instead of four records gathered and transposed.
+//! Its triangles, four at a time, come from each node's blocks ([`TriangleBlock`],
+//! [`triangle_blocks`]: the node's leaves' triangles four a block, one load a coordinate from
+//! one 144-byte place) instead of four records gathered and transposed (before 2026-12-04's
+//! blocks, from nine columns of the primitive array: nine cache lines a test; the living
+//! room's render 2-3 % faster with the blocks).
 //! And its stack holds each child still to visit with the distance where the ray enters its
 //! box, not node groups (`walk_boxes`): the same order, but a child whose box begins
 //! beyond the closest hit found since is passed over without reading its node, and a child's
@@ -61,8 +64,8 @@ use std::mem::MaybeUninit;
 use glam::{UVec2, UVec4, Vec3, Vec4};
 
 use crate::intersect::{
-    Ray, ShearedRay, TriangleColumns, intersect_primitive, intersect_triangles4,
-    intersect_triangles4_at, shear_ray,
+    Ray, ShearedRay, TriangleBlock, intersect_primitive, intersect_triangle_block,
+    intersect_triangles4, shear_ray,
 };
 use crate::traverse::{Hit, T_MAX_LIMIT};
 use crate::{GpuBvh, INVALID_INDEX, Primitive, WIDE_STACK_SIZE, WideNode};
@@ -242,6 +245,8 @@ pub struct WideBoxes {
     pub imask: u32,
     /// Its [`WideNode::child_meta`]'s first four bytes (slots 0..4), then its last four.
     pub child_meta: [u32; 2],
+    /// The index of the node's first [`TriangleBlock`] (see [`triangle_blocks`]).
+    pub block_base: u32,
 }
 
 const _: () = assert!(size_of::<WideBoxes>() == 224);
@@ -284,6 +289,40 @@ pub fn wide_boxes(node: &WideNode) -> WideBoxes {
         }
     }
     b
+}
+
+/// The triangles of every node's leaves in blocks of four ([`TriangleBlock`]): block `k` of
+/// a node holds the primitives at offsets `4k..4k + 4` from its `prim_base` (zeros past its
+/// last one or the array's end: a degenerate triangle, never hit), and each node's
+/// [`WideBoxes::block_base`] is set to its first block.
+pub fn triangle_blocks(
+    nodes: &[WideNode],
+    boxes: &mut [WideBoxes],
+    primitives: &[Primitive],
+) -> Vec<TriangleBlock> {
+    let mut blocks = Vec::new();
+    for (node, b) in nodes.iter().zip(boxes.iter_mut()) {
+        b.block_base = blocks.len() as u32;
+        let mut end = 0u32;
+        for slot in 0..8 {
+            let meta = u32::from(node.child_meta[slot]);
+            if meta != 0 && node.imask() >> slot & 1 == 0 {
+                end = end.max((meta & 0x1f) + ((meta >> 5) & 7).count_ones());
+            }
+        }
+        for k in 0..end.div_ceil(4) {
+            let mut block = TriangleBlock::default();
+            for j in 0..4u32 {
+                let i = (node.prim_base + 4 * k + j) as usize;
+                if 4 * k + j >= end || i >= primitives.len() {
+                    continue;
+                }
+                block.set_lane(j as usize, &primitives[i]);
+            }
+            blocks.push(block);
+        }
+    }
+    blocks
 }
 
 /// `XOR_PERMUTE8[oct][m]`: bit `s` of the eight bits `m` moved to bit `s ^ oct` (a table of
@@ -437,8 +476,9 @@ pub fn wide_walk<const SPHERES: bool>(
                 (mask & 0xff00_0000) | u32::from(node.imask()),
             );
             let prims = mask & 0x00ff_ffff;
-            if test_leaves::<SPHERES>(leaves, prim_base, prims, &sheared, t_min, any_hit, &mut hit)
-            {
+            if test_leaves::<SPHERES>(
+                leaves, prim_base, 0, prims, &sheared, t_min, any_hit, &mut hit,
+            ) {
                 return hit;
             }
         }
@@ -475,8 +515,8 @@ static INNER_RANK8: [[u8; 8]; 256] = {
 const BOX_STACK_SIZE: usize = 7 * WIDE_STACK_SIZE;
 
 /// The CPU's form of [`wide_walk`] (`GpuBvh`'s traversal of a wide tree): nodes tested by
-/// their float boxes ([`wide_boxes_hits`]), triangles four consecutive ones at a time from
-/// the columns ([`leaf_block4`]) unless `SPHERES`. Where [`wide_walk`] keeps a node group
+/// their float boxes ([`wide_boxes_hits`]), triangles four at a time from the node's
+/// blocks ([`leaf_block4`]) unless `SPHERES`. Where [`wide_walk`] keeps a node group
 /// (the node's children still to visit) on its stack, this keeps each child to visit with
 /// its box's entry distance, pushed so that they are taken in the same order (the highest
 /// `slot ^ octant` first), and passes over a child whose box begins beyond the closest hit
@@ -488,7 +528,7 @@ const BOX_STACK_SIZE: usize = 7 * WIDE_STACK_SIZE;
 #[inline(always)]
 fn walk_boxes<const SPHERES: bool>(
     boxes: &[WideBoxes],
-    columns: &TriangleColumns,
+    blocks: &[TriangleBlock],
     primitives: &[Primitive],
     ray: &Ray,
     t_min: f32,
@@ -504,7 +544,7 @@ fn walk_boxes<const SPHERES: bool>(
         u: 0.0,
         v: 0.0,
     };
-    let leaves = Leaves::Columns(columns, primitives);
+    let leaves = Leaves::Blocks(blocks, primitives);
     // (child node, its box's t_near bits): the low and high words. Uninitialised (no 1.8 KB
     // to zero for every ray); only entries below `sp` are read, each written before.
     let mut stack = [MaybeUninit::<u64>::uninit(); BOX_STACK_SIZE];
@@ -517,6 +557,7 @@ fn walk_boxes<const SPHERES: bool>(
         if test_leaves::<SPHERES>(
             leaves,
             b.prim_base,
+            b.block_base,
             prims,
             &sheared,
             t_min,
@@ -568,8 +609,8 @@ fn walk_boxes<const SPHERES: bool>(
 enum Leaves<'a> {
     /// Gathered from the primitive records ([`leaf_group4`]): the quantised walk's.
     Records(&'a [Primitive]),
-    /// From the columns ([`leaf_block4`]): the CPU walk's; the records for spheres.
-    Columns(&'a TriangleColumns, &'a [Primitive]),
+    /// From the nodes' blocks ([`leaf_block4`]): the CPU walk's; the records for spheres.
+    Blocks(&'a [TriangleBlock], &'a [Primitive]),
 }
 
 /// The primitives `prims` (offsets from `base`) of a node's hit leaves against the ray, in
@@ -581,6 +622,7 @@ enum Leaves<'a> {
 fn test_leaves<const SPHERES: bool>(
     leaves: Leaves,
     base: u32,
+    block_base: u32,
     prims: u32,
     sheared: &ShearedRay,
     t_min: f32,
@@ -588,14 +630,16 @@ fn test_leaves<const SPHERES: bool>(
     hit: &mut Hit,
 ) -> bool {
     let primitives = match leaves {
-        Leaves::Records(p) | Leaves::Columns(_, p) => p,
+        Leaves::Records(p) | Leaves::Blocks(_, p) => p,
     };
     let mut prims = prims;
     while prims != 0 {
         if !SPHERES && prims.count_ones() > 1 {
             let found = match leaves {
                 Leaves::Records(p) => leaf_group4(p, base, &mut prims, sheared, t_min, hit),
-                Leaves::Columns(c, _) => leaf_block4(c, base, &mut prims, sheared, t_min, hit),
+                Leaves::Blocks(b, _) => {
+                    leaf_block4(b, base, block_base, &mut prims, sheared, t_min, hit)
+                }
             };
             if found && any_hit {
                 return true;
@@ -669,16 +713,17 @@ fn leaf_group4(
     found
 }
 
-/// [`leaf_group4`] from the triangle columns: the four consecutive offsets of `prims`'
-/// highest set bit (an aligned block of four), its set bits among them cleared from it and
-/// those tested at once ([`intersect_triangles4_at`]; lanes whose bit is clear are tested
-/// too and ignored). `hit` becomes what the one-at-a-time loop would make it: the lanes are
-/// taken highest offset first, as that loop takes them, a lane replacing `hit` only if
-/// strictly closer. True if any of them was hit.
+/// [`leaf_group4`] from the node's triangle blocks: the four offsets `4k..4k + 4` (block `k`
+/// of the node's, from `block_base`) around `prims`' highest set bit, its set bits among
+/// them cleared from it and those tested at once ([`intersect_triangle_block`]; lanes whose
+/// bit is clear are tested too and ignored). `hit` becomes what the one-at-a-time loop would
+/// make it: the lanes are taken highest offset first, as that loop takes them, a lane
+/// replacing `hit` only if strictly closer. True if any of them was hit.
 #[inline(always)]
 fn leaf_block4(
-    columns: &TriangleColumns,
+    blocks: &[TriangleBlock],
     base: u32,
+    block_base: u32,
     prims: &mut u32,
     sheared: &ShearedRay,
     t_min: f32,
@@ -688,7 +733,8 @@ fn leaf_block4(
     let lanes = (*prims >> lo) & 0xf;
     *prims &= !(0xf << lo);
     let first = base + lo;
-    let [t, u, v] = intersect_triangles4_at(sheared, columns, first, t_min, hit.t);
+    let block = &blocks[(block_base + lo / 4) as usize];
+    let [t, u, v] = intersect_triangle_block(sheared, block, t_min, hit.t);
     let (t, u, v) = (t.to_array(), u.to_array(), v.to_array());
     let mut found = false;
     for j in (0..4).rev() {
@@ -732,8 +778,8 @@ pub fn trace_any(
 impl GpuBvh {
     /// [`wide_walk`]'s hits for a tree of [`BvhLayout::Wide`](crate::BvhLayout::Wide), found
     /// the CPU's way: nodes tested by their float boxes ([`intersect_wide_boxes`]) and,
-    /// without `SPHERES`, triangles read four consecutive ones at a time from the columns
-    /// ([`intersect_triangles4_at`]), both from [`GpuBvh::cpu_arrays`].
+    /// without `SPHERES`, triangles read four at a time from the nodes' blocks
+    /// ([`intersect_triangle_block`]), both from [`GpuBvh::cpu_arrays`].
     #[inline(always)]
     pub(crate) fn wide_walk<const SPHERES: bool>(
         &self,
@@ -742,9 +788,9 @@ impl GpuBvh {
         t_max: f32,
         any_hit: bool,
     ) -> Hit {
-        let (boxes, columns) = self.cpu_walk_arrays();
+        let (boxes, blocks) = self.cpu_walk_arrays();
         debug_assert_eq!(self.wide_nodes.len(), boxes.len());
-        walk_boxes::<SPHERES>(boxes, columns, &self.primitives, ray, t_min, t_max, any_hit)
+        walk_boxes::<SPHERES>(boxes, blocks, &self.primitives, ray, t_min, t_max, any_hit)
     }
 }
 
