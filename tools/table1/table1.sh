@@ -206,7 +206,7 @@ print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_tra
   for v in scene scene-lambert scene-rough_plastic; do
     echo "== stages: $v, plain (at $(el) s)"
     /tmp/render $lr/$v.json -o /tmp/x.png --backend gpu --schedule wavefront --walk-stage on \
-      --estimator plain --rr-depth off --sampler independent --bvh-preset quality --spp 100 \
+      --estimator plain --rr-depth off --sampler independent --bvh-preset quality --spp 100 --bounces 10 \
       --size 1000x1000 -q --no-bloom --stats $R/stages-$v.json > /dev/null 2>&1 || echo "render: exit $?"
     kernels $R/stages-$v.json "$v plain" || true
   done
@@ -215,7 +215,7 @@ print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_tra
     echo "== stages: NEE + roulette 5, shadow stage $v (at $(el) s)"
     /tmp/render $lr/scene.json -o /tmp/x.png --backend gpu --schedule wavefront --walk-stage on \
       $shadow --estimator nee --rr-depth 5 --sampler independent --environment-guide off \
-      --bvh-preset quality --spp 100 --size 1000x1000 -q --no-bloom \
+      --bvh-preset quality --spp 100 --bounces 10 --size 1000x1000 -q --no-bloom \
       --stats $R/stages-nee-$v.json > /dev/null 2>&1 || echo "render: exit $?"
     kernels $R/stages-nee-$v.json "nee, shadow stage $v" || true
   done
