@@ -157,7 +157,7 @@ fn run(args: Args) -> Result<(), String> {
             for &estimator in &args.estimator {
                 for (entry, variant) in entries(&args, estimator) {
                     let constants: naga::back::PipelineConstants =
-                        entry_constants(features, entry, variant)
+                        entry_constants(features, entry, variant, false)
                             .into_iter()
                             .map(|(k, v)| (k.to_string(), v))
                             .collect();

@@ -274,6 +274,17 @@ pub const WALK_STAGE_GROUPS: u32 = 4096;
 /// H200, `docs/RESULTS.md`). `RAYLUME_WALK_STAGE_REFILL` overrides it (for measuring).
 pub const WALK_STAGE_REFILL: u32 = 8;
 
+/// On a software adapter a lane of the walk stage (and of the shadow stage) takes at most this
+/// many times its even share of the queue (the queue's rays over the stage's threads: one ray
+/// with the thread per ray a software adapter gets), so that its loops stay short: llvmpipe
+/// (lavapipe) leaves every loop of an invocation once they have run 65,535 iterations between
+/// them (`LP_MAX_TGSI_LOOP_ITERATIONS`), and runs a workgroup's subgroups one after another,
+/// so that without a bound the first subgroups took most of a large queue in turn and were cut
+/// off with rays taken and not walked (the living room at 240x135, 1 spp: 5-25 hits of a
+/// bounce missing and the image different from run to run, before 2026-12-04). Hardware
+/// adapters have no such limit: there a lane takes rays as long as the queue has them.
+pub const WALK_STAGE_SOFTWARE_SHARE: u32 = 4;
+
 /// The word of the wavefront's queue counts that counts the walk stage's queue slots taken
 /// (words 0 and 1 are the two queues' lengths, 3 the persistent schedule's sample counter).
 pub const WALK_STAGE_COUNTER: u32 = 2;

@@ -312,7 +312,7 @@ fn each_path_tracing_pipeline_inlines_one_walk() {
                 {
                     let n = calls(
                         &module,
-                        &entry_constants(Features::all(), entry, variant),
+                        &entry_constants(Features::all(), entry, variant, false),
                         entry,
                     )
                     .get(walk)
@@ -342,7 +342,7 @@ fn plain_pipelines_reach_no_light_sampling() {
             (Estimator::Nee, true, true),
         ] {
             let variant = PathVariant::of(estimator, Sampler::Sobol).with_next_event_stage(stage);
-            let constants = entry_constants(Features::all(), entry, variant);
+            let constants = entry_constants(Features::all(), entry, variant, false);
             let seen = reachable(&module, &constants, entry);
             assert!(seen.contains("shade_hit"), "{entry}: {seen:?}");
             // With the next_event stage the wavefront's propagate leaves the light samples to
@@ -389,7 +389,7 @@ fn the_wavefront_compiles_light_sampling_apart() {
     let seen = |entry| {
         reachable(
             &module,
-            &entry_constants(Features::all(), entry, variant),
+            &entry_constants(Features::all(), entry, variant, false),
             entry,
         )
     };

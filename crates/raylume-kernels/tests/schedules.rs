@@ -570,3 +570,39 @@ fn the_walk_stage_traces_the_hits_propagate_would() {
         .unwrap();
     assert!(out.timing("trace_hits").is_none());
 }
+
+/// A bounce's queue far larger than the stage's lanes can walk in lavapipe's loop limit is
+/// walked whole: on a software adapter a lane takes at most `WALK_STAGE_SOFTWARE_SHARE` times
+/// its even share of the queue. Without that bound, lavapipe, which runs a workgroup's
+/// subgroups one after another and leaves every loop of an invocation once they have run
+/// 65,535 iterations between them, let the first subgroups take most of the queue and cut them
+/// off with rays taken and never walked: the living room's 57,600 camera rays, two bounces,
+/// lost hits at every walked bounce, and the image changed from run to run. (The fixtures of
+/// the tests above are too small for it.) On a hardware adapter it checks the same thing.
+#[test]
+fn a_large_queue_is_walked_whole() {
+    let Some(ctx) = raylume_gpu::testing::subgroup_context_or_skip("a_large_queue_is_walked_whole")
+    else {
+        return;
+    };
+    // Tracked in the repository: a missing file is a broken checkout, not a skip.
+    let path = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../scenes/living-room/scene.json");
+    let scene =
+        raylume_scene::Scene::load(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let bvh = bvh(&scene);
+    let s = settings(320, 180, 1, 2, Schedule::Wavefront);
+    let mut tracer = GpuTracer::new(ctx, &scene, &bvh).unwrap();
+    tracer.set_estimator(Estimator::Nee);
+    tracer.set_walk_stage(false);
+    let walked = tracer.render(&s, &mut |_, _| {}).unwrap();
+    tracer.set_walk_stage(true);
+    tracer.set_shadow_stage(true);
+    let staged = tracer.render(&s, &mut |_, _| {}).unwrap();
+    assert!(staged.timing("trace_hits").is_some() && staged.timing("trace_shadows").is_some());
+    assert_same_render(
+        &staged,
+        &walked,
+        "living room, 320x180, walk and shadow stages",
+    );
+}

@@ -93,6 +93,10 @@ override DEFER_SHADOW: bool = false;
 // The walk stage refills a subgroup's idle lanes once this many wait (or all of them do):
 // crate::walk_stage_refill(), set at pipeline creation (no default here: Rust's is the one).
 override WALK_STAGE_REFILL: u32;
+// A lane of the walk and shadow stages takes at most this many times its even share of the
+// queue (0: no bound): crate::WALK_STAGE_SOFTWARE_SHARE on software adapters, whose loops end
+// at an iteration limit, else 0 (set at pipeline creation, no default here).
+override WALK_STAGE_SHARE: u32;
 // The sampler the pipeline is compiled for (SAMPLER_INDEPENDENT, _ZSOBOL or _SOBOL; the
 // others' code is then dead), or SAMPLER_FROM_SCENE: the uniforms' `sampler` decides.
 // TracerPipelines compiles the path tracing pipelines per sampler; see `path_sampler`.

@@ -140,12 +140,14 @@ impl PathVariant {
 
 /// The override constants of `entry`'s pipeline for a scene with `features` and renders of
 /// `variant` (as compiled: `TracerPipelines` passes [`PathVariant::ANY`] for the entry points
-/// that trace no path): the features', the variant's, and `DEFER_NEE` for `propagate` when
-/// the variant leaves its light samples to `next_event`.
+/// that trace no path) on a `software` adapter or not: the features', the variant's,
+/// `DEFER_NEE` for `propagate` when the variant leaves its light samples to `next_event`, and
+/// the walk and shadow stages' refill and bound ([`crate::WALK_STAGE_SOFTWARE_SHARE`]).
 pub fn entry_constants(
     features: Features,
     entry: &str,
     variant: PathVariant,
+    software: bool,
 ) -> Vec<(&'static str, f64)> {
     let mut constants = pipeline_constants(features);
     constants.extend(variant.constants());
@@ -160,6 +162,12 @@ pub fn entry_constants(
     }
     if entry == "trace_hits" || entry == "trace_shadows" {
         constants.push(("WALK_STAGE_REFILL", f64::from(crate::walk_stage_refill())));
+        let share = if software {
+            crate::WALK_STAGE_SOFTWARE_SHARE
+        } else {
+            0
+        };
+        constants.push(("WALK_STAGE_SHARE", f64::from(share)));
     }
     constants
 }
@@ -526,7 +534,7 @@ impl TracerPipelines {
             return Ok(p);
         }
         let start = Instant::now();
-        let constants = entry_constants(self.features, entry, variant);
+        let constants = entry_constants(self.features, entry, variant, ctx.info.is_software);
         let p = ctx.scoped(&format!("compiling the `{entry}` pipeline"), || {
             ctx.device
                 .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {

@@ -9,9 +9,22 @@
 // Appended to the tracer's module, after raylume-sort's LANE_MASK_WGSL (its ballot masks),
 // only with the wide BVH on adapters with subgroups (gpu/pipelines.rs).
 
+// The most rays a lane takes in a stage of `threads` threads over a queue of `n` (all of them
+// but for WALK_STAGE_SHARE): the threads can take every ray between them, and on a software
+// adapter no lane runs past its loop limit (crate::WALK_STAGE_SOFTWARE_SHARE).
+fn lane_rays_at_most(n: u32, nwg: vec3<u32>) -> u32 {
+    let threads = nwg.x * nwg.y * WORKGROUP_SIZE;
+    return select(0xffffffffu, WALK_STAGE_SHARE * ((n + threads - 1u) / threads), WALK_STAGE_SHARE != 0u);
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn trace_hits(@builtin(subgroup_invocation_id) lane: u32) {
+fn trace_hits(
+    @builtin(subgroup_invocation_id) lane: u32,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
     let n = atomicLoad(&queue_counts[bounce.depth & 1u]);
+    let most = lane_rays_at_most(n, nwg);
+    var taken = 0u;
     let none = 0xffffffffu;
     // The lanes of the subgroup below this one, as ballot words.
     let below = lanes_below_mask(lane);
@@ -26,6 +39,14 @@ fn trace_hits(@builtin(subgroup_invocation_id) lane: u32) {
     var sp = 0u;
     var group = vec2<u32>(0u, 0u);
     loop {
+        // A lane that has taken its most leaves (software adapters only: WALK_STAGE_SHARE).
+        if WALK_STAGE_SHARE != 0u {
+            let done = slot == none && taken >= most;
+            in_loop -= mask_count(ballot(done));
+            if done {
+                break;
+            }
+        }
         // Lanes without a ray take the next slots of the queue, one atomic per subgroup: one
         // ballot an iteration decides (the refill's condition is the same in every lane).
         let waiting = slot == none;
@@ -46,6 +67,7 @@ fn trace_hits(@builtin(subgroup_invocation_id) lane: u32) {
                     break;
                 }
                 slot = base + rank;
+                taken += 1u;
                 let state = ray_states[ray_queue_in[slot]];
                 let ray = Ray(state.origin, state.dir);
                 wr = wide_ray(ray);
@@ -103,8 +125,13 @@ fn trace_hits(@builtin(subgroup_invocation_id) lane: u32) {
 // images do not change (tests/schedules.rs); a path that ended at the vertex has its sample
 // written here.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn trace_shadows(@builtin(subgroup_invocation_id) lane: u32) {
+fn trace_shadows(
+    @builtin(subgroup_invocation_id) lane: u32,
+    @builtin(num_workgroups) nwg: vec3<u32>,
+) {
     let n = atomicLoad(&queue_counts[SHADOW_QUEUE_COUNTER]);
+    let most = lane_rays_at_most(n, nwg);
+    var taken = 0u;
     let none = 0xffffffffu;
     let below = lanes_below_mask(lane);
     var in_loop = subgroupAdd(1u);
@@ -118,7 +145,14 @@ fn trace_shadows(@builtin(subgroup_invocation_id) lane: u32) {
     var group = vec2<u32>(0u, 0u);
     var dropped = 0u;
     loop {
-        // The refill of trace_hits, over the shadow queue.
+        // The bound and refill of trace_hits, over the shadow queue.
+        if WALK_STAGE_SHARE != 0u {
+            let done = slot == none && taken >= most;
+            in_loop -= mask_count(ballot(done));
+            if done {
+                break;
+            }
+        }
         let waiting = slot == none;
         let waiting_lanes = ballot(waiting);
         let want = mask_count(waiting_lanes);
@@ -136,6 +170,7 @@ fn trace_shadows(@builtin(subgroup_invocation_id) lane: u32) {
                     break;
                 }
                 slot = base + rank;
+                taken += 1u;
                 let w0 = nee_records[nee_word(0u, slot)];
                 let w1 = nee_records[nee_word(1u, slot)];
                 let ray = Ray(bitcast<vec3<f32>>(w0.xyz), bitcast<vec3<f32>>(w1.xyz));
