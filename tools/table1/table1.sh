@@ -24,7 +24,8 @@
 # `workgroup` times the Cornell box and the living room with RAYLUME_WORKGROUP_SIZE in
 # T1_WORKGROUPS (default "32 64 128 256"); `stages` (not in the default set) gives the living
 # room's seconds per GPU pass with its own BSDFs and with every BSDF one kind, and times the
-# shadow stage against propagate's own shadow walks (docs/study/h200-ce89268-stages.md);
+# shadow stage against propagate's own shadow walks (docs/study/h200-ce89268-stages.md;
+# T1_STAGES_SIZE and T1_STAGES_SPP, default 1000x1000 and 100, shrink it for a dry run);
 # `large` is issue 19's: the 3M-triangle
 # grid of tools/large made there and rendered from file to a 10-spp PNG by raylume and by
 # Mitsuba, T1_GRID quads a side, default 1224, T1_ROUNDS rounds of a process per BVH builder in
@@ -39,8 +40,8 @@ stage() {
   cd "$root"
   [ -d .gl ] || ../shared/gpu/prepare.sh
   mkdir -p .gpu
-  cargo build --release -p raylume --example bench --example render --example make_grid --example merge
-  for b in bench render make_grid merge; do
+  cargo build --release -p raylume --example bench --example render --example make_grid --example merge --example compare
+  for b in bench render make_grid merge compare; do
     cp target/release/examples/$b .gpu/$b && strip .gpu/$b && xz -f -T2 .gpu/$b
   done
   [ -f .gpu/mitsuba-trim.tar.xz ] || ../shared/peers/mitsuba/pack.sh
@@ -59,7 +60,7 @@ device() {
   el() { echo $(($(date +%s) - T0)); }
   R=/tmp/t1; rm -rf $R; mkdir -p $R
   trap 'tar czf "$OUT/table1.tgz" -C '$R' . ; echo "== done at $(el) s"' EXIT
-  for b in bench render make_grid merge; do xz -dc .gpu/$b.xz > /tmp/$b && chmod +x /tmp/$b; done
+  for b in bench render make_grid merge compare; do [ -f .gpu/$b.xz ] && xz -dc .gpu/$b.xz > /tmp/$b && chmod +x /tmp/$b; done
   m=$(mktemp -d); tar -C "$m" -xJf .gpu/mitsuba-trim.tar.xz
   export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
   cp .gpu/commit.txt $R/
@@ -187,7 +188,7 @@ device() {
   # GPU's seconds per pass (render --stats) as is, with every BSDF one kind (is propagate's
   # cost the materials' divergence?), and with NEE's shadow rays in the shadow stage; then
   # the shadow stage against propagate's own walks, two rounds.
-  local lr=scenes/living-room v
+  local lr=scenes/living-room v ss=${T1_STAGES_SIZE:-1000x1000} sp=${T1_STAGES_SPP:-100}
   python3 - "$lr" <<'PY'
 import copy, json, sys
 d = json.load(open(sys.argv[1] + "/scene.json"))
@@ -206,22 +207,30 @@ print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_tra
   for v in scene scene-lambert scene-rough_plastic; do
     echo "== stages: $v, plain (at $(el) s)"
     /tmp/render $lr/$v.json -o /tmp/x.png --backend gpu --schedule wavefront --walk-stage on \
-      --estimator plain --rr-depth off --sampler independent --bvh-preset quality --spp 100 --bounces 10 \
-      --size 1000x1000 -q --no-bloom --stats $R/stages-$v.json > /dev/null 2>&1 || echo "render: exit $?"
+      --estimator plain --rr-depth off --sampler independent --bvh-preset quality --spp $sp --bounces 10 \
+      --size $ss -q --no-bloom --stats $R/stages-$v.json > /dev/null 2>&1 || echo "render: exit $?"
     kernels $R/stages-$v.json "$v plain" || true
   done
+  # The walk stage changes no image (tests/schedules.rs, on lavapipe): the same on the GPU?
+  for v in off on; do
+    /tmp/render $lr/scene.json -o /tmp/walk-$v.exr --backend gpu --schedule wavefront --walk-stage $v \
+      --estimator plain --rr-depth off --sampler independent --bvh-preset quality --spp 10 --bounces 10 \
+      --size $ss -q --no-bloom > /dev/null 2>&1 || echo "render: exit $?"
+  done
+  echo "== stages: the living room with the walk stage against without it (RMSE 0: the same image)"
+  /tmp/compare /tmp/walk-on.exr /tmp/walk-off.exr 2>&1 || true
   for v in off on; do
     local shadow=""; [ $v = on ] && shadow="--shadow-stage"
     echo "== stages: NEE + roulette 5, shadow stage $v (at $(el) s)"
     /tmp/render $lr/scene.json -o /tmp/x.png --backend gpu --schedule wavefront --walk-stage on \
       $shadow --estimator nee --rr-depth 5 --sampler independent --environment-guide off \
-      --bvh-preset quality --spp 100 --bounces 10 --size 1000x1000 -q --no-bloom \
+      --bvh-preset quality --spp $sp --bounces 10 --size $ss -q --no-bloom \
       --stats $R/stages-nee-$v.json > /dev/null 2>&1 || echo "render: exit $?"
     kernels $R/stages-nee-$v.json "nee, shadow stage $v" || true
   done
   for r in 1 2; do
     echo "== shadow stage off/on, NEE + roulette 5, round $r (at $(el) s)"
-    timeout 200 /tmp/bench --backend gpu --spp 100 --repeat 3 --schedule wavefront --reorder off \
+    timeout 200 /tmp/bench --backend gpu --spp $sp --size $ss --repeat 3 --schedule wavefront --reorder off \
       --bvh wide --walk-stage on --shadow-stage off,on --estimator nee --rr-depth 5 \
       --json $R/shadow-$r.json $lr/scene.json scenes/teapot.toml scenes/cornell-box.toml \
       > $R/shadow-$r.md 2> $R/shadow-$r.log || echo "bench: exit $?"
