@@ -228,6 +228,14 @@ print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_tra
       --stats $R/stages-nee-$v.json > /dev/null 2>&1 || echo "render: exit $?"
     kernels $R/stages-nee-$v.json "nee, shadow stage $v" || true
   done
+  # What the Sobol' sampler (the library's default; the rows above and Mitsuba take
+  # independent numbers) costs in each pass.
+  echo "== stages: NEE + roulette 5, the Sobol' sampler (at $(el) s)"
+  /tmp/render $lr/scene.json -o /tmp/x.png --backend gpu --schedule wavefront --walk-stage on \
+    --estimator nee --rr-depth 5 --sampler sobol --environment-guide off \
+    --bvh-preset quality --spp $sp --bounces 10 --size $ss -q --no-bloom \
+    --stats $R/stages-nee-sobol.json > /dev/null 2>&1 || echo "render: exit $?"
+  kernels $R/stages-nee-sobol.json "nee, sobol sampler" || true
   for r in 1 2; do
     echo "== shadow stage off/on, NEE + roulette 5, round $r (at $(el) s)"
     timeout 200 /tmp/bench --backend gpu --spp $sp --size $ss --repeat 3 --schedule wavefront --reorder off \
