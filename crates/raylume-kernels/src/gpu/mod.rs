@@ -762,7 +762,11 @@ impl<'a> GpuTracer<'a> {
     /// Caps the walk stage's workgroups (so that its threads take several rays each even in a
     /// small render; `None` restores the default: [`crate::walk_stage_groups`] on a hardware
     /// adapter, a thread per ray on a software one, whose loop limit would otherwise cut
-    /// long-running threads short). The image does not depend on it.
+    /// long-running threads short). The image does not depend on it, but on a software
+    /// adapter a lane walks up to [`crate::WALK_STAGE_SOFTWARE_SHARE`] times the queue's rays
+    /// over the threads, so a cap there must leave each thread a few dozen rays at most (the
+    /// tests' two groups take ~10 each): past lavapipe's 65,535 loop iterations an invocation's
+    /// walks are cut short and their hits lost.
     pub fn set_walk_stage_groups(&mut self, groups: Option<u32>) {
         self.walk_stage_groups = groups.map(|g| g.max(1));
     }
