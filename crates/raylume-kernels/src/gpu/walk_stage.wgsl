@@ -17,6 +17,60 @@ fn lane_rays_at_most(n: u32, nwg: vec3<u32>) -> u32 {
     return select(0xffffffffu, WALK_STAGE_SHARE * ((n + threads - 1u) / threads), WALK_STAGE_SHARE != 0u);
 }
 
+// A lane of the walk or shadow stage that waits for a ray, and one that leaves the loop.
+const LANE_WAITS: u32 = 0xffffffffu;
+const LANE_LEAVES: u32 = 0xfffffffeu;
+
+// The refill of the walk and shadow stages, first in every iteration of their loops: the queue
+// slot (of the `n` counted in queue_counts[counter]) that the lane walks now. Its own `slot`
+// while it walks one; where it waits, the next slot of the queue (the subgroup's waiting lanes
+// take the next ones with one atomic, once WALK_STAGE_REFILL of them wait or all those still
+// in the loop do: one ballot an iteration decides, the same in every lane), LANE_WAITS, or
+// LANE_LEAVES once the queue has no more or (WALK_STAGE_SHARE) the lane has taken `most`
+// rays. `in_loop` (the subgroup's lanes still in the loop, the same in every lane) and
+// `taken` (the rays this lane took) follow.
+fn next_slot(
+    slot: u32,
+    lane: u32,
+    below: LaneMask,
+    n: u32,
+    most: u32,
+    counter: u32,
+    in_loop: ptr<function, u32>,
+    taken: ptr<function, u32>,
+) -> u32 {
+    if WALK_STAGE_SHARE != 0u {
+        let done = slot == LANE_WAITS && *taken >= most;
+        *in_loop -= mask_count(ballot(done));
+        if done {
+            return LANE_LEAVES;
+        }
+    }
+    let waiting = slot == LANE_WAITS;
+    let waiting_lanes = ballot(waiting);
+    let want = mask_count(waiting_lanes);
+    if want < min(WALK_STAGE_REFILL, *in_loop) {
+        return slot;
+    }
+    let rank = mask_count(waiting_lanes & below);
+    let first = first_lane(waiting_lanes);
+    var base = 0u;
+    if lane == first {
+        base = atomicAdd(&queue_counts[counter], want);
+    }
+    base = subgroupShuffle(base, first);
+    // The lanes whose slot is past the queue's end leave.
+    *in_loop -= want - min(want, n - min(n, base));
+    if !waiting {
+        return slot;
+    }
+    if base + rank >= n {
+        return LANE_LEAVES;
+    }
+    *taken += 1u;
+    return base + rank;
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn trace_hits(
     @builtin(subgroup_invocation_id) lane: u32,
@@ -25,13 +79,12 @@ fn trace_hits(
     let n = atomicLoad(&queue_counts[bounce.depth & 1u]);
     let most = lane_rays_at_most(n, nwg);
     var taken = 0u;
-    let none = 0xffffffffu;
     // The lanes of the subgroup below this one, as ballot words.
     let below = lanes_below_mask(lane);
-    // The subgroup's lanes still in the loop (the same in every lane: lanes leave only when
-    // a refill finds the queue's end, which every lane sees).
+    // The subgroup's lanes still in the loop (the same in every lane: lanes leave only where
+    // every lane sees it, next_slot).
     var in_loop = subgroupAdd(1u);
-    var slot = none;
+    var slot = LANE_WAITS;
     var wr: WideRay;
     var sheared: ShearedRay;
     var hit = Hit(0.0, INVALID_INDEX, 0.0, 0.0);
@@ -39,46 +92,22 @@ fn trace_hits(
     var sp = 0u;
     var group = vec2<u32>(0u, 0u);
     loop {
-        // A lane that has taken its most leaves (software adapters only: WALK_STAGE_SHARE).
-        if WALK_STAGE_SHARE != 0u {
-            let done = slot == none && taken >= most;
-            in_loop -= mask_count(ballot(done));
-            if done {
-                break;
-            }
+        let next = next_slot(slot, lane, below, n, most, WALK_STAGE_COUNTER, &in_loop, &taken);
+        if next == LANE_LEAVES {
+            break;
         }
-        // Lanes without a ray take the next slots of the queue, one atomic per subgroup: one
-        // ballot an iteration decides (the refill's condition is the same in every lane).
-        let waiting = slot == none;
-        let waiting_lanes = ballot(waiting);
-        let want = mask_count(waiting_lanes);
-        if want >= min(WALK_STAGE_REFILL, in_loop) {
-            let rank = mask_count(waiting_lanes & below);
-            let first = first_lane(waiting_lanes);
-            var base = 0u;
-            if lane == first {
-                base = atomicAdd(&queue_counts[WALK_STAGE_COUNTER], want);
-            }
-            base = subgroupShuffle(base, first);
-            // The lanes whose slot is past the queue's end leave.
-            in_loop -= want - min(want, n - min(n, base));
-            if waiting {
-                if base + rank >= n {
-                    break;
-                }
-                slot = base + rank;
-                taken += 1u;
-                let state = ray_states[ray_queue_in[slot]];
-                let ray = Ray(state.origin, state.dir);
-                wr = wide_ray(ray);
-                sheared = shear_ray(ray);
-                hit = Hit(min(T_MAX, T_MAX_LIMIT), INVALID_INDEX, 0.0, 0.0);
-                sp = 0u;
-                // The root as the only child of a group.
-                group = vec2<u32>(0u, 0x80000000u);
-            }
+        if next != slot {
+            slot = next;
+            let state = ray_states[ray_queue_in[slot]];
+            let ray = Ray(state.origin, state.dir);
+            wr = wide_ray(ray);
+            sheared = shear_ray(ray);
+            hit = Hit(min(T_MAX, T_MAX_LIMIT), INVALID_INDEX, 0.0, 0.0);
+            sp = 0u;
+            // The root as the only child of a group.
+            group = vec2<u32>(0u, 0x80000000u);
         }
-        if slot == none {
+        if slot == LANE_WAITS {
             continue;
         }
         // One iteration of wide_walk's loop (closest hit, t_min 0).
@@ -107,7 +136,7 @@ fn trace_hits(
         if (group.y & 0xff000000u) == 0u {
             if sp == 0u {
                 store_queue_hit(slot, hit);
-                slot = none;
+                slot = LANE_WAITS;
             } else {
                 sp -= 1u;
                 group = stack[sp];
@@ -132,10 +161,9 @@ fn trace_shadows(
     let n = atomicLoad(&queue_counts[SHADOW_QUEUE_COUNTER]);
     let most = lane_rays_at_most(n, nwg);
     var taken = 0u;
-    let none = 0xffffffffu;
     let below = lanes_below_mask(lane);
     var in_loop = subgroupAdd(1u);
-    var slot = none;
+    var slot = LANE_WAITS;
     var wr: WideRay;
     var sheared: ShearedRay;
     var t_max = 0.0;
@@ -145,45 +173,25 @@ fn trace_shadows(
     var group = vec2<u32>(0u, 0u);
     var dropped = 0u;
     loop {
-        // The bound and refill of trace_hits, over the shadow queue.
-        if WALK_STAGE_SHARE != 0u {
-            let done = slot == none && taken >= most;
-            in_loop -= mask_count(ballot(done));
-            if done {
-                break;
-            }
+        // trace_hits' refill, over the shadow queue.
+        let next = next_slot(slot, lane, below, n, most, SHADOW_STAGE_COUNTER, &in_loop, &taken);
+        if next == LANE_LEAVES {
+            break;
         }
-        let waiting = slot == none;
-        let waiting_lanes = ballot(waiting);
-        let want = mask_count(waiting_lanes);
-        if want >= min(WALK_STAGE_REFILL, in_loop) {
-            let rank = mask_count(waiting_lanes & below);
-            let first = first_lane(waiting_lanes);
-            var base = 0u;
-            if lane == first {
-                base = atomicAdd(&queue_counts[SHADOW_STAGE_COUNTER], want);
-            }
-            base = subgroupShuffle(base, first);
-            in_loop -= want - min(want, n - min(n, base));
-            if waiting {
-                if base + rank >= n {
-                    break;
-                }
-                slot = base + rank;
-                taken += 1u;
-                let w0 = nee_records[nee_word(0u, slot)];
-                let w1 = nee_records[nee_word(1u, slot)];
-                let ray = Ray(bitcast<vec3<f32>>(w0.xyz), bitcast<vec3<f32>>(w1.xyz));
-                wr = wide_ray(ray);
-                sheared = shear_ray(ray);
-                // wide_walk's bound: a hit counts below it.
-                t_max = min(bitcast<f32>(w0.w), T_MAX_LIMIT);
-                occluded = false;
-                sp = 0u;
-                group = vec2<u32>(0u, 0x80000000u);
-            }
+        if next != slot {
+            slot = next;
+            let w0 = nee_records[nee_word(0u, slot)];
+            let w1 = nee_records[nee_word(1u, slot)];
+            let ray = Ray(bitcast<vec3<f32>>(w0.xyz), bitcast<vec3<f32>>(w1.xyz));
+            wr = wide_ray(ray);
+            sheared = shear_ray(ray);
+            // wide_walk's bound: a hit counts below it.
+            t_max = min(bitcast<f32>(w0.w), T_MAX_LIMIT);
+            occluded = false;
+            sp = 0u;
+            group = vec2<u32>(0u, 0x80000000u);
         }
-        if slot == none {
+        if slot == LANE_WAITS {
             continue;
         }
         // One iteration of wide_walk's loop (any hit, t_min 0).
@@ -212,7 +220,7 @@ fn trace_shadows(
         if occluded || (group.y & 0xff000000u) == 0u {
             if occluded || sp == 0u {
                 dropped += add_shadow_terms(slot, occluded);
-                slot = none;
+                slot = LANE_WAITS;
             } else {
                 sp -= 1u;
                 group = stack[sp];
