@@ -616,7 +616,8 @@ enum Leaves<'a> {
 /// The primitives `prims` (offsets from `base`) of a node's hit leaves against the ray, in
 /// the walks' order (the highest offset first), `hit` becoming the closer of it and theirs;
 /// true when `any_hit` and one was hit (the walk returns it). Without `SPHERES` up to four
-/// at a time, as `leaves` holds them (same hits: see [`leaf_group4`]).
+/// at a time, as `leaves` holds them (same hits: see [`leaf_group4`]); `block_base` is the
+/// node's first block in [`Leaves::Blocks`] (unread for the records).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn test_leaves<const SPHERES: bool>(
