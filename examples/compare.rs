@@ -266,6 +266,20 @@ fn write_block_image(
         .map_err(|err| format!("{}: {err}", path.display()))
 }
 
+/// `println!` that ends the program quietly when stdout is closed (`compare ... | head -1`)
+/// instead of panicking, and returns any other write error from `run`.
+macro_rules! outln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        if let Err(e) = writeln!(std::io::stdout(), $($arg)*) {
+            if e.kind() == std::io::ErrorKind::BrokenPipe {
+                std::process::exit(0);
+            }
+            return Err(format!("writing to stdout: {e}"));
+        }
+    }};
+}
+
 fn run(a: Args) -> Result<(), String> {
     let (w, h, test, test_half_diff) = load_pair(&a.test, a.test2.as_ref(), None)?;
     let (_, _, reference, ref_half_diff) =
@@ -413,14 +427,15 @@ fn run(a: Args) -> Result<(), String> {
         } else {
             out["blocks"] = Value::Null;
         }
-        println!("{out}");
+        outln!("{out}");
     } else {
-        println!(
+        outln!(
             "{}x{}: RMSE {rmse:.6}, MAE {mae:.6}, relative MSE {rel:.6}, SSIM {ssim:.5}",
-            w, h
+            w,
+            h
         );
         let sigma = |i: usize| ratio_sigma.map_or(String::new(), |s| format!(" ± {:.4}", s[i]));
-        println!(
+        outln!(
             "mean ratio (test / reference): {:.4}{} (R {:.4}, G {:.4}, B {:.4}); means: test \
              [{:.4}, {:.4}, {:.4}], reference [{:.4}, {:.4}, {:.4}]",
             ratio[3],
@@ -437,7 +452,7 @@ fn run(a: Args) -> Result<(), String> {
         );
         if let Some((be, noise, sigma)) = &blocks {
             let floored = be.floored.iter().filter(|&&f| f).count();
-            println!(
+            outln!(
                 "{b}x{b} blocks ({n}; floor {f} x median, {floored} floored): {:.1} % within \
                  {:.1} %, p50 {:.2} %, p95 {:.2} %, max {:.2} %",
                 100.0 * be.fraction_within(tol),
@@ -450,7 +465,7 @@ fn run(a: Args) -> Result<(), String> {
                 f = a.block_floor,
             );
             if let (Some(n), Some(src)) = (noise, noise_sources) {
-                println!(
+                outln!(
                     "noise alone ({src}): {:.1} % within, p50 {:.2} %, p95 {:.2} %, max {:.2} %",
                     100.0 * n.fraction_within(tol),
                     100.0 * n.percentile(0.5),
@@ -460,7 +475,7 @@ fn run(a: Args) -> Result<(), String> {
             }
             if let Some(sg) = sigma {
                 let (p50, p95, beyond) = sigma_summary(be, sg);
-                println!(
+                outln!(
                     "block standard errors (from the halves' pixels): p50 {:.2} %, p95 {:.2} %; \
                      {:.1} % of the blocks are outside {:.1} % by more than 3 standard errors",
                     100.0 * p50,
@@ -475,7 +490,7 @@ fn run(a: Args) -> Result<(), String> {
                 let sd = sigma
                     .as_ref()
                     .map_or(String::new(), |s| format!(" ± {:.2} %", 100.0 * s[k]));
-                println!(
+                outln!(
                     "  block x {x0}..{x1}, y {y0}..{y1}: {:+.2} %{sd}{} in {} (test [{:.4}, {:.4}, \
                      {:.4}], reference [{:.4}, {:.4}, {:.4}])",
                     100.0 * be.errors[k],
