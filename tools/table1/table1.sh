@@ -218,16 +218,18 @@ print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_tra
       --size $ss -q --no-bloom > /dev/null 2>&1 || echo "render: exit $?"
   done
   echo "== stages: the living room with the walk stage against without it (RMSE 0: the same image)"
-  /tmp/compare /tmp/walk-on.exr /tmp/walk-off.exr 2>&1 || true
+  /tmp/compare /tmp/walk-on.exr /tmp/walk-off.exr 2>&1 | head -3
   for v in off on; do
     local shadow=""; [ $v = on ] && shadow="--shadow-stage"
     echo "== stages: NEE + roulette 5, shadow stage $v (at $(el) s)"
-    /tmp/render $lr/scene.json -o /tmp/x.png --backend gpu --schedule wavefront --walk-stage on \
+    /tmp/render $lr/scene.json -o /tmp/nee-shadow-$v.exr --backend gpu --schedule wavefront --walk-stage on \
       $shadow --estimator nee --rr-depth 5 --sampler independent --environment-guide off \
       --bvh-preset quality --spp $sp --bounces 10 --size $ss -q --no-bloom \
       --stats $R/stages-nee-$v.json > /dev/null 2>&1 || echo "render: exit $?"
     kernels $R/stages-nee-$v.json "nee, shadow stage $v" || true
   done
+  echo "== stages: NEE with the shadow stage against without it (RMSE 0: the same image)"
+  /tmp/compare /tmp/nee-shadow-on.exr /tmp/nee-shadow-off.exr 2>&1 | head -3
   # What the Sobol' sampler (the library's default; the rows above and Mitsuba take
   # independent numbers) costs in each pass.
   echo "== stages: NEE + roulette 5, the Sobol' sampler (at $(el) s)"
