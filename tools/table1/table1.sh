@@ -40,8 +40,8 @@ stage() {
   cd "$root"
   [ -d .gl ] || ../shared/gpu/prepare.sh
   mkdir -p .gpu
-  cargo build --release -p raylume --example bench --example render --example make_grid --example merge --example compare
-  for b in bench render make_grid merge compare; do
+  cargo build --release -p raylume --example bench --example render --example make_grid --example merge --example compare --example shader_stats
+  for b in bench render make_grid merge compare shader_stats; do
     cp target/release/examples/$b .gpu/$b && strip .gpu/$b && xz -f -T2 .gpu/$b
   done
   [ -f .gpu/mitsuba-trim.tar.xz ] || ../shared/peers/mitsuba/pack.sh
@@ -60,7 +60,7 @@ device() {
   el() { echo $(($(date +%s) - T0)); }
   R=/tmp/t1; rm -rf $R; mkdir -p $R
   trap 'tar czf "$OUT/table1.tgz" -C '$R' . ; echo "== done at $(el) s"' EXIT
-  for b in bench render make_grid merge compare; do [ -f .gpu/$b.xz ] && xz -dc .gpu/$b.xz > /tmp/$b && chmod +x /tmp/$b; done
+  for b in bench render make_grid merge compare shader_stats; do [ -f .gpu/$b.xz ] && xz -dc .gpu/$b.xz > /tmp/$b && chmod +x /tmp/$b; done
   m=$(mktemp -d); tar -C "$m" -xJf .gpu/mitsuba-trim.tar.xz
   export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
   cp .gpu/commit.txt $R/
@@ -230,6 +230,11 @@ print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_tra
   done
   echo "== stages: NEE with the shadow stage against without it (RMSE 0: the same image)"
   /tmp/compare /tmp/nee-shadow-on.exr /tmp/nee-shadow-off.exr 2>&1 | head -3
+  # The stages' registers and spills (trace_hits and trace_shadows share their refill since
+  # 46a7a42, measured nowhere yet).
+  echo "== stages: registers of the wavefront's pipelines with the walk and shadow stages"
+  timeout 120 /tmp/shader_stats --walk-stage --schedule wavefront --sampler independent \
+    $lr/scene.json 2>&1 | tail -20 || true
   # What the Sobol' sampler (the library's default; the rows above and Mitsuba take
   # independent numbers) costs in each pass.
   echo "== stages: NEE + roulette 5, the Sobol' sampler (at $(el) s)"
