@@ -303,13 +303,8 @@ pub fn triangle_blocks(
     let mut blocks = Vec::new();
     for (node, b) in nodes.iter().zip(boxes.iter_mut()) {
         b.block_base = blocks.len() as u32;
-        let mut end = 0u32;
-        for slot in 0..8 {
-            let meta = u32::from(node.child_meta[slot]);
-            if meta != 0 && node.imask() >> slot & 1 == 0 {
-                end = end.max((meta & 0x1f) + ((meta >> 5) & 7).count_ones());
-            }
-        }
+        // Past the highest offset of any leaf slot's primitives.
+        let end = 32 - leaf_bits(b, !b.imask & 0xff).leading_zeros();
         for k in 0..end.div_ceil(4) {
             let mut block = TriangleBlock::default();
             for j in 0..4u32 {
