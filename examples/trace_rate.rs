@@ -379,7 +379,7 @@ fn main() {
                     };
                     assert_eq!(hc, ha, "closest and any-hit disagree on what is hit");
                     println!(
-                        "| {} | {} | {} | {backend} | {kind} ({}) | {:.0} | {:.0} | {:.1} % |",
+                        "| {} | {} | {} | {backend} | {kind} ({}) | {:.1} | {:.1} | {:.1} % |",
                         path.display(),
                         bvh.primitives.len(),
                         layout.name(),

@@ -224,7 +224,7 @@ pub fn intersect_wide_node(node: &WideNode, r: &WideRay, t_min: f32, t_max: f32)
 
 /// A wide node as the CPU's walk reads it ([`intersect_wide_boxes`]): its eight child boxes
 /// as floats, per axis the slots' lower planes and upper planes, and the node's fields the
-/// walk needs (so that a node is one 208-byte read, not that and its [`WideNode`]). Each
+/// walk needs (so that a node is one 224-byte read, not that and its [`WideNode`]). Each
 /// plane is the quantised one moved out by [`WIDE_QUANT_PAD`] cells (`p + (q -/+ pad) *
 /// cell`, exact in `f64`) and rounded outward to `f32`, so each box holds the padded
 /// quantised box the GPU tests, and with it the child's true box. Empty slots hold zeros
@@ -233,10 +233,9 @@ pub fn intersect_wide_node(node: &WideNode, r: &WideRay, t_min: f32, t_max: f32)
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(C, align(16))]
 pub struct WideBoxes {
-    /// `lo[axis][slot]`.
-    pub lo: [[f32; 8]; 3],
-    /// `hi[axis][slot]`.
-    pub hi: [[f32; 8]; 3],
+    /// `planes[axis][slot]` the lower planes, `planes[3 + axis][slot]` the upper ones (one
+    /// array, so that the node test picks each axis' nearer plane by its row).
+    pub planes: [[f32; 8]; 6],
     /// The node's [`WideNode::child_base`].
     pub child_base: u32,
     /// The node's [`WideNode::prim_base`].
@@ -284,8 +283,8 @@ pub fn wide_boxes(node: &WideNode) -> WideBoxes {
             if node.child_meta[slot] == 0 {
                 continue;
             }
-            b.lo[axis][slot] = f32_down(p + (f64::from(q[slot]) - pad) * c);
-            b.hi[axis][slot] = f32_up(p + (f64::from(q[slot + 8]) + pad) * c);
+            b.planes[axis][slot] = f32_down(p + (f64::from(q[slot]) - pad) * c);
+            b.planes[3 + axis][slot] = f32_up(p + (f64::from(q[slot + 8]) + pad) * c);
         }
     }
     b
@@ -368,15 +367,20 @@ pub fn intersect_wide_boxes(boxes: &WideBoxes, r: &WideRay, t_min: f32, t_max: f
 pub fn wide_boxes_hits(boxes: &WideBoxes, r: &WideRay, t_min: f32, t_max: f32) -> (u32, [Vec4; 2]) {
     let o = r.origin.to_array();
     let inv = r.inv_dir.to_array();
+    let rows = &boxes.planes;
+    // Per axis, the row of the plane the ray meets first: the lower where `1 / dir` is
+    // positive, the upper where negative (a choice the walk's loop hoists). `1 / dir` is
+    // finite (clamped) and every box has lower <= upper, so this plane's distance is the
+    // smaller of the two, the value a `min` of both would give, bit for bit (subtraction
+    // and multiplication round monotonically), without the `min` and `max` per axis.
+    let near_row = |k: usize| if inv[k].is_sign_negative() { 3 + k } else { k };
     let half = |h: usize| -> (u32, Vec4) {
         let axis = |k: usize| {
-            let lo = Vec4::from_slice(&boxes.lo[k][4 * h..4 * h + 4]);
-            let hi = Vec4::from_slice(&boxes.hi[k][4 * h..4 * h + 4]);
+            let (n, f) = (near_row(k), (near_row(k) + 3) % 6);
+            let near = Vec4::from_slice(&rows[n][4 * h..4 * h + 4]);
+            let far = Vec4::from_slice(&rows[f][4 * h..4 * h + 4]);
             let (o, i) = (Vec4::splat(o[k]), Vec4::splat(inv[k]));
-            let (t0, t1) = ((lo - o) * i, (hi - o) * i);
-            // `1 / dir` is finite (clamped), so neither is NaN: the nearer plane's is the
-            // smaller, whichever way the ray goes (no branch on its sign).
-            (t0.min(t1), t0.max(t1))
+            ((near - o) * i, (far - o) * i)
         };
         let (nx, fx) = axis(0);
         let (ny, fy) = axis(1);
@@ -864,13 +868,77 @@ mod tests {
                 for slot in (0..8).filter(|&s| node.child_meta[s] != 0) {
                     let (lo, hi) = slot_box(node, slot);
                     for k in 0..3 {
-                        let (l, h) = (boxes.lo[k][slot], boxes.hi[k][slot]);
+                        let (l, h) = (boxes.planes[k][slot], boxes.planes[3 + k][slot]);
                         assert!(f64::from(l) <= lo[k] && f64::from(l.next_up()) > lo[k]);
                         assert!(f64::from(h) >= hi[k] && f64::from(h.next_down()) < hi[k]);
                     }
                 }
             }
         }
+    }
+
+    #[test]
+    fn nearer_plane_by_the_sign_is_the_min_of_both_bit_for_bit() {
+        // `wide_boxes_hits` reads each axis' nearer plane by the sign of `1 / dir` instead of
+        // taking the min and max of both planes' distances: the same bits and the same entry
+        // distances, to the bit, for rays of every octant, axis-parallel ones (`1 / dir`
+        // clamped, either sign of zero) and boxes the origin is inside or beyond.
+        let tris = soup(300, 1.0, Vec3::ZERO, 5);
+        let bvh = GpuBvh::build_with_layout(&tris, &[], BvhQuality::Fast, BvhLayout::Wide).unwrap();
+        let both_planes = |b: &WideBoxes, r: &WideRay, t_min: f32, t_max: f32| {
+            let mut mask = 0u32;
+            let near: [f32; 8] = std::array::from_fn(|slot| {
+                let (mut t_near, mut t_far) = (t_min, t_max);
+                for k in 0..3 {
+                    let o = r.origin[k];
+                    let t0 = (b.planes[k][slot] - o) * r.inv_dir[k];
+                    let t1 = (b.planes[3 + k][slot] - o) * r.inv_dir[k];
+                    t_near = t_near.max(t0.min(t1));
+                    t_far = t_far.min(t0.max(t1));
+                }
+                mask |= u32::from(t_near <= t_far * WIDE_T_FAR_SCALE) << slot;
+                t_near
+            });
+            (mask, near)
+        };
+        let mut s = 9u64;
+        let mut r = || crate::test_rand(&mut s);
+        let mut hits = 0;
+        for i in 0..3000 {
+            let origin = Vec3::new(r(), r(), r()) * 1.4 - 0.2;
+            let mut dir = Vec3::new(r(), r(), r()) - 0.5;
+            // Every tenth ray parallel to an axis plane, with +0 or -0 across it.
+            if i % 10 == 0 {
+                dir[i / 10 % 3] = if i % 20 == 0 { 0.0 } else { -0.0 };
+            }
+            let wr = wide_ray(&Ray {
+                origin,
+                dir: dir.normalize_or(Vec3::X),
+            });
+            let t_max = 0.1 + 2.0 * r();
+            for b in bvh.wide_boxes() {
+                let (mask, near) = wide_boxes_hits(b, &wr, 0.0, t_max);
+                let (want, want_near) = both_planes(b, &wr, 0.0, t_max);
+                assert_eq!(mask, want);
+                let got: Vec<u32> = near
+                    .iter()
+                    .flat_map(|v| v.to_array())
+                    .map(f32::to_bits)
+                    .collect();
+                let want_bits: Vec<u32> = want_near.iter().map(|t| t.to_bits()).collect();
+                // Lanes whose entry is -0 in one and +0 in the other compare equal; none
+                // differs otherwise.
+                for (g, w) in got.iter().zip(&want_bits) {
+                    assert!(
+                        g == w || f32::from_bits(*g) == f32::from_bits(*w),
+                        "{g:x} {w:x}"
+                    );
+                }
+                hits += mask.count_ones();
+            }
+        }
+        // (5,245 slots of 3000 rays through 300 triangles' nodes here.)
+        assert!(hits > 2000, "{hits} slots hit");
     }
 
     #[test]
