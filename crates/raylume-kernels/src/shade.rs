@@ -306,6 +306,20 @@ pub fn trace_ray<const F: u32>(
         origin: path.origin,
         dir: path.dir,
     };
+    // The segment's random numbers (pure functions of the pixel, sample and segment) are
+    // drawn before its walk, so that the core computes them while the walk waits on memory
+    // (Bitterli's Cornell box 8-10 % faster than drawing each where it is used, the living
+    // room 3 %: `docs/RESULTS.md`, issue 15); the WGSL draws them where it uses them, which
+    // keeps them out of the registers the walk needs. The light's and the roulette's are
+    // wasted when the ray escapes or the hit does not sample the lights.
+    let sp = sampler_pixel(g.scene, pixel);
+    let rnd_light = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT);
+    let rnd_scatter = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_SCATTER);
+    let rnd_roulette = if depth >= g.scene.rr_depth {
+        path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_ROULETTE).x
+    } else {
+        0.0
+    };
     let Some(hit) = trace_closest::<F>(bvh, &ray, 0.0, T_MAX) else {
         // Escaped from a vertex that sampled the lights, the environment among them: weigh
         // the scattered ray's estimate against the shadow ray's.
@@ -360,29 +374,23 @@ pub fn trace_ray<const F: u32>(
         1.0
     };
     let sample_here = lit && g.scene.light_count > 0 && samples_lights::<F>(&mat) && !last;
-    let sp = sampler_pixel(g.scene, pixel);
     // The hit is shaded before the light sample's shadow ray is traced (as the WGSL, which
     // traces the path's ray and the shadow ray through one call of the walk): the light's
     // contribution, the emission and the scattered ray; then the ray decides whether the
     // light's term counts, and the two terms are added in the order of the `next_event`
     // stage's sums (the light's, then the emission).
     let light = sample_here.then(|| {
-        let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT);
-        let query = light_query::<F>(g, &surface, &mat, path.dir, rnd);
+        let query = light_query::<F>(g, &surface, &mat, path.dir, rnd_light);
         let light_in = query.map_or(Vec3::ZERO, |q| {
             light_contribution::<F>(g, &q, &mat, path.dir)
         });
         (path.throughput, light_in, query)
     });
     let emission = emitted::<F>(path, &surface, &mat, emission_weight);
-    let rnd = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_SCATTER);
-    let pdf = shade_hit::<F>(g, path, &surface, &mat, rnd, last);
+    let pdf = shade_hit::<F>(g, path, &surface, &mat, rnd_scatter, last);
     path.mis_pdf = if sample_here { pdf } else { 0.0 };
     if path.alive && depth >= g.scene.rr_depth {
-        russian_roulette(
-            path,
-            path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_ROULETTE).x,
-        );
+        russian_roulette(path, rnd_roulette);
     }
     if let Some((throughput_in, light_in, query)) = light {
         let occluded = query.is_some_and(|q| trace_any::<F>(bvh, &q.ray, 0.0, q.t_max));

@@ -1,0 +1,69 @@
+#!/usr/bin/env bash
+# Issue 15's equal-spp comparison on this machine's CPU: raylume's CPU path and Mitsuba 3's
+# `llvm_ad_rgb`, back to back in one run, ROUNDS rounds (ratios within one run only: the VM's
+# speed drifts between runs, Mitsuba's JIT-compiled code more than raylume's).
+#
+#   tools/cpu/cpu_vs_mitsuba.sh [OUT]      (from the project's root; OUT: /tmp/cpu-vs-mitsuba)
+#
+# Needs Mitsuba 3 for Python (`PYVER=3.11 ../shared/peers/mitsuba/pack.sh .mitsuba-local`,
+# extracted to $MITSUBA, default /tmp/mitsuba) and libLLVM ($DRJIT_LIBLLVM_PATH, default
+# Debian 12's libllvm19). Settings: SIZE (1000x1000), SPP (10), ROUNDS (2); 10 bounces
+# (Mitsuba's max_depth 11). Each round then times the issue's equal-error criterion:
+# Bitterli's Cornell box at 128x128, raylume at EQ_SPP (69: the spp at which its error reaches
+# Mitsuba's 64-spp error, docs/RESULTS.md's issue 15 section, the 007f8c0 study), best of 3,
+# against Mitsuba at 64 spp (tungsten.py's best of 3).
+#
+# The scenes: Bitterli's Cornell box (`tungsten.py` on Mitsuba's side) and raylume's copy of
+# the living room (`tools/table1/mitsuba_table1.py`: its constant sky as a `constant` emitter).
+# raylume renders with its library defaults (NEE + MIS, roulette from segment 5, the `sobol`
+# sampler); Mitsuba's `path` (NEE + MIS, roulette from depth 5, its independent sampler). The
+# living room twice: with `--environment-guide off`, the estimator that matches Mitsuba's (the
+# sky sampled by its radiance alone: for a constant sky, uniformly), and with `on` (what `auto`
+# picks for a render this size: shadow rays aimed where the sky is visible, fewer of them
+# blocked early, so each costs more).
+set -euo pipefail
+OUT=${1:-/tmp/cpu-vs-mitsuba}
+SIZE=${SIZE:-1000x1000}
+SPP=${SPP:-10}
+ROUNDS=${ROUNDS:-2}
+EQ_SPP=${EQ_SPP:-69}
+MITSUBA=${MITSUBA:-/tmp/mitsuba}
+export DRJIT_LIBLLVM_PATH=${DRJIT_LIBLLVM_PATH:-/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1}
+CB=../shared/scenes-external/bitterli-cornell-box
+LR=scenes/living-room
+PY=${PYTHON:-/usr/bin/python3}
+mkdir -p "$OUT"
+[ -d "$MITSUBA/mitsuba" ] || { echo "cpu_vs_mitsuba: no Mitsuba at $MITSUBA (see the header)" >&2; exit 2; }
+cargo build --release --example render -q
+R=target/release/examples/render
+echo "# $(date -u +%FT%TZ) commit $(git rev-parse --short HEAD)$(git diff --quiet || echo '+dirty')," \
+  "$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(nproc) CPUs;" \
+  "$SIZE, $SPP spp, 10 bounces" | tee "$OUT/summary.md"
+
+# raylume's trace seconds of one render (its closing line): NAME SIZE SPP ARGS...
+raylume() {
+  "$R" --backend cpu --size "$2" --spp "$3" --bounces 10 -q -o "$OUT/$1.png" "${@:4}" 2>&1 |
+    sed -n 's/^raylume: trace \([0-9.]*\) s.*/\1/p'
+}
+mitsuba_cb() {
+  PYTHONPATH=$MITSUBA "$PY" ../shared/peers/mitsuba/tungsten.py "$CB" "$OUT" llvm_ad_rgb \
+    --size "$1" --spp "$2" --depth 11 2>/dev/null | sed -n "s/.*spp $2: \([0-9.]*\) s/\1/p"
+}
+for r in $(seq "$ROUNDS"); do
+  cb=$(raylume cornell "$SIZE" "$SPP" "$CB/scene.json")
+  lr_off=$(raylume living-room-guide-off "$SIZE" "$SPP" --environment-guide off "$LR/scene.json")
+  lr_on=$(raylume living-room-guide-on "$SIZE" "$SPP" --environment-guide on "$LR/scene.json")
+  mcb=$(mitsuba_cb "$SIZE" "$SPP")
+  mlr=$(PYTHONPATH=$MITSUBA "$PY" tools/table1/mitsuba_table1.py "$LR" "$OUT" \
+    --tungsten ../shared/peers/mitsuba/tungsten.py --variant llvm_ad_rgb --size "$SIZE" \
+    --spp "$SPP" --depth 11 2>/dev/null | sed -n "s/^mitsuba .* spp $SPP: \([0-9.]*\) s/\1/p")
+  awk -v r="$r" -v cb="$cb" -v mcb="$mcb" -v off="$lr_off" -v on="$lr_on" -v mlr="$mlr" 'BEGIN {
+    printf "round %d: Cornell box raylume %.2f s, Mitsuba %.2f s (%.2fx slower); ", r, cb, mcb, cb / mcb
+    printf "living room raylume %.2f s guide off (%.2fx slower), %.2f s guide on (%.2fx), Mitsuba %.2f s\n",
+      off, off / mlr, on, on / mlr, mlr }' | tee -a "$OUT/summary.md"
+  eq=$(for i in 1 2 3; do raylume cornell-128 128x128 "$EQ_SPP" "$CB/scene.json"; done | sort -n | head -1)
+  meq=$(mitsuba_cb 128x128 64)
+  awk -v r="$r" -v eq="$eq" -v meq="$meq" -v s="$EQ_SPP" 'BEGIN {
+    printf "round %d: equal error, Cornell box 128x128: raylume %d spp %.3f s (best of 3), Mitsuba 64 spp %.3f s: %.2fx its time\n",
+      r, s, eq, meq, eq / meq }' | tee -a "$OUT/summary.md"
+done
