@@ -93,7 +93,7 @@ struct Args {
     #[arg(long, value_delimiter = ',', value_parser = parse_feature)]
     extra_feature: Vec<raylume::Feature>,
     /// Samples per pixel per batch.
-    #[arg(long)]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     batch_spp: Option<u32>,
     /// Estimator: plain (the paper's, the default here) or nee (next-event estimation with
     /// MIS). By default with independent random numbers and no Russian roulette, as the paper

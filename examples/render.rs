@@ -62,7 +62,7 @@ struct Args {
     #[arg(long)]
     seed: Option<u32>,
     /// Samples per pixel per batch (default 20, the paper's).
-    #[arg(long)]
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     batch_spp: Option<u32>,
     /// Ray reordering between bounces: off, on or auto. (`auto` decides over repeated renders
     /// of a scene in one process, as a library user or `bench` renders; this command renders

@@ -439,8 +439,8 @@ type StartFn = Box<dyn FnMut(&RenderStats) + Send>;
 pub struct Tracer {
     /// Where rays are traced (the argument of [`Tracer::new`]).
     pub backend: Backend,
-    /// Samples per pixel per batch (the paper used 20). Reduced automatically to fit the
-    /// adapter's buffer limits.
+    /// Samples per pixel per batch (the paper used 20; 0 is taken as 1, more than the
+    /// render's spp as its spp). Reduced automatically to fit the adapter's buffer limits.
     pub batch_spp: u32,
     /// Overrides the scene's seed.
     pub seed: Option<u32>,

@@ -209,6 +209,12 @@ fn bad_flags_are_rejected() {
         &out,
         &["sometimes"],
     );
+    // A batch of no samples is refused (the library would take it as 1).
+    check_failure(
+        &["scenes/cornell-box.toml", "-o", o, "--batch-spp", "0"],
+        &out,
+        &["--batch-spp", "0 is not in 1.."],
+    );
 }
 
 #[test]
