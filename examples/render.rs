@@ -29,7 +29,7 @@ use raylume::{Backend, Estimator, ReorderPolicy, Sampler, Scene, Schedule, Trace
     about = "Render a raylume scene (.toml, .obj, .gltf/.glb, Tungsten scene.json) to .png or .exr"
 )]
 struct Args {
-    /// Scene file: .toml, .obj, .gltf, .glb or a Tungsten scene.json.
+    /// Scene file: .toml, .obj, .gltf, .glb or a Tungsten scene.json (or the folder holding it).
     scene: PathBuf,
     /// Output image: .png (tone-mapped sRGB) or .exr (linear radiance).
     #[arg(short = 'o', long = "output")]

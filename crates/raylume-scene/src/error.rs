@@ -89,6 +89,10 @@ pub enum SceneError {
         referenced_by: Option<String>,
         expected: &'static str,
     },
+    /// A folder given where a scene file was expected, and not a Tungsten scene's folder
+    /// (one holding `scene.json`, which [`Scene::load`](crate::Scene::load) takes).
+    #[error("{}: a folder, not a scene file (a folder is read as a Tungsten scene when it holds scene.json)", path.display())]
+    Folder { path: PathBuf },
     /// The file is not well-formed (TOML, JSON, OBJ, MTL, glTF syntax).
     #[error("{file}{at}: syntax error: {message}")]
     Syntax {
@@ -217,6 +221,7 @@ impl SceneError {
             SceneError::MissingFile { path, .. }
             | SceneError::Io { path, .. }
             | SceneError::UnsupportedExtension { path, .. }
+            | SceneError::Folder { path }
             | SceneError::Image { path, .. } => path.display().to_string(),
             SceneError::Syntax { file, .. }
             | SceneError::UnknownKey { file, .. }

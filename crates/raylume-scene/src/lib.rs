@@ -126,8 +126,10 @@ pub(crate) fn load_mesh_into(
 }
 
 impl Scene {
-    /// Loads a scene file, by extension: `.toml`, `.obj`, `.gltf`, `.glb`, `.json` (Tungsten).
-    /// The result is validated; see [`Scene::warnings`] for what had to be approximated.
+    /// Loads a scene file, by extension: `.toml`, `.obj`, `.gltf`, `.glb`, `.json` (Tungsten);
+    /// a folder holding a `scene.json` is that Tungsten scene (as Tungsten and Bitterli's
+    /// scene archives lay them out). The result is validated; see [`Scene::warnings`] for
+    /// what had to be approximated.
     ///
     /// OBJ files of 16 MiB and more (the file itself or one a scene references) are mapped
     /// into memory while they are parsed, not read: no other process may change or truncate
@@ -168,6 +170,15 @@ impl Scene {
         path: &Path,
         geometry_ready: &mut dyn FnMut(&mut Scene),
     ) -> Result<Scene, SceneError> {
+        if path.is_dir() {
+            let scene = path.join("scene.json");
+            if !scene.is_file() {
+                return Err(SceneError::Folder {
+                    path: path.to_path_buf(),
+                });
+            }
+            return tungsten::load_with(&scene, geometry_ready);
+        }
         match extension(path).as_deref() {
             Some("toml") => {
                 let bytes = builder::read_description(path, None)?;

@@ -550,3 +550,37 @@ fn load_with_hands_over_the_final_geometry_before_the_textures() {
     assert!(s.is_ok(), "{s:?}");
     assert_eq!(toml_calls, 1);
 }
+
+#[test]
+fn a_folder_is_the_tungsten_scene_it_holds() {
+    // Tungsten's and Bitterli's scenes are folders around a scene.json: the folder loads as
+    // that file (the same triangles and materials, its textures found beside it).
+    let d = TempDir::new("folder");
+    d.write("tex.png", common::png_2x2());
+    let bsdfs = json!([
+        { "name": "lam", "type": "lambert", "albedo": "tex.png" },
+        { "name": "pl", "type": "plastic", "albedo": 0.3 },
+    ]);
+    d.write("scene.json", quads_with(bsdfs).to_string());
+    let from_folder = Scene::load(&d.0).unwrap();
+    let from_file = Scene::load(d.path("scene.json")).unwrap();
+    assert_eq!(from_folder.triangles.len(), 4);
+    assert_eq!(
+        format!("{:?}", from_folder.triangles),
+        format!("{:?}", from_file.triangles)
+    );
+    assert_eq!(
+        format!("{:?}", from_folder.materials),
+        format!("{:?}", from_file.materials)
+    );
+    assert_eq!(from_folder.textures.len(), 1);
+    // A folder without one is a typed error that names it, not "unsupported extension".
+    let empty = TempDir::new("folder-empty");
+    let e = Scene::load(&empty.0).unwrap_err();
+    assert!(matches!(e, SceneError::Folder { .. }), "{e}");
+    let msg = e.to_string();
+    assert!(
+        msg.contains(&empty.0.display().to_string()) && msg.contains("scene.json"),
+        "{msg}"
+    );
+}
