@@ -224,7 +224,7 @@ pub fn intersect_wide_node(node: &WideNode, r: &WideRay, t_min: f32, t_max: f32)
 
 /// A wide node as the CPU's walk reads it ([`intersect_wide_boxes`]): its eight child boxes
 /// as floats, per axis the slots' lower planes and upper planes, and the node's fields the
-/// walk needs (so that a node is one 224-byte read, not that and its [`WideNode`]). Each
+/// walk needs (so that a node is one 240-byte read, not that and its [`WideNode`]). Each
 /// plane is the quantised one moved out by [`WIDE_QUANT_PAD`] cells (`p + (q -/+ pad) *
 /// cell`, exact in `f64`) and rounded outward to `f32`, so each box holds the padded
 /// quantised box the GPU tests, and with it the child's true box. Empty slots hold zeros
@@ -236,19 +236,21 @@ pub struct WideBoxes {
     /// `planes[axis][slot]` the lower planes, `planes[3 + axis][slot]` the upper ones (one
     /// array, so that the node test picks each axis' nearer plane by its row).
     pub planes: [[f32; 8]; 6],
+    /// Per slot, the primitives of a leaf slot as bits of their offsets from `prim_base`
+    /// (what [`intersect_wide_node`] sets for the slot when it is hit); 0 for inner and empty
+    /// slots. The node test ORs those of the hit slots four lanes at a time.
+    pub leaf_prims: [u32; 8],
     /// The node's [`WideNode::child_base`].
     pub child_base: u32,
     /// The node's [`WideNode::prim_base`].
     pub prim_base: u32,
     /// The node's [`WideNode::imask`].
     pub imask: u32,
-    /// Its [`WideNode::child_meta`]'s first four bytes (slots 0..4), then its last four.
-    pub child_meta: [u32; 2],
     /// The index of the node's first [`TriangleBlock`] (see [`triangle_blocks`]).
     pub block_base: u32,
 }
 
-const _: () = assert!(size_of::<WideBoxes>() == 224);
+const _: () = assert!(size_of::<WideBoxes>() == 240);
 
 /// The largest `f32` at most `x`.
 fn f32_down(x: f64) -> f32 {
@@ -264,15 +266,21 @@ fn f32_up(x: f64) -> f32 {
 
 /// The float boxes of `node`'s children (see [`WideBoxes`]).
 pub fn wide_boxes(node: &WideNode) -> WideBoxes {
-    let m = node.child_meta;
+    let imask = u32::from(node.imask());
     let mut b = WideBoxes {
         child_base: node.child_base,
         prim_base: node.prim_base,
-        imask: u32::from(node.imask()),
-        child_meta: [
-            u32::from_le_bytes([m[0], m[1], m[2], m[3]]),
-            u32::from_le_bytes([m[4], m[5], m[6], m[7]]),
-        ],
+        imask,
+        // A leaf slot's meta is its primitive count in unary (bits 5..8) and the first's
+        // offset (bits 0..5); an empty slot's is 0.
+        leaf_prims: std::array::from_fn(|slot| {
+            let meta = u32::from(node.child_meta[slot]);
+            if imask >> slot & 1 == 1 {
+                0
+            } else {
+                ((meta >> 5) & 7) << (meta & 0x1f)
+            }
+        }),
         ..WideBoxes::default()
     };
     let cell = node.cell();
@@ -303,7 +311,7 @@ pub fn triangle_blocks(
     for (node, b) in nodes.iter().zip(boxes.iter_mut()) {
         b.block_base = blocks.len() as u32;
         // Past the highest offset of any leaf slot's primitives.
-        let end = 32 - leaf_bits(b, !b.imask & 0xff).leading_zeros();
+        let end = 32 - b.leaf_prims.iter().fold(0, |a, &p| a | p).leading_zeros();
         for k in 0..end.div_ceil(4) {
             let mut block = TriangleBlock::default();
             for j in 0..4u32 {
@@ -354,17 +362,23 @@ static XOR_PERMUTE8: [[u8; 256]; 8] = {
 /// the same primitives in the same order (see the module docs).
 #[inline(always)]
 pub fn intersect_wide_boxes(boxes: &WideBoxes, r: &WideRay, t_min: f32, t_max: f32) -> u32 {
-    let (hit, _) = wide_boxes_hits(boxes, r, t_min, t_max);
-    let imask = boxes.imask;
-    let inner = XOR_PERMUTE8[(r.oct_inv4 & 7) as usize][(hit & imask) as usize];
-    (u32::from(inner) << 24) | leaf_bits(boxes, hit & !imask)
+    let (hit, prims, _) = wide_boxes_hits(boxes, r, t_min, t_max);
+    let inner = XOR_PERMUTE8[(r.oct_inv4 & 7) as usize][(hit & boxes.imask) as usize];
+    (u32::from(inner) << 24) | prims
 }
 
 /// The slab test of [`intersect_wide_boxes`]: bit `slot` set for each child box the ray
 /// meets within `[t_min, t_max]` (empty slots' zero boxes included: callers mask them by
-/// their metadata), and every slot's entry distance (`t_near`, lanes 0..4 and 4..8).
+/// their metadata), the primitives of the hit leaf slots (their [`WideBoxes::leaf_prims`]
+/// ORed, four lanes at a time), and every slot's entry distance (`t_near`, lanes 0..4 and
+/// 4..8).
 #[inline(always)]
-pub fn wide_boxes_hits(boxes: &WideBoxes, r: &WideRay, t_min: f32, t_max: f32) -> (u32, [Vec4; 2]) {
+pub fn wide_boxes_hits(
+    boxes: &WideBoxes,
+    r: &WideRay,
+    t_min: f32,
+    t_max: f32,
+) -> (u32, u32, [Vec4; 2]) {
     let o = r.origin.to_array();
     let inv = r.inv_dir.to_array();
     let rows = &boxes.planes;
@@ -374,7 +388,7 @@ pub fn wide_boxes_hits(boxes: &WideBoxes, r: &WideRay, t_min: f32, t_max: f32) -
     // smaller of the two, the value a `min` of both would give, bit for bit (subtraction
     // and multiplication round monotonically), without the `min` and `max` per axis.
     let near_row = |k: usize| if inv[k].is_sign_negative() { 3 + k } else { k };
-    let half = |h: usize| -> (u32, Vec4) {
+    let half = |h: usize| -> (u32, u32, Vec4) {
         let axis = |k: usize| {
             let (n, f) = (near_row(k), (near_row(k) + 3) % 6);
             let near = Vec4::from_slice(&rows[n][4 * h..4 * h + 4]);
@@ -387,27 +401,37 @@ pub fn wide_boxes_hits(boxes: &WideBoxes, r: &WideRay, t_min: f32, t_max: f32) -
         let (nz, fz) = axis(2);
         let t_near = nx.max(ny).max(nz.max(Vec4::splat(t_min)));
         let t_far = fx.min(fy).min(fz.min(Vec4::splat(t_max)));
-        (t_near.cmple(t_far * WIDE_T_FAR_SCALE).bitmask(), t_near)
+        let hit = t_near.cmple(t_far * WIDE_T_FAR_SCALE);
+        let leaves: &[u32; 4] = boxes.leaf_prims[4 * h..4 * h + 4].try_into().expect("4");
+        (hit.bitmask(), or_where(hit, leaves), t_near)
     };
-    let (lo, near_lo) = half(0);
-    let (hi, near_hi) = half(1);
-    (lo | (hi << 4), [near_lo, near_hi])
+    let (lo, prims_lo, near_lo) = half(0);
+    let (hi, prims_hi, near_hi) = half(1);
+    (lo | (hi << 4), prims_lo | prims_hi, [near_lo, near_hi])
 }
 
-/// The primitives of the leaf slots `leaves` of a node, as offsets from its `prim_base`
-/// (the low 24 bits of [`intersect_wide_node`]'s mask).
+/// The OR of the lanes of `words` where `mask` is set: on x86-64 one AND and two
+/// shuffle-and-OR steps in SSE2 registers instead of a loop over the set lanes.
 #[inline(always)]
-fn leaf_bits(boxes: &WideBoxes, leaves: u32) -> u32 {
-    let mut bits = 0;
-    let mut leaves = leaves;
-    while leaves != 0 {
-        let slot = leaves.trailing_zeros();
-        leaves &= leaves - 1;
-        let meta = (boxes.child_meta[(slot >> 2) as usize] >> (8 * (slot & 3))) & 0xff;
-        // An empty slot's meta is 0: no bits.
-        bits |= ((meta >> 5) & 7) << (meta & 0x1f);
+fn or_where(mask: glam::BVec4A, words: &[u32; 4]) -> u32 {
+    #[cfg(all(target_arch = "x86_64", target_feature = "sse2"))]
+    #[allow(unused_unsafe)]
+    // SAFETY: SSE2 is enabled (the cfg); `words` is four u32s, read unaligned.
+    unsafe {
+        use std::arch::x86_64::*;
+        let m = _mm_castps_si128(std::arch::x86_64::__m128::from(mask));
+        let v = _mm_and_si128(m, _mm_loadu_si128(words.as_ptr().cast()));
+        let v = _mm_or_si128(v, _mm_shuffle_epi32::<0b01_00_11_10>(v));
+        let v = _mm_or_si128(v, _mm_shuffle_epi32::<0b10_11_00_01>(v));
+        _mm_cvtsi128_si32(v) as u32
     }
-    bits
+    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
+    {
+        let bits = mask.bitmask();
+        (0..4)
+            .filter(|j| bits >> j & 1 == 1)
+            .fold(0, |a, j| a | words[j])
+    }
 }
 
 /// The index of the inner child that `bit` (24..32) of a node group stands for: the group
@@ -551,8 +575,7 @@ fn walk_boxes<const SPHERES: bool>(
     let mut node = 0u32;
     loop {
         let b = &boxes[node as usize];
-        let (mask, near) = wide_boxes_hits(b, &wr, t_min, hit.t);
-        let prims = leaf_bits(b, mask & !b.imask);
+        let (mask, prims, near) = wide_boxes_hits(b, &wr, t_min, hit.t);
         if test_leaves::<SPHERES>(
             leaves,
             b.prim_base,
@@ -863,8 +886,16 @@ mod tests {
                     (node.child_base, node.prim_base)
                 );
                 assert_eq!(boxes.imask, u32::from(node.imask()));
-                let meta: [u8; 8] = bytemuck::cast(boxes.child_meta);
-                assert_eq!(meta, node.child_meta);
+                // Each leaf slot's primitives as the quantised test sets them for it.
+                for slot in 0..8 {
+                    let meta = u32::from(node.child_meta[slot]);
+                    let want = if node.imask() >> slot & 1 == 1 {
+                        0
+                    } else {
+                        ((meta >> 5) & 7) << (meta & 0x1f)
+                    };
+                    assert_eq!(boxes.leaf_prims[slot], want, "slot {slot}");
+                }
                 for slot in (0..8).filter(|&s| node.child_meta[s] != 0) {
                     let (lo, hi) = slot_box(node, slot);
                     for k in 0..3 {
@@ -917,7 +948,7 @@ mod tests {
             });
             let t_max = 0.1 + 2.0 * r();
             for b in bvh.wide_boxes() {
-                let (mask, near) = wide_boxes_hits(b, &wr, 0.0, t_max);
+                let (mask, _, near) = wide_boxes_hits(b, &wr, 0.0, t_max);
                 let (want, want_near) = both_planes(b, &wr, 0.0, t_max);
                 assert_eq!(mask, want);
                 let got: Vec<u32> = near
