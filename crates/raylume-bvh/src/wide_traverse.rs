@@ -426,12 +426,16 @@ fn or_where(mask: glam::BVec4A, words: &[u32; 4]) -> u32 {
         _mm_cvtsi128_si32(v) as u32
     }
     #[cfg(not(all(target_arch = "x86_64", target_feature = "sse2")))]
-    {
-        let bits = mask.bitmask();
-        (0..4)
-            .filter(|j| bits >> j & 1 == 1)
-            .fold(0, |a, j| a | words[j])
-    }
+    or_where_lanes(mask.bitmask(), words)
+}
+
+/// [`or_where`] lane by lane, `bits` the mask's lanes (the form without SSE2, and the
+/// reference of its test).
+#[cfg_attr(all(target_arch = "x86_64", target_feature = "sse2"), allow(dead_code))]
+fn or_where_lanes(bits: u32, words: &[u32; 4]) -> u32 {
+    (0..4usize)
+        .filter(|&j| bits >> j & 1 == 1)
+        .fold(0, |a, j| a | words[j])
 }
 
 /// The index of the inner child that `bit` (24..32) of a node group stands for: the group
@@ -905,6 +909,21 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn or_where_ors_the_masked_lanes() {
+        let words = [0x1u32, 0x30, 0x700, 0xf000_0000];
+        for bits in 0..16u32 {
+            let mask =
+                glam::BVec4A::new(bits & 1 != 0, bits & 2 != 0, bits & 4 != 0, bits & 8 != 0);
+            let want: u32 = (0..4)
+                .filter(|j| bits >> j & 1 == 1)
+                .map(|j| words[j])
+                .sum();
+            assert_eq!(or_where(mask, &words), want, "lanes {bits:04b}");
+            assert_eq!(or_where_lanes(bits, &words), want, "lanes {bits:04b}");
         }
     }
 
