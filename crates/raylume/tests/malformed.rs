@@ -334,6 +334,6 @@ fn absurd_flags() {
         ("valid.toml", &["--estimator", "guess"], &["unknown estimator `guess`"]),
         ("missing-scene.toml", &[], &["missing-scene.toml", "file not found"]),
         ("valid.stl", &[], &["valid.stl", "unsupported file extension"]),
-        ("generated", &[], &["generated", "unsupported file extension"]),
+        ("generated", &[], &["generated", "a folder, not a scene file", "scene.json"]),
     ]);
 }
