@@ -5,7 +5,7 @@ use wgpu::util::DeviceExt;
 
 use super::SortLen;
 use super::shader::Stage;
-use super::sorter::{RadixSorter, entire};
+use super::sorter::{RadixSorter, bind_group, entire};
 use crate::SortError;
 
 impl RadixSorter {
@@ -82,18 +82,7 @@ impl RadixSorter {
         let bind = |pipeline: &wgpu::ComputePipeline,
                     label: &str,
                     entries: &[(u32, wgpu::BindingResource<'_>)]| {
-            let entries: Vec<wgpu::BindGroupEntry<'_>> = entries
-                .iter()
-                .map(|(binding, resource)| wgpu::BindGroupEntry {
-                    binding: *binding,
-                    resource: resource.clone(),
-                })
-                .collect();
-            self.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(label),
-                layout: &pipeline.get_bind_group_layout(0),
-                entries: &entries,
-            })
+            bind_group(&self.device, pipeline, label, entries)
         };
         let pass_binding = |p: u32| {
             wgpu::BindingResource::Buffer(wgpu::BufferBinding {

@@ -53,6 +53,27 @@ pub(super) fn entire(buffer: &wgpu::Buffer) -> wgpu::BindingResource<'_> {
     buffer.as_entire_binding()
 }
 
+/// A bind group of `pipeline`'s group 0 from `(binding, resource)` pairs.
+pub(super) fn bind_group(
+    device: &wgpu::Device,
+    pipeline: &wgpu::ComputePipeline,
+    label: &str,
+    entries: &[(u32, wgpu::BindingResource<'_>)],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry<'_>> = entries
+        .iter()
+        .map(|(binding, resource)| wgpu::BindGroupEntry {
+            binding: *binding,
+            resource: resource.clone(),
+        })
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &entries,
+    })
+}
+
 impl RadixSorter {
     /// Compiles the pipelines and allocates scratch for sorts of up to `max_len` pairs (at
     /// least 1): two more key/value buffers of `max_len` words and `2^radix_bits` tile counts
@@ -164,42 +185,26 @@ impl RadixSorter {
         let [setup, _, scan, _, _] = &pipelines;
         let (setup_bind_group, scan_bind_group) =
             ctx.scoped("creating the radix sorter", || {
-                let setup_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("sort_setup"),
-                    layout: &setup.get_bind_group_layout(0),
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: entire(&count_slot),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: entire(&params),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 2,
-                            resource: entire(&dispatch_args),
-                        },
+                let setup_bg = bind_group(
+                    device,
+                    setup,
+                    "sort_setup",
+                    &[
+                        (0, entire(&count_slot)),
+                        (1, entire(&params)),
+                        (2, entire(&dispatch_args)),
                     ],
-                });
-                let scan_bg = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("sort_scan"),
-                    layout: &scan.get_bind_group_layout(0),
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: entire(&params),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 3,
-                            resource: entire(&tile_hist),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 4,
-                            resource: entire(&digit_total),
-                        },
+                );
+                let scan_bg = bind_group(
+                    device,
+                    scan,
+                    "sort_scan",
+                    &[
+                        (0, entire(&params)),
+                        (3, entire(&tile_hist)),
+                        (4, entire(&digit_total)),
                     ],
-                });
+                );
                 (setup_bg, scan_bg)
             })?;
 
