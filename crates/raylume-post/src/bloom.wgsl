@@ -60,6 +60,16 @@ fn bloom_threshold(
     store_rgb(i, max(load_rgb(i) - vec3<f32>(params.threshold), vec3<f32>(0.0)));
 }
 
+// The mean of the pixels `first + k * stride` for `k` in the window `win` (inclusive), in
+// order of `k`: a row's window (stride 1) or a column's (stride: the width).
+fn box_mean(first: u32, stride: u32, win: vec2<u32>) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    for (var k = win.x; k <= win.y; k++) {
+        sum += load_rgb(first + k * stride);
+    }
+    return sum / f32(win.y - win.x + 1u);
+}
+
 @compute @workgroup_size(WORKGROUP_SIZE)
 fn bloom_h(
     @builtin(workgroup_id) wid: vec3<u32>,
@@ -71,13 +81,7 @@ fn bloom_h(
         return;
     }
     let x = i % params.width;
-    let row = i - x;
-    let win = box_window(x, params.radius, params.width);
-    var sum = vec3<f32>(0.0);
-    for (var xx = win.x; xx <= win.y; xx++) {
-        sum += load_rgb(row + xx);
-    }
-    store_rgb(i, sum / f32(win.y - win.x + 1u));
+    store_rgb(i, box_mean(i - x, 1u, box_window(x, params.radius, params.width)));
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
@@ -92,12 +96,7 @@ fn bloom_v(
     }
     let x = i % params.width;
     let y = i / params.width;
-    let win = box_window(y, params.radius, params.height);
-    var sum = vec3<f32>(0.0);
-    for (var yy = win.x; yy <= win.y; yy++) {
-        sum += load_rgb(yy * params.width + x);
-    }
-    store_rgb(i, sum / f32(win.y - win.x + 1u));
+    store_rgb(i, box_mean(x, params.width, box_window(y, params.radius, params.height)));
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)
