@@ -310,10 +310,16 @@ pub fn trace_ray<const F: u32>(
     // drawn before its walk, so that the core computes them while the walk waits on memory
     // (Bitterli's Cornell box 8-10 % faster than drawing each where it is used, the living
     // room 3 %: `docs/RESULTS.md`, issue 15); the WGSL draws them where it uses them, which
-    // keeps them out of the registers the walk needs. The light's and the roulette's are
-    // wasted when the ray escapes or the hit does not sample the lights.
+    // keeps them out of the registers the walk needs. The light's only where a hit could
+    // sample the lights (not in a plain render, whose `light_count` is 0, nor at the last
+    // segment); it and the roulette's are wasted when the ray escapes or the hit's material
+    // does not sample the lights.
     let sp = sampler_pixel(g.scene, pixel);
-    let rnd_light = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT);
+    let rnd_light = if g.scene.light_count > 0 && depth < g.scene.max_bounces {
+        path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT)
+    } else {
+        Vec4::ZERO
+    };
     let rnd_scatter = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_SCATTER);
     let rnd_roulette = if depth >= g.scene.rr_depth {
         path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_ROULETTE).x
