@@ -111,9 +111,10 @@ struct Args {
     /// (`Tracer::walk_stage`; wide BVH on an adapter with subgroups).
     #[arg(long, default_value = "off", value_delimiter = ',', value_parser = parse_on_off)]
     walk_stage: Vec<bool>,
-    /// Comma-separated: without (off, the default) and with (on) the wavefront's shadow stage
-    /// (`Tracer::shadow_stage`; with the walk stage and NEE).
-    #[arg(long, default_value = "off", value_delimiter = ',', value_parser = parse_on_off)]
+    /// Comma-separated: with (on, the library's default) and without (off) the wavefront's
+    /// shadow stage (`Tracer::shadow_stage`; it runs beside the walk stage with NEE, and
+    /// columns without the walk stage or with the plain estimator are run once, without it).
+    #[arg(long, default_value = "on", value_delimiter = ',', value_parser = parse_on_off)]
     shadow_stage: Vec<bool>,
     /// Russian roulette from this path segment on (Mitsuba 3's `path` starts at 5), or off
     /// (the paper's, the default here).
@@ -314,9 +315,17 @@ fn configs(args: &Args) -> Vec<Config> {
                 .map(move |&walk_stage| Config { walk_stage, ..c })
         })
         .flat_map(|c| {
-            args.shadow_stage
-                .iter()
-                .map(move |&shadow_stage| Config { shadow_stage, ..c })
+            // The shadow stage runs only beside the walk stage and with NEE: elsewhere one
+            // column, marked without it, whatever --shadow-stage says.
+            let applies = c.walk_stage && args.estimator != raylume::Estimator::Plain;
+            let stages = if applies {
+                args.shadow_stage.clone()
+            } else {
+                vec![false]
+            };
+            stages
+                .into_iter()
+                .map(move |shadow_stage| Config { shadow_stage, ..c })
         })
         .collect()
 }

@@ -22,7 +22,9 @@
 # variants (tools/features/cornell_variants.py) on the GPU and the CPU; `parts` is issue 16's: a render whole and as 4 parts in
 # separate processes (the overhead of splitting), merged, and --backend gpus on the one GPU;
 # `workgroup` times the Cornell box and the living room with RAYLUME_WORKGROUP_SIZE in
-# T1_WORKGROUPS (default "32 64 128 256"); `stages` (not in the default set) gives the living
+# T1_WORKGROUPS (default "32 64 128 256"); `stage-knobs` (not in the default set) times the
+# wavefront with its walk stage (and, with NEE, shadow stage) under each of the stages' run-time
+# knobs (workgroup size, refill threshold, stage workgroups); `stages` (not in the default set) gives the living
 # room's seconds per GPU pass with its own BSDFs and with every BSDF one kind, and times the
 # shadow stage against propagate's own shadow walks (docs/study/h200-ce89268-stages.md;
 # T1_STAGES_SIZE and T1_STAGES_SPP, default 1000x1000 and 100, shrink it for a dry run);
@@ -170,6 +172,23 @@ device() {
     awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/cpu-specialise-$est.md
   done
   fi
+  if [[ $parts == *" stage-knobs "* ]]; then
+  # The wavefront's stages (walk, and shadow with NEE) under their run-time knobs, one at a
+  # time from the defaults: every kernel's workgroup size, the refill threshold and the
+  # stages' workgroup count (T1_KNOB_SCENES, default the living room and the teapot).
+  local kn kv est ks=${T1_KNOB_SCENES:-"scenes/living-room/scene.json scenes/teapot.toml"}
+  for kn in "RAYLUME_WORKGROUP_SIZE=64" "RAYLUME_WORKGROUP_SIZE=128" "RAYLUME_WORKGROUP_SIZE=256" \
+            "RAYLUME_WALK_STAGE_REFILL=4" "RAYLUME_WALK_STAGE_REFILL=16" \
+            "RAYLUME_WALK_STAGE_GROUPS=2048" "RAYLUME_WALK_STAGE_GROUPS=8192"; do
+    for est in plain nee; do
+      echo "== stage knobs: $kn, $est (at $(el) s)"
+      env "$kn" timeout 120 /tmp/bench --backend gpu --spp 100 --repeat 3 --schedule wavefront \
+        --reorder off --bvh wide --walk-stage on --estimator $est $([ $est = nee ] && echo --rr-depth 5) \
+        --json $R/knob-$kn-$est.json $ks > $R/knob-$kn-$est.md 2> $R/knob-$kn-$est.log || echo "bench: exit $?"
+      grep -E '^\| scenes.* \| 100 \|' $R/knob-$kn-$est.md || true
+    done
+  done
+  fi
   if [[ $parts == *" workgroup "* ]]; then
   local wg est
   for wg in ${T1_WORKGROUPS:-32 64 128 256}; do
@@ -220,7 +239,7 @@ print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_tra
   echo "== stages: the living room with the walk stage against without it (RMSE 0: the same image)"
   /tmp/compare /tmp/walk-on.exr /tmp/walk-off.exr 2>&1 | head -3
   for v in off on; do
-    local shadow=""; [ $v = on ] && shadow="--shadow-stage"
+    local shadow="--shadow-stage $v"
     echo "== stages: NEE + roulette 5, shadow stage $v (at $(el) s)"
     /tmp/render $lr/scene.json -o /tmp/nee-shadow-$v.exr --backend gpu --schedule wavefront --walk-stage on \
       $shadow --estimator nee --rr-depth 5 --sampler independent --environment-guide off \

@@ -480,6 +480,8 @@ fn the_shadow_stage_adds_what_propagate_would() {
             tracer.set_estimator(Estimator::Nee);
             tracer.set_russian_roulette(Some(1));
             tracer.set_walk_stage(true);
+            // The tracer's default is on: the reference without it.
+            tracer.set_shadow_stage(false);
             let walked = tracer.render(&s, &mut |_, _| {}).unwrap();
             assert!(walked.timing("trace_shadows").is_none());
             tracer.set_shadow_stage(true);
@@ -536,6 +538,9 @@ fn the_walk_stage_traces_the_hits_propagate_would() {
                 };
                 let mut tracer = GpuTracer::new(ctx, &scene, &bvh).unwrap();
                 tracer.set_estimator(estimator);
+                // NEE's shadow rays walked in propagate, as without the walk stage (the
+                // shadow stage has its own test below).
+                tracer.set_shadow_stage(false);
                 let walked = tracer.render(&s, &mut |_, _| {}).unwrap();
                 assert!(walked.timing("trace_hits").is_none());
                 tracer.set_walk_stage(true);

@@ -808,8 +808,9 @@ fn the_walk_stage_by_default_walks_large_scenes_only() {
     }
 }
 
-/// `Tracer::shadow_stage` reaches the GPU tracer: asked for with the walk stage and NEE, the
-/// render's schedule says the shadow stage ran, and the image is the one without it.
+/// `Tracer::shadow_stage` reaches the GPU tracer: asked for with the walk stage and NEE (and
+/// so by default), the render's schedule says the shadow stage ran, and the image is the one
+/// without it.
 #[test]
 fn the_shadow_stage_is_asked_for_through_the_tracer() {
     if raylume_gpu::testing::subgroup_context_or_skip(
@@ -821,12 +822,16 @@ fn the_shadow_stage_is_asked_for_through_the_tracer() {
     }
     let scene = cornell(12, 12, 2);
     let mut images = Vec::new();
-    for shadow_stage in [false, true] {
+    // `None`: the tracer's default.
+    for setting in [Some(false), Some(true), None] {
         let mut t = Tracer::new(Backend::Gpu);
         t.schedule = raylume::Schedule::Wavefront;
         t.estimator = raylume::Estimator::Nee;
         t.walk_stage = Some(true);
-        t.shadow_stage = shadow_stage;
+        if let Some(on) = setting {
+            t.shadow_stage = on;
+        }
+        let shadow_stage = setting.unwrap_or(true);
         let r = t.render(&scene).unwrap();
         assert_eq!(
             r.stats.schedule,
@@ -838,5 +843,8 @@ fn the_shadow_stage_is_asked_for_through_the_tracer() {
         );
         images.push(r.pixels);
     }
-    assert!(images[0] == images[1], "the shadow stage changed the image");
+    assert!(
+        images.windows(2).all(|w| w[0] == w[1]),
+        "the shadow stage changed the image"
+    );
 }

@@ -702,7 +702,7 @@ impl<'a> GpuTracer<'a> {
             batch_ray_limit: None,
             next_event_stage: false,
             walk_stage: false,
-            shadow_stage: false,
+            shadow_stage: true,
             walk_stage_groups: None,
             persistent_threads: None,
             upload_seconds: start.elapsed().as_secs_f64(),
@@ -747,7 +747,7 @@ impl<'a> GpuTracer<'a> {
     }
 
     /// Whether the shadow rays of the walk stage's bounces are walked by a stage of their own
-    /// after `propagate` ([`PathVariant::shadow_stage`]; default: off). It runs only where
+    /// after `propagate` ([`PathVariant::shadow_stage`]; default: on). It runs only where
     /// the walk stage does, with an estimator that samples lights and without the
     /// `next_event` stage ([`PathVariant::defers_shadow_rays`]); the image is the same.
     pub fn set_shadow_stage(&mut self, on: bool) {

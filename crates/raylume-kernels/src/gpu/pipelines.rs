@@ -52,10 +52,11 @@ pub struct PathVariant {
     /// walk_stage.wgsl), whose threads take the next ray when theirs ends, as `trace_hits`'
     /// do. `propagate` (compiled with `DEFER_SHADOW`) samples and evaluates the light as
     /// before and queues the ray with the vertex's two terms (80 bytes); the stage adds them
-    /// in `trace_ray`'s order, so the images are the same. Off by default: an experiment for
-    /// the living room's NEE renders, where `propagate` walking the shadow rays one a thread
-    /// took 63 % of the trace on the H200 (docs/study/h200-ce89268-stages.md); not yet
-    /// timed there. [`PathVariant::defers_shadow_rays`] says when it runs.
+    /// in `trace_ray`'s order, so the images are the same. On the H200 (100 spp, with the
+    /// walk stage) the living room's NEE wavefront 0.376 -> 0.302 s, the teapot's 0.096 ->
+    /// 0.086 s, the Cornell box's 0.120 -> 0.135 s (docs/study/h200-2a9a938-shadow-stage.md);
+    /// `GpuTracer` and the facade's `Tracer` ask for it by default, so it runs wherever the
+    /// walk stage does with NEE. [`PathVariant::defers_shadow_rays`] says when it runs.
     pub shadow_stage: bool,
 }
 
