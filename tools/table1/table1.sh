@@ -24,7 +24,7 @@
 # `workgroup` times the Cornell box and the living room with RAYLUME_WORKGROUP_SIZE in
 # T1_WORKGROUPS (default "32 64 128 256"); `stage-knobs` (not in the default set) times the
 # wavefront with its walk stage (and, with NEE, shadow stage) under each of the stages' run-time
-# knobs (workgroup size, refill threshold, stage workgroups); `stages` (not in the default set) gives the living
+# knobs (workgroup size, refill threshold, stage workgroups, first bounce); `stages` (not in the default set) gives the living
 # room's seconds per GPU pass with its own BSDFs and with every BSDF one kind, and times the
 # shadow stage against propagate's own shadow walks (docs/study/h200-ce89268-stages.md;
 # T1_STAGES_SIZE and T1_STAGES_SPP, default 1000x1000 and 100, shrink it for a dry run);
@@ -179,7 +179,8 @@ device() {
   local kn kv est ks=${T1_KNOB_SCENES:-"scenes/living-room/scene.json scenes/teapot.toml"}
   for kn in "RAYLUME_WORKGROUP_SIZE=64" "RAYLUME_WORKGROUP_SIZE=128" "RAYLUME_WORKGROUP_SIZE=256" \
             "RAYLUME_WALK_STAGE_REFILL=4" "RAYLUME_WALK_STAGE_REFILL=16" \
-            "RAYLUME_WALK_STAGE_GROUPS=2048" "RAYLUME_WALK_STAGE_GROUPS=8192"; do
+            "RAYLUME_WALK_STAGE_GROUPS=2048" "RAYLUME_WALK_STAGE_GROUPS=8192" \
+            "RAYLUME_WALK_STAGE_FROM=1"; do
     for est in plain nee; do
       echo "== stage knobs: $kn, $est (at $(el) s)"
       env "$kn" timeout 120 /tmp/bench --backend gpu --spp 100 --repeat 3 --schedule wavefront \

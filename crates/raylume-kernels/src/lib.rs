@@ -318,6 +318,24 @@ pub fn walk_stage_refill() -> u32 {
         .get_or_init(|| positive_from_env("RAYLUME_WALK_STAGE_REFILL").unwrap_or(WALK_STAGE_REFILL))
 }
 
+/// The first bounce the wavefront's walk stage walks ([`gpu::PathVariant::walk_stage`]): 0,
+/// every bounce whose queue is not sorted, the camera rays' among them. The environment
+/// variable `RAYLUME_WALK_STAGE_FROM` overrides it on every adapter (for measuring: the bounces
+/// before it are walked by `propagate`, one ray a thread; the images do not change).
+pub const WALK_STAGE_FROM: u32 = 0;
+
+/// [`WALK_STAGE_FROM`], or `RAYLUME_WALK_STAGE_FROM` when set to a number (read once per
+/// process).
+pub fn walk_stage_from() -> u32 {
+    static FROM: std::sync::OnceLock<u32> = std::sync::OnceLock::new();
+    *FROM.get_or_init(|| {
+        std::env::var("RAYLUME_WALK_STAGE_FROM")
+            .ok()
+            .and_then(|v| v.parse::<u32>().ok())
+            .unwrap_or(WALK_STAGE_FROM)
+    })
+}
+
 fn positive_from_env(name: &str) -> Option<u32> {
     std::env::var(name)
         .ok()

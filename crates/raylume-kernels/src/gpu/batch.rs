@@ -24,9 +24,10 @@ pub(crate) fn current_queue(depth: u32) -> usize {
 /// stage's refills cost more than they save (on the H200 the living room's sorted bounces
 /// were 25 % slower, gathering the ray states twice in `SortIndex` order); there the
 /// `propagate` compiled without `HITS_TRACED` walks, as without the stage
-/// (`BounceUniforms::walk_groups` is 0).
+/// (`BounceUniforms::walk_groups` is 0). Nor the bounces before
+/// [`crate::walk_stage_from`] (a knob for measuring; by default every bounce).
 pub(crate) fn walk_stage_at(reorder: Reorder, depth: u32) -> bool {
-    !reorder.sorts_before(depth)
+    !reorder.sorts_before(depth) && depth >= crate::walk_stage_from()
 }
 
 /// The name under which a batch's pipelines hold `propagate` compiled with `HITS_TRACED` (the
