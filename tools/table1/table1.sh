@@ -24,7 +24,9 @@
 # `workgroup` times the Cornell box and the living room with RAYLUME_WORKGROUP_SIZE in
 # T1_WORKGROUPS (default "32 64 128 256"); `stage-knobs` (not in the default set) times the
 # wavefront with its walk stage (and, with NEE, shadow stage) under each of the stages' run-time
-# knobs (workgroup size, refill threshold, stage workgroups, first bounce); `stages` (not in the default set) gives the living
+# knobs (workgroup size, refill threshold, stage workgroups, first bounce); `ab` alternates
+# .gpu/bench-base.xz (another commit's bench) with this commit's (T1_AB_*); `batch` times
+# batches of T1_BATCH_SPP samples per pixel; `stages` (not in the default set) gives the living
 # room's seconds per GPU pass with its own BSDFs and with every BSDF one kind, and times the
 # shadow stage against propagate's own shadow walks (docs/study/h200-ce89268-stages.md;
 # T1_STAGES_SIZE and T1_STAGES_SPP, default 1000x1000 and 100, shrink it for a dry run);
@@ -62,7 +64,7 @@ device() {
   el() { echo $(($(date +%s) - T0)); }
   R=/tmp/t1; rm -rf $R; mkdir -p $R
   trap 'tar czf "$OUT/table1.tgz" -C '$R' . ; echo "== done at $(el) s"' EXIT
-  for b in bench render make_grid merge compare shader_stats; do [ -f .gpu/$b.xz ] && xz -dc .gpu/$b.xz > /tmp/$b && chmod +x /tmp/$b; done
+  for b in bench render make_grid merge compare shader_stats bench-base; do [ -f .gpu/$b.xz ] && xz -dc .gpu/$b.xz > /tmp/$b && chmod +x /tmp/$b; done
   m=$(mktemp -d); tar -C "$m" -xJf .gpu/mitsuba-trim.tar.xz
   export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
   cp .gpu/commit.txt $R/
@@ -170,6 +172,41 @@ device() {
       --specialise composed,generic $opts --json $R/cpu-specialise-$est.json $S6 \
       > $R/cpu-specialise-$est.md 2> $R/cpu-specialise-$est.log || echo "bench: exit $?"
     awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/cpu-specialise-$est.md
+  done
+  fi
+  if [[ $parts == *" ab "* ]]; then
+  # An A/B of two builds in one call: .gpu/bench-base.xz (the bench of another commit, named
+  # in .gpu/base-commit.txt: copy .gpu/bench.xz and commit.txt there before staging the
+  # change) against this commit's bench, alternating, T1_AB_ROUNDS rounds, each estimator of
+  # T1_AB_ESTIMATORS over T1_AB_SCENES with the wavefront and its stages (T1_AB_ARGS more).
+  local r est ab_scenes=${T1_AB_SCENES:-"scenes/living-room/scene.json scenes/teapot.toml"}
+  echo "== A/B: base $(cat .gpu/base-commit.txt 2>/dev/null), this $(cat .gpu/commit.txt)"
+  for r in $(seq ${T1_AB_ROUNDS:-3}); do
+    for est in ${T1_AB_ESTIMATORS:-nee plain}; do
+      for b in bench-base bench; do
+        echo "== A/B round $r, $est, $b (at $(el) s)"
+        timeout 120 /tmp/$b --backend gpu --spp 100 --repeat 3 --schedule wavefront --reorder off \
+          --bvh wide --walk-stage on --estimator $est $([ $est = nee ] && echo --rr-depth 5) \
+          ${T1_AB_ARGS:-} --json $R/ab-$r-$est-$b.json $ab_scenes > $R/ab-$r-$est-$b.md \
+          2> $R/ab-$r-$est-$b.log || echo "bench: exit $?"
+        grep -E '^\| scenes.* \| 100 \| [0-9.]+ \|$' $R/ab-$r-$est-$b.md || true
+      done
+    done
+  done
+  fi
+  if [[ $parts == *" batch "* ]]; then
+  # The samples per pixel of a batch (the paper's 20; the adapter's binding size bounds it:
+  # bench says what ran), T1_BATCH_SPP, the wavefront with its stages.
+  local bs est
+  for bs in ${T1_BATCH_SPP:-20 25 33}; do
+    for est in nee plain; do
+      echo "== batch spp $bs, $est (at $(el) s)"
+      timeout 120 /tmp/bench --backend gpu --spp 100 --repeat 3 --schedule wavefront --reorder off \
+        --bvh wide --walk-stage on --estimator $est $([ $est = nee ] && echo --rr-depth 5) \
+        --batch-spp $bs --json $R/batch-$bs-$est.json scenes/living-room/scene.json scenes/teapot.toml \
+        > $R/batch-$bs-$est.md 2> $R/batch-$bs-$est.log || echo "bench: exit $?"
+      grep -E '^\| scenes.* \| 100 \| [0-9.]+ \|$' $R/batch-$bs-$est.md || true
+    done
   done
   fi
   if [[ $parts == *" stage-knobs "* ]]; then

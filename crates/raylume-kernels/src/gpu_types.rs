@@ -466,6 +466,7 @@ pub fn wgsl_constants() -> String {
     s += &u("WALK_STAGE_COUNTER", crate::WALK_STAGE_COUNTER);
     s += &u("SHADOW_QUEUE_COUNTER", crate::SHADOW_QUEUE_COUNTER);
     s += &u("SHADOW_STAGE_COUNTER", crate::SHADOW_STAGE_COUNTER);
+    s += &u("SHADOW_HAS_EMISSION", crate::SHADOW_HAS_EMISSION);
     s += &u(
         "MEGAKERNEL_WORKGROUP_SIZE",
         crate::megakernel_workgroup_size(),

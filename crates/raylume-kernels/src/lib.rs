@@ -299,8 +299,16 @@ pub const SHADOW_STAGE_COUNTER: u32 = 5;
 /// Words (of 16 bytes) of a shadow stage record in `nee_records` (a structure of arrays by
 /// shadow queue slot, as the `next_event` stage's records): the ray (origin, `t_max`; direction,
 /// the path's ray index), the throughput at the vertex and the record's state, the light's
-/// term, the vertex's emission.
+/// term, the vertex's emission. The emission's word is written and read only where the
+/// emission is not zero ([`SHADOW_HAS_EMISSION`]), the light's only where the ray is not
+/// blocked: most vertices emit nothing, and about half of the living room's shadow rays are
+/// blocked.
 pub const SHADOW_RECORD_WORDS: u32 = 5;
+
+/// Set in a shadow record's state word (beside `NEE_PENDING` or `NEE_ENDED`) when the
+/// vertex's emission is not zero, bit for bit, and so was written to the record's last word;
+/// without it the shadow stage adds a zero emission, as `trace_ray` adds the zero it holds.
+pub const SHADOW_HAS_EMISSION: u32 = 0x8000_0000;
 
 /// [`WALK_STAGE_GROUPS`], or `RAYLUME_WALK_STAGE_GROUPS` when set to a positive number (read
 /// once per process).

@@ -236,18 +236,26 @@ fn trace_shadows(
 
 // The terms of shadow queue slot `slot` added to its path's radiance as trace_ray adds them
 // (the light's, unless `occluded`, then the emission); the sample written when the path ended
-// there. Returns 1 when that sample was dropped (write_sample).
+// there. Returns 1 when that sample was dropped (write_sample). The light's word is read only
+// for a ray not blocked (`throughput * 0` as trace_ray's `select` makes it otherwise), the
+// emission's only where the record has one (else the zero trace_ray would add).
 fn add_shadow_terms(slot: u32, occluded: bool) -> u32 {
     let w1 = nee_records[nee_word(1u, slot)];
     let w2 = nee_records[nee_word(2u, slot)];
     let throughput_in = bitcast<vec3<f32>>(w2.xyz);
-    let light_in = bitcast<vec3<f32>>(nee_records[nee_word(3u, slot)].xyz);
-    let emission = bitcast<vec3<f32>>(nee_records[nee_word(4u, slot)].xyz);
+    var light_in = vec3<f32>(0.0);
+    if (!occluded) {
+        light_in = bitcast<vec3<f32>>(nee_records[nee_word(3u, slot)].xyz);
+    }
+    var emission = vec3<f32>(0.0);
+    if ((w2.w & SHADOW_HAS_EMISSION) != 0u) {
+        emission = bitcast<vec3<f32>>(nee_records[nee_word(4u, slot)].xyz);
+    }
     let r = w1.w;
     var radiance = ray_states[r].radiance;
-    radiance += throughput_in * select(light_in, vec3<f32>(0.0), occluded);
+    radiance += throughput_in * light_in;
     radiance += emission;
-    if (w2.w == NEE_ENDED) {
+    if ((w2.w & ~SHADOW_HAS_EMISSION) == NEE_ENDED) {
         return write_sample(sample_slot(ray_states[r].pixel, ray_states[r].sample), radiance);
     }
     ray_states[r].radiance = radiance;

@@ -163,14 +163,20 @@ var<workgroup> wg_shadow_base: u32;
 
 // deferred_shadow as the record of shadow queue slot `i`, for path ray `r`, which goes on
 // (`live`) or ended at this vertex (trace_shadows then writes its sample). SHADOW_RECORD_WORDS
-// words in nee_records' structure of arrays (nee_word).
+// words in nee_records' structure of arrays (nee_word); the emission's only where it is not
+// zero (SHADOW_HAS_EMISSION in the state word says so).
 fn store_shadow_record(i: u32, r: u32, live: bool) {
     let d = deferred_shadow;
+    let emission = bitcast<vec3<u32>>(d.emission);
+    let emits = any(emission != vec3<u32>(0u));
     nee_records[nee_word(0u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.ray.origin), bitcast<u32>(d.t_max));
     nee_records[nee_word(1u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.ray.dir), r);
-    nee_records[nee_word(2u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.throughput), select(NEE_ENDED, NEE_PENDING, live));
+    nee_records[nee_word(2u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.throughput),
+        select(NEE_ENDED, NEE_PENDING, live) | select(0u, SHADOW_HAS_EMISSION, emits));
     nee_records[nee_word(3u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.light), 0u);
-    nee_records[nee_word(4u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.emission), 0u);
+    if (emits) {
+        nee_records[nee_word(4u, i)] = vec4<u32>(emission, 0u);
+    }
 }
 
 // The walk stage's closest hit of queue slot `slot` (walk_stage.wgsl), and what propagate's
