@@ -439,8 +439,9 @@ type StartFn = Box<dyn FnMut(&RenderStats) + Send>;
 pub struct Tracer {
     /// Where rays are traced (the argument of [`Tracer::new`]).
     pub backend: Backend,
-    /// Samples per pixel per batch (the paper used 20; 0 is taken as 1, more than the
-    /// render's spp as its spp). Reduced automatically to fit the adapter's buffer limits.
+    /// Samples per pixel per batch ([`Tracer::DEFAULT_BATCH_SPP`]; the paper used 20; 0 is
+    /// taken as 1, more than the render's spp as its spp). Reduced automatically to fit the
+    /// adapter's buffer limits. The image does not depend on it.
     pub batch_spp: u32,
     /// Overrides the scene's seed.
     pub seed: Option<u32>,
@@ -905,8 +906,14 @@ impl std::fmt::Debug for Tracer {
 }
 
 impl Tracer {
-    /// The paper's batch size: 20 samples per pixel per batch.
-    pub const DEFAULT_BATCH_SPP: u32 = 20;
+    /// The default batch size: 32 samples per pixel per batch, reduced to what the adapter's
+    /// storage bindings hold (on the H200 at 1000x1000: 33 for the plain estimator, 26 with
+    /// the shadow stage's records). The paper's 20 left the GPU a fifth more batches to
+    /// start and drain: on the H200 at 100 spp, the living room's NEE trace 0.2996 -> 0.2958
+    /// s, the teapot's 0.0847 -> 0.0811 s, the plain living room 0.3852 -> 0.3827 s
+    /// (`docs/RESULTS.md`, issue 13). The CPU's batches are bounded by its own limit
+    /// ([`raylume_kernels::cpu::CPU_MAX_RAYS_PER_BATCH`]: 4 spp at 1000x1000).
+    pub const DEFAULT_BATCH_SPP: u32 = 32;
 
     /// [`RenderStats::environment_guide`]'s words for a render that `guides` (or not) and
     /// whose walks found `walks` (walks, escapes).
@@ -968,8 +975,8 @@ impl Tracer {
 
     /// A tracer with the defaults a user expects of a path tracer: next-event estimation with
     /// MIS ([`Estimator::Nee`]), scrambled Sobol' points ([`Sampler::Sobol`]) and Russian
-    /// roulette from segment 5; batches of 20 samples per pixel, no ray reordering, the
-    /// megakernel. For the paper's estimator set [`Tracer::paper_estimator`] (plain,
+    /// roulette from segment 5; batches of [`Tracer::DEFAULT_BATCH_SPP`] samples per pixel,
+    /// no ray reordering, the persistent schedule. For the paper's estimator set [`Tracer::paper_estimator`] (plain,
     /// independent numbers, no roulette), as the Table-1 `bench` does.
     pub fn new(backend: Backend) -> Self {
         Self {
