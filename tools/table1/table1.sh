@@ -65,7 +65,7 @@ device() {
   R=/tmp/t1; rm -rf $R; mkdir -p $R
   trap 'tar czf "$OUT/table1.tgz" -C '$R' . ; echo "== done at $(el) s"' EXIT
   for b in bench render make_grid merge compare shader_stats bench-base; do [ -f .gpu/$b.xz ] && xz -dc .gpu/$b.xz > /tmp/$b && chmod +x /tmp/$b; done
-  m=$(mktemp -d); tar -C "$m" -xJf .gpu/mitsuba-trim.tar.xz
+  m=$(mktemp -d); [ -f .gpu/mitsuba-trim.tar.xz ] && tar -C "$m" -xJf .gpu/mitsuba-trim.tar.xz
   export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
   cp .gpu/commit.txt $R/
   nvidia-smi --query-gpu=name,driver_version,clocks.max.sm,memory.total --format=csv | tee $R/gpu.txt

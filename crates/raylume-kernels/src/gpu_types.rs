@@ -371,7 +371,7 @@ pub struct BounceUniforms {
     pub depth: u32,
     /// 1 when the rays are sorted before the next segment: `propagate` then writes each live
     /// ray's sort key at its slot of the next queue (so that only live rays are sorted);
-    /// 0: at its slot of this bounce's queue (`DEAD_RAY_KEY` for rays that ended).
+    /// 0: it computes no key.
     pub sort_next: u32,
     /// With `sort_next`: how far the 30-bit key is shifted right, so that a sort of the low
     /// `30 - sort_shift` bits sorts by the key's top bits (`Reorder::key_bits`).

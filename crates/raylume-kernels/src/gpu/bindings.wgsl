@@ -26,8 +26,8 @@
 // swaps the two buffers. `scene.queue_capacity` entries each.
 @group(1) @binding(2) var<storage, read_write> ray_queue_in: array<u32>;
 @group(1) @binding(5) var<storage, read_write> ray_queue_out: array<u32>;
-// Sort keys: per slot of the current bounce's queue (DEAD_RAY_KEY for rays that ended), or,
-// when the next bounce is sorted (bounce.sort_next), per slot of the next queue, live rays only.
+// Sort keys: when the next bounce is sorted (bounce.sort_next), per slot of the next queue,
+// live rays only; the bounces before an unsorted one write none.
 @group(1) @binding(3) var<storage, read_write> ray_keys: array<u32>;
 // Lengths of the two queues: [d & 1] is bounce d's input, [1 - (d & 1)] its output.
 // Then the walk stage's slots taken (WALK_STAGE_COUNTER), the persistent schedule's sample

@@ -77,6 +77,25 @@ fn write_sample(r: u32, radiance: vec3<f32>) -> u32 {
 // Adds this thread's counts to the workgroup's, then the workgroup's to the batch's with one
 // atomic each (the ray count as a carry-propagating 64-bit pair). Call from uniform control
 // flow: it contains a barrier.
+// The wavefront's propagate counts its dispatch's rays from one thread (count_traced) and its
+// dropped samples with add_dropped: its kernels need no barrier for the stats.
+fn count_traced(n: u32) {
+    let i = 4u * scene.batch_index;
+    if (n > 0u) {
+        let old = atomicAdd(&batch_stats[i], n);
+        if (old > 0xffffffffu - n) {
+            atomicAdd(&batch_stats[i + 1u], 1u);
+        }
+    }
+}
+
+// One atomic per invocation that dropped samples (rare: write_sample).
+fn add_dropped(dropped: u32) {
+    if (dropped > 0u) {
+        atomicAdd(&batch_stats[4u * scene.batch_index + 2u], dropped);
+    }
+}
+
 fn flush_stats(local: u32, traced: u32, dropped: u32) {
     if (traced > 0u) {
         atomicAdd(&wg_traced, traced);

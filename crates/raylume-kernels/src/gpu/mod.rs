@@ -62,9 +62,8 @@ pub struct TraceStats {
 /// After `propagate` at bounce `d` (queue parity `q = d & 1`): `queue_counts` holds `u32`
 /// lengths, `[q]` the rays it advanced (`n`), `[1 - q]` those still alive;
 /// `ray_queues[1 - q][..live]` holds the live rays, compacted, which bounce `d + 1` reads.
-/// When bounce `d + 1` is not sorted, `ray_keys[t]` for `t < n` is the sort key of the ray
-/// `ray_queues[q][t]` (raylume-sort's `DEAD_RAY_KEY` if it ended). When it is
-/// ([`crate::Reorder::sorts_before`]`(d + 1)`), `ray_keys[i]` for `i < live` is the key of
+/// When bounce `d + 1` is not sorted, `ray_keys` is left as it was (no key is computed).
+/// When it is ([`crate::Reorder::sorts_before`]`(d + 1)`), `ray_keys[i]` for `i < live` is the key of
 /// `ray_queues[1 - q][i]`, and the tracer sorts these pairs (with the count read on the GPU)
 /// before bounce `d + 1` reads them: only live rays are sorted. All four buffers allow
 /// `COPY_SRC` and `COPY_DST`.

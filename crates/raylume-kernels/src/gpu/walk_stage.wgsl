@@ -229,9 +229,7 @@ fn trace_shadows(
     }
     // Dropped samples are rare: one atomic per lane that dropped any (flush_stats' barrier
     // would need every lane to leave the loop together).
-    if dropped > 0u {
-        atomicAdd(&batch_stats[4u * scene.batch_index + 2u], dropped);
-    }
+    add_dropped(dropped);
 }
 
 // The terms of shadow queue slot `slot` added to its path's radiance as trace_ray adds them

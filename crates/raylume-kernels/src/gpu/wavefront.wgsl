@@ -66,7 +66,11 @@ fn propagate(
     let t = thread_index(wg, nwg, local);
     let q = bounce.depth & 1u;
     let n = atomicLoad(&queue_counts[q]);
-    var traced = 0u;
+    // This dispatch advances each of the n rays by one segment: the batch's ray count, added
+    // once (one atomic, where each workgroup added its own after a barrier).
+    if (t == 0u) {
+        count_traced(n);
+    }
     var dropped = 0u;
     var live = false;
     var shadow = false;
@@ -79,7 +83,6 @@ fn propagate(
         // A light sample left for next_event goes to this queue slot's record: the stage
         // reads it at the same slot, so both access the records in queue order.
         let deferred = trace_ray(&path, ray.pixel, ray.sample, bounce.depth, t);
-        traced = 1u;
         live = path.alive;
         shadow = DEFER_SHADOW && deferred;
         ray.origin = path.origin;
@@ -89,22 +92,22 @@ fn propagate(
         ray.depth = bounce.depth + 1u;
         ray.alive = select(0u, select(RAY_ALIVE, bitcast<u32>(path.mis_pdf), path.mis_pdf > 0.0), live);
         ray_states[r] = ray;
-        if (live) {
-            // SORT KEY (raylume-sort's MORTON_WGSL): the paper's 30-bit origin-direction key.
+        if (live && bounce.sort_next != 0u) {
+            // SORT KEY (raylume-sort's MORTON_WGSL): the paper's 30-bit origin-direction key,
+            // for the sort before the next bounce (none is computed for an unsorted one).
             key = ray_sort_key(path.origin, path.dir, scene.scene_min, scene.scene_extent);
-        } else if (deferred) {
-            // next_event (or, DEFER_SHADOW, trace_shadows) adds the vertex's light sample,
-            // then writes the sample.
-            if (DEFER_NEE) {
-                set_nee_record_state(t, NEE_ENDED);
-            }
-        } else {
-            // The sample's own slot, not `r`: permute_rays may have moved its state.
-            dropped = write_sample(sample_slot(ray.pixel, ray.sample), path.radiance);
         }
-        if (bounce.sort_next == 0u) {
-            // Indexed by queue slot, so that (ray_keys, queue) pairs can be sorted.
-            ray_keys[t] = key;
+        if (!live) {
+            if (deferred) {
+                // next_event (or, DEFER_SHADOW, trace_shadows) adds the vertex's light sample,
+                // then writes the sample.
+                if (DEFER_NEE) {
+                    set_nee_record_state(t, NEE_ENDED);
+                }
+            } else {
+                // The sample's own slot, not `r`: permute_rays may have moved its state.
+                dropped = write_sample(sample_slot(ray.pixel, ray.sample), path.radiance);
+            }
         }
     }
     // Compaction: the live rays of this workgroup take consecutive slots of the next queue.
@@ -130,7 +133,7 @@ fn propagate(
             }
         }
     }
-    flush_stats(local, traced, dropped);
+    add_dropped(dropped);
     workgroupBarrier();
     if (shadow) {
         store_shadow_record(wg_shadow_base + shadow_slot, r, live);
@@ -281,7 +284,7 @@ fn next_event(
             }
         }
     }
-    flush_stats(local, 0u, dropped);
+    add_dropped(dropped);
 }
 
 // After the sort before bounce `bounce.depth` (ReorderMode::SortPermute): gathers the states
