@@ -795,7 +795,8 @@ fn the_walk_stage_by_default_walks_large_scenes_only() {
             assert_eq!(
                 r.stats.schedule,
                 if ran {
-                    "wavefront + walk stage"
+                    // The tracer's default estimator (NEE) runs the shadow stage beside it.
+                    "wavefront + walk stage + shadow stage"
                 } else {
                     "wavefront"
                 },
