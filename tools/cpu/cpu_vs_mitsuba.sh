@@ -20,7 +20,9 @@
 # living room twice: with `--environment-guide off`, the estimator that matches Mitsuba's (the
 # sky sampled by its radiance alone: for a constant sky, uniformly), and with `on` (what `auto`
 # picks for a render this size: shadow rays aimed where the sky is visible, fewer of them
-# blocked early, so each costs more).
+# blocked early, so each costs more). Both scenes once more with `--sampler independent`, as
+# Mitsuba's (raylume's `sobol` costs more per sample and, at 128x128, reaches a given error in
+# fewer samples: the equal-error part keeps it).
 set -euo pipefail
 OUT=${1:-/tmp/cpu-vs-mitsuba}
 SIZE=${SIZE:-1000x1000}
@@ -53,14 +55,20 @@ for r in $(seq "$ROUNDS"); do
   cb=$(raylume cornell "$SIZE" "$SPP" "$CB/scene.json")
   lr_off=$(raylume living-room-guide-off "$SIZE" "$SPP" --environment-guide off "$LR/scene.json")
   lr_on=$(raylume living-room-guide-on "$SIZE" "$SPP" --environment-guide on "$LR/scene.json")
+  # Mitsuba's own random numbers too (its `independent` sampler): the estimator exactly.
+  cb_ind=$(raylume cornell-independent "$SIZE" "$SPP" --sampler independent "$CB/scene.json")
+  lr_ind=$(raylume living-room-independent "$SIZE" "$SPP" --environment-guide off --sampler independent "$LR/scene.json")
   mcb=$(mitsuba_cb "$SIZE" "$SPP")
   mlr=$(PYTHONPATH=$MITSUBA "$PY" tools/table1/mitsuba_table1.py "$LR" "$OUT" \
     --tungsten ../shared/peers/mitsuba/tungsten.py --variant llvm_ad_rgb --size "$SIZE" \
     --spp "$SPP" --depth 11 2>/dev/null | sed -n "s/^mitsuba .* spp $SPP: \([0-9.]*\) s/\1/p")
-  awk -v r="$r" -v cb="$cb" -v mcb="$mcb" -v off="$lr_off" -v on="$lr_on" -v mlr="$mlr" 'BEGIN {
+  awk -v r="$r" -v cb="$cb" -v mcb="$mcb" -v off="$lr_off" -v on="$lr_on" -v mlr="$mlr" \
+    -v cbi="$cb_ind" -v lri="$lr_ind" 'BEGIN {
     printf "round %d: Cornell box raylume %.2f s, Mitsuba %.2f s (%.2fx slower); ", r, cb, mcb, cb / mcb
     printf "living room raylume %.2f s guide off (%.2fx slower), %.2f s guide on (%.2fx), Mitsuba %.2f s\n",
-      off, off / mlr, on, on / mlr, mlr }' | tee -a "$OUT/summary.md"
+      off, off / mlr, on, on / mlr, mlr
+    printf "round %d: with the independent sampler (Mitsuba'"'"'s): Cornell box %.2f s (%.2fx slower), living room guide off %.2f s (%.2fx)\n",
+      r, cbi, cbi / mcb, lri, lri / mlr }' | tee -a "$OUT/summary.md"
   eq=$(for i in 1 2 3; do raylume cornell-128 128x128 "$EQ_SPP" "$CB/scene.json"; done | sort -n | head -1)
   meq=$(mitsuba_cb 128x128 64)
   awk -v r="$r" -v eq="$eq" -v meq="$meq" -v s="$EQ_SPP" 'BEGIN {
