@@ -206,12 +206,6 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
         if (!(DEFER_NEE && sample_here)) {
             emission = emitted(*path, surface, mat, emission_weight);
         }
-        if (DEFER_SHADOW && lq.valid) {
-            // The shadow stage walks the ray, then adds the two terms in the order below
-            // (gpu/wavefront.wgsl parks them, gpu/walk_stage.wgsl `trace_shadows`). The lane
-            // of propagate's workgroup is its queue slot's.
-            stage_shadow(slot % WORKGROUP_SIZE, lq.ray, lq.t_max, throughput_in, light_in, emission);
-        }
         let rnd = path_rand4_at(sp, pixel, sample, depth, DIM_SCATTER);
         let pdf = shade_hit(path, surface, mat, rnd, last);
         (*path).mis_pdf = select(0.0, pdf, sample_here);
@@ -220,7 +214,9 @@ fn trace_ray(path: ptr<function, PathState>, pixel: u32, sample: u32, depth: u32
         }
         if (lq.valid) {
             if (DEFER_SHADOW) {
-                // Parked above for the shadow stage.
+                // The shadow stage walks the ray, then adds the two terms in the order below
+                // (gpu/wavefront.wgsl queues them, gpu/walk_stage.wgsl `trace_shadows`).
+                deferred_shadow = DeferredShadow(lq.ray, lq.t_max, throughput_in, light_in, emission);
                 return true;
             }
             ray = lq.ray;

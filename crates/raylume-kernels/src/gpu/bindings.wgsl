@@ -88,8 +88,7 @@ override HITS_TRACED: bool = false;
 // True in the `propagate` pipeline of the bounces with a walk stage when the render also runs
 // the shadow stage (PathVariant::shadow_stage, NEE): trace_ray takes the light sample and
 // evaluates it, but leaves its shadow ray, with the two terms of the vertex that wait on it,
-// in workgroup memory (`stage_shadow`) for propagate to queue; `trace_shadows` walks them and
-// adds the terms.
+// in `deferred_shadow` for propagate to queue; `trace_shadows` walks them and adds the terms.
 override DEFER_SHADOW: bool = false;
 // The walk stage refills a subgroup's idle lanes once this many wait (or all of them do):
 // crate::walk_stage_refill(), set at pipeline creation (no default here: Rust's is the one).

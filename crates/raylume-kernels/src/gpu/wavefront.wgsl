@@ -136,7 +136,7 @@ fn propagate(
     add_dropped(dropped);
     workgroupBarrier();
     if (shadow) {
-        store_shadow_record(local, wg_shadow_base + shadow_slot, r, live);
+        store_shadow_record(wg_shadow_base + shadow_slot, r, live);
     }
     if (live) {
         let out = wg_base + slot;
@@ -151,40 +151,32 @@ fn propagate(
 
 // The shadow stage (PathVariant::shadow_stage; DEFER_SHADOW in the propagate of the bounces
 // with a walk stage): the light sample trace_ray took, whose shadow ray it left unwalked, and
-// the vertex's two terms that wait on that ray (the light's, then the emission), parked in
-// workgroup memory by trace_ray as soon as they are known (stage_shadow), so that they do not
-// hold 16 registers through the BSDF's sampling, and copied to the shadow queue's record once
-// propagate knows the ray's slot there (store_shadow_record). Four words a lane: the ray's
-// origin and t_max; its direction, the light's term and the throughput at the vertex each with
-// a component of the emission.
-var<workgroup> wg_shadow_stage: array<vec4<u32>, 4u * WORKGROUP_SIZE>;
+// the vertex's two terms that wait on that ray (the light's, then the emission).
+struct DeferredShadow {
+    ray: Ray,
+    t_max: f32,
+    throughput: vec3<f32>,
+    light: vec3<f32>,
+    emission: vec3<f32>,
+}
+
+var<private> deferred_shadow: DeferredShadow;
 var<workgroup> wg_shadows: atomic<u32>;
 var<workgroup> wg_shadow_base: u32;
 
-fn stage_shadow(local: u32, ray: Ray, t_max: f32, throughput: vec3<f32>, light: vec3<f32>, emission: vec3<f32>) {
-    let e = bitcast<vec3<u32>>(emission);
-    wg_shadow_stage[local] = vec4<u32>(bitcast<vec3<u32>>(ray.origin), bitcast<u32>(t_max));
-    wg_shadow_stage[WORKGROUP_SIZE + local] = vec4<u32>(bitcast<vec3<u32>>(ray.dir), e.x);
-    wg_shadow_stage[2u * WORKGROUP_SIZE + local] = vec4<u32>(bitcast<vec3<u32>>(throughput), e.y);
-    wg_shadow_stage[3u * WORKGROUP_SIZE + local] = vec4<u32>(bitcast<vec3<u32>>(light), e.z);
-}
-
-// Lane `local`'s staged shadow ray as the record of shadow queue slot `i`, for path ray `r`,
-// which goes on (`live`) or ended at this vertex (trace_shadows then writes its sample).
-// SHADOW_RECORD_WORDS words in nee_records' structure of arrays (nee_word); the emission's only
-// where it is not zero (SHADOW_HAS_EMISSION in the state word says so).
-fn store_shadow_record(local: u32, i: u32, r: u32, live: bool) {
-    let w0 = wg_shadow_stage[local];
-    let w1 = wg_shadow_stage[WORKGROUP_SIZE + local];
-    let w2 = wg_shadow_stage[2u * WORKGROUP_SIZE + local];
-    let w3 = wg_shadow_stage[3u * WORKGROUP_SIZE + local];
-    let emission = vec3<u32>(w1.w, w2.w, w3.w);
+// deferred_shadow as the record of shadow queue slot `i`, for path ray `r`, which goes on
+// (`live`) or ended at this vertex (trace_shadows then writes its sample). SHADOW_RECORD_WORDS
+// words in nee_records' structure of arrays (nee_word); the emission's only where it is not
+// zero (SHADOW_HAS_EMISSION in the state word says so).
+fn store_shadow_record(i: u32, r: u32, live: bool) {
+    let d = deferred_shadow;
+    let emission = bitcast<vec3<u32>>(d.emission);
     let emits = any(emission != vec3<u32>(0u));
-    nee_records[nee_word(0u, i)] = w0;
-    nee_records[nee_word(1u, i)] = vec4<u32>(w1.xyz, r);
-    nee_records[nee_word(2u, i)] = vec4<u32>(w2.xyz,
+    nee_records[nee_word(0u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.ray.origin), bitcast<u32>(d.t_max));
+    nee_records[nee_word(1u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.ray.dir), r);
+    nee_records[nee_word(2u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.throughput),
         select(NEE_ENDED, NEE_PENDING, live) | select(0u, SHADOW_HAS_EMISSION, emits));
-    nee_records[nee_word(3u, i)] = vec4<u32>(w3.xyz, 0u);
+    nee_records[nee_word(3u, i)] = vec4<u32>(bitcast<vec3<u32>>(d.light), 0u);
     if (emits) {
         nee_records[nee_word(4u, i)] = vec4<u32>(emission, 0u);
     }
