@@ -976,8 +976,9 @@ impl Tracer {
     /// A tracer with the defaults a user expects of a path tracer: next-event estimation with
     /// MIS ([`Estimator::Nee`]), scrambled Sobol' points ([`Sampler::Sobol`]) and Russian
     /// roulette from segment 5; batches of [`Tracer::DEFAULT_BATCH_SPP`] samples per pixel,
-    /// no ray reordering, the persistent schedule. For the paper's estimator set [`Tracer::paper_estimator`] (plain,
-    /// independent numbers, no roulette), as the Table-1 `bench` does.
+    /// no ray reordering, the persistent schedule. For the paper's estimator set
+    /// [`Tracer::paper_estimator`] (plain, independent numbers, no roulette), as the Table-1
+    /// `bench` does.
     pub fn new(backend: Backend) -> Self {
         Self {
             backend,

@@ -74,11 +74,9 @@ fn write_sample(r: u32, radiance: vec3<f32>) -> u32 {
     return select(1u, 0u, ok);
 }
 
-// Adds this thread's counts to the workgroup's, then the workgroup's to the batch's with one
-// atomic each (the ray count as a carry-propagating 64-bit pair). Call from uniform control
-// flow: it contains a barrier.
-// The wavefront's propagate counts its dispatch's rays from one thread (count_traced) and its
-// dropped samples with add_dropped: its kernels need no barrier for the stats.
+// Adds n rays to the batch's count (a carry-propagating 64-bit pair). The wavefront's
+// propagate calls it from one thread per dispatch and counts its dropped samples with
+// add_dropped: its kernels need no barrier for the stats.
 fn count_traced(n: u32) {
     let i = 4u * scene.batch_index;
     if (n > 0u) {
@@ -96,6 +94,9 @@ fn add_dropped(dropped: u32) {
     }
 }
 
+// Adds this thread's counts to the workgroup's, then the workgroup's to the batch's with one
+// atomic each (the ray count as a carry-propagating 64-bit pair). Call from uniform control
+// flow: it contains a barrier.
 fn flush_stats(local: u32, traced: u32, dropped: u32) {
     if (traced > 0u) {
         atomicAdd(&wg_traced, traced);
@@ -105,18 +106,8 @@ fn flush_stats(local: u32, traced: u32, dropped: u32) {
     }
     workgroupBarrier();
     if (local == 0u) {
-        let i = 4u * scene.batch_index;
-        let t = atomicLoad(&wg_traced);
-        if (t > 0u) {
-            let old = atomicAdd(&batch_stats[i], t);
-            if (old > 0xffffffffu - t) {
-                atomicAdd(&batch_stats[i + 1u], 1u);
-            }
-        }
-        let d = atomicLoad(&wg_dropped);
-        if (d > 0u) {
-            atomicAdd(&batch_stats[i + 2u], d);
-        }
+        count_traced(atomicLoad(&wg_traced));
+        add_dropped(atomicLoad(&wg_dropped));
     }
 }
 
