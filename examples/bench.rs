@@ -92,7 +92,8 @@ struct Args {
     /// costs when present but unused.
     #[arg(long, value_delimiter = ',', value_parser = parse_feature)]
     extra_feature: Vec<raylume::Feature>,
-    /// Samples per pixel per batch.
+    /// Samples per pixel per batch (the library's default: 32, fewer where the GPU's buffers
+    /// cannot hold them; the paper used 20).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     batch_spp: Option<u32>,
     /// Estimator: plain (the paper's, the default here) or nee (next-event estimation with

@@ -61,7 +61,8 @@ struct Args {
     /// Random seed.
     #[arg(long)]
     seed: Option<u32>,
-    /// Samples per pixel per batch (default 20, the paper's).
+    /// Samples per pixel per batch (default 32, fewer where the GPU's buffers cannot hold
+    /// them; the paper used 20). The image does not depend on it.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..))]
     batch_spp: Option<u32>,
     /// Ray reordering between bounces: off, on or auto. (`auto` decides over repeated renders
