@@ -92,22 +92,21 @@ fn propagate(
         ray.depth = bounce.depth + 1u;
         ray.alive = select(0u, select(RAY_ALIVE, bitcast<u32>(path.mis_pdf), path.mis_pdf > 0.0), live);
         ray_states[r] = ray;
-        if (live && bounce.sort_next != 0u) {
-            // SORT KEY (raylume-sort's MORTON_WGSL): the paper's 30-bit origin-direction key,
-            // for the sort before the next bounce (none is computed for an unsorted one).
-            key = ray_sort_key(path.origin, path.dir, scene.scene_min, scene.scene_extent);
-        }
-        if (!live) {
-            if (deferred) {
-                // next_event (or, DEFER_SHADOW, trace_shadows) adds the vertex's light sample,
-                // then writes the sample.
-                if (DEFER_NEE) {
-                    set_nee_record_state(t, NEE_ENDED);
-                }
-            } else {
-                // The sample's own slot, not `r`: permute_rays may have moved its state.
-                dropped = write_sample(sample_slot(ray.pixel, ray.sample), path.radiance);
+        if (live) {
+            if (bounce.sort_next != 0u) {
+                // SORT KEY (raylume-sort's MORTON_WGSL): the paper's 30-bit origin-direction
+                // key, for the sort before the next bounce (none for an unsorted one).
+                key = ray_sort_key(path.origin, path.dir, scene.scene_min, scene.scene_extent);
             }
+        } else if (deferred) {
+            // next_event (or, DEFER_SHADOW, trace_shadows) adds the vertex's light sample,
+            // then writes the sample.
+            if (DEFER_NEE) {
+                set_nee_record_state(t, NEE_ENDED);
+            }
+        } else {
+            // The sample's own slot, not `r`: permute_rays may have moved its state.
+            dropped = write_sample(sample_slot(ray.pixel, ray.sample), path.radiance);
         }
     }
     // Compaction: the live rays of this workgroup take consecutive slots of the next queue.
