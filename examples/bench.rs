@@ -394,7 +394,7 @@ const MAX_ROUNDS: u32 = 30;
 
 /// Sets the tracer up to run `config`.
 fn apply(tracer: &mut Tracer, config: &Config) {
-    tracer.schedule = config.schedule;
+    tracer.schedule = Some(config.schedule);
     tracer.reorder = config.reorder;
     if config.reorder == ReorderPolicy::On {
         tracer.reorder_mode = config.mode;

@@ -70,9 +70,11 @@ struct Args {
     /// once, so with `auto` it runs what `off` runs and says so.)
     #[arg(long, default_value = "off")]
     reorder: ReorderPolicy,
-    /// GPU schedule: persistent (the default: bounces in registers, a thread starting the
-    /// next sample when its path ends), megakernel (a thread a sample) or wavefront (the
-    /// paper's kernels).
+    /// GPU schedule: persistent (bounces in registers, a thread starting the next sample when
+    /// its path ends), megakernel (a thread a sample) or wavefront (the paper's kernels).
+    /// Default: chosen per render, the wavefront where its walk stage runs (scenes of 10,000
+    /// primitives or more) and the render traces at least 2^21 pixel samples (2 spp at
+    /// 1000x1000), else persistent; the stats line says which ran.
     #[arg(long)]
     schedule: Option<Schedule>,
     /// BVH node layout: wide (eight children a node, compressed; the default) or binary.
@@ -286,8 +288,8 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
     tracer.russian_roulette = args.rr_depth.0;
     tracer.environment_guide = args.environment_guide.0;
     tracer.target_error = args.target_error;
-    if let Some(s) = args.schedule {
-        tracer.schedule = s;
+    if args.schedule.is_some() {
+        tracer.schedule = args.schedule;
     }
     if let Some(l) = args.bvh {
         tracer.bvh_layout = l;

@@ -34,7 +34,10 @@
 # grid of tools/large made there and rendered from file to a 10-spp PNG by raylume and by
 # Mitsuba, T1_GRID quads a side, default 1224, T1_ROUNDS rounds of a process per BVH builder in
 # T1_BUILDERS (default "auto") and Mitsuba's; `builders` renders the living room at 10 and 100 spp
-# per builder). Results: $OUT/table1.tgz.
+# per builder; `crossing` times the persistent schedule against the wavefront with its stages
+# at T1_CROSSING_SPP on the large scenes, where Tracer::schedule's default switches; `race` the
+# living room from file to a 10-spp PNG with the default schedule, with persistent and by
+# Mitsuba, cold and warm, T1_RACE_ROUNDS rounds). Results: $OUT/table1.tgz.
 set -euo pipefail
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 mode=${1:-}
@@ -357,6 +360,56 @@ print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_tra
           | grep -E '^raylume: trace' | sed "s/^/$b $spp spp, round $k: /"
       done
     done
+  done
+  fi
+  if [[ $parts == *" crossing "* ]]; then
+  # Where the wavefront with its stages overtakes the persistent schedule as the samples grow
+  # (Tracer::schedule's default, WAVEFRONT_MIN_SAMPLES): T1_CROSSING_SPP on the large scenes
+  # (T1_CROSSING_SCENES), 1000x1000, 10 bounces, both estimators.
+  local est
+  for est in plain nee; do
+    echo "== crossing, $est (at $(el) s)"
+    timeout 240 /tmp/bench --backend gpu --spp ${T1_CROSSING_SPP:-1,2,3,4,6,10,100} --repeat 3 \
+      --schedule persistent,wavefront --reorder off --bvh wide --walk-stage on --estimator $est \
+      $([ $est = nee ] && echo --rr-depth 5) --json $R/crossing-$est.json \
+      ${T1_CROSSING_SCENES:-scenes/living-room/scene.json scenes/teapot.toml scenes/glass-teapot.toml} \
+      > $R/crossing-$est.md 2> $R/crossing-$est.log || echo "bench: exit $?"
+    awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/crossing-$est.md
+  done
+  fi
+  if [[ $parts == *" race "* ]]; then
+  # The living room from its file to a 10-spp PNG (its own 1280x720, 64 bounces), raylume with
+  # the library's default schedule and with --schedule persistent, against Mitsuba's load +
+  # first render: T1_RACE_ROUNDS cold rounds (every process fresh cache directories: the
+  # driver's shader cache, Dr.Jit's and OptiX's), then warm ones (a directory per arm, whose
+  # round 0 fills it). raylume: `total` of its stats (device opening and PNG included);
+  # Mitsuba: load_s + first_render_s (its import and PNG not counted).
+  local arm k d
+  race() { # arm, cache directory, tag
+    local d=$2 j=$R/race-$3-$1.json
+    mkdir -p $d
+    local envs="HOME=$d XDG_CACHE_HOME=$d/cache __GL_SHADER_DISK_CACHE_PATH=$d/gl OPTIX_CACHE_PATH=$d/optix CUDA_CACHE_PATH=$d/cuda"
+    case $1 in
+      mitsuba)
+        env $envs PYTHONPATH=$m timeout 100 python3 .gpu/mitsuba_table1.py scenes/living-room $d/mi \
+          --tungsten .gpu/tungsten.py --spp 1 --size 1280x720 --depth 65 > $d/mi.log 2>&1 || true
+        cp $d/mi/living-room-mi-table1.json $j 2>/dev/null || true
+        python3 -c "import json,sys; r=json.load(open('$j')); print('$3 mitsuba: %.3f s (load %.3f, first render %.3f)' % (r['load_s']+r['first_render_s'], r['load_s'], r['first_render_s']))" 2>/dev/null || echo "$3 mitsuba: failed"
+        ;;
+      *)
+        env $envs timeout 60 /tmp/render scenes/living-room/scene.json -o $d/lr.png --backend gpu \
+          --spp 10 $([ $1 = persistent ] && echo --schedule persistent) --stats $j -q > /dev/null 2>&1 || true
+        python3 -c "import json; r=json.load(open('$j')); s=r['seconds']; print('$3 $1: %.3f s (trace %.4f, %s)' % (s['total'], s['trace'], r['schedule']))" 2>/dev/null || echo "$3 $1: failed"
+        ;;
+    esac
+  }
+  echo "== the living room from file to a 10-spp PNG, cold (at $(el) s)"
+  for k in $(seq 1 ${T1_RACE_ROUNDS:-4}); do
+    for arm in default persistent mitsuba; do race $arm /tmp/race-cold-$k-$arm cold-$k; done
+  done
+  echo "== warm (at $(el) s)"
+  for k in $(seq 0 ${T1_RACE_ROUNDS:-4}); do
+    for arm in default persistent mitsuba; do race $arm /tmp/race-warm-$arm warm-$k; done
   done
   fi
 }

@@ -21,7 +21,7 @@ fn scene(file: &str, w: u32, h: u32, spp: u32, bounces: u32) -> Scene {
 
 fn gpu_tracer(schedule: Schedule, reorder: ReorderPolicy, batch_spp: u32) -> Tracer {
     let mut t = Tracer::new(Backend::Gpu);
-    t.schedule = schedule;
+    t.schedule = Some(schedule);
     t.reorder = reorder;
     t.batch_spp = batch_spp;
     t
@@ -37,7 +37,7 @@ fn reorder_on_renders_the_image_off_renders() {
     for file in ["cornell-box.toml", "cornell-plus.toml", "spheres.toml"] {
         let s = scene(file, 24, 16, 5, 6);
         t.reorder = ReorderPolicy::Off;
-        t.schedule = Schedule::Megakernel;
+        t.schedule = Some(Schedule::Megakernel);
         let off = t.render(&s).unwrap();
         assert_eq!(
             (off.stats.reorder.as_str(), off.stats.seconds.sort),
@@ -47,7 +47,7 @@ fn reorder_on_renders_the_image_off_renders() {
             off.stats.depth_seconds.is_empty(),
             "megakernel: no bounces to time"
         );
-        t.schedule = Schedule::Wavefront;
+        t.schedule = Some(Schedule::Wavefront);
         let wf = t.render(&s).unwrap();
         assert_eq!(wf.pixels, off.pixels, "{file}: wavefront");
         t.reorder = ReorderPolicy::On;
@@ -55,7 +55,7 @@ fn reorder_on_renders_the_image_off_renders() {
             (Schedule::Wavefront, ReorderMode::SortIndex),
             (Schedule::Megakernel, ReorderMode::SortPermute),
         ] {
-            t.schedule = schedule;
+            t.schedule = Some(schedule);
             t.reorder_mode = mode;
             let on = t.render(&s).unwrap();
             // Bit-identical: sorting only changes which GPU thread traces which ray; random
@@ -336,7 +336,7 @@ fn a_tracer_reusing_its_gpu_buffers_renders_what_fresh_tracers_render() {
     for (i, &(file, [w, h, spp, batch_spp], schedule, reorder, mode)) in steps.iter().enumerate() {
         let s = scene(file, w, h, spp, 4);
         let setup = |t: &mut Tracer| {
-            t.schedule = schedule;
+            t.schedule = Some(schedule);
             t.reorder = reorder;
             t.reorder_mode = mode;
             t.batch_spp = batch_spp;

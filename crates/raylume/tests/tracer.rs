@@ -788,7 +788,7 @@ fn the_walk_stage_by_default_walks_large_scenes_only() {
         let mut images = Vec::new();
         for setting in [None, Some(false), Some(true)] {
             let mut t = Tracer::new(Backend::Gpu);
-            t.schedule = raylume::Schedule::Wavefront;
+            t.schedule = Some(raylume::Schedule::Wavefront);
             t.walk_stage = setting;
             let r = t.render(scene).unwrap();
             let ran = setting.unwrap_or(by_default);
@@ -809,6 +809,55 @@ fn the_walk_stage_by_default_walks_large_scenes_only() {
     }
 }
 
+/// `Tracer::schedule`'s default (`None`) runs the persistent schedule unless the walk stage
+/// runs and the render traces at least `WAVEFRONT_MIN_SAMPLES` pixel samples; then the
+/// wavefront with its walk stage. The image is the persistent schedule's either way, a set
+/// schedule is kept whatever the work, and the CPU (which has no walk stage) runs the
+/// persistent loop. (The walk stage asked for on the small Cornell box: on lavapipe 2^21
+/// samples of a 10,000-triangle scene would take the test minutes.)
+#[test]
+fn the_default_schedule_is_the_wavefront_for_large_work_with_the_walk_stage() {
+    if raylume_gpu::testing::subgroup_context_or_skip(
+        "the_default_schedule_is_the_wavefront_for_large_work_with_the_walk_stage",
+    )
+    .is_none()
+    {
+        return;
+    }
+    let (w, h) = (16, 16);
+    let spp = (raylume::WAVEFRONT_MIN_SAMPLES / (w * h)) as u32;
+    let mut scene = cornell(w as u32, h as u32, spp);
+    scene.render.max_bounces = 2;
+    let render = |scene: &raylume::Scene, schedule, walk_stage| {
+        let mut t = Tracer::new(Backend::Gpu);
+        t.estimator = raylume::Estimator::Plain;
+        t.schedule = schedule;
+        t.walk_stage = walk_stage;
+        t.render(scene).unwrap()
+    };
+    let chosen = render(&scene, None, Some(true));
+    assert_eq!(chosen.stats.schedule, "wavefront + walk stage");
+    let persistent = render(&scene, Some(raylume::Schedule::Persistent), Some(true));
+    assert_eq!(persistent.stats.schedule, "persistent");
+    assert_eq!(chosen.pixels, persistent.pixels);
+    // No walk stage, or a sample fewer: persistent.
+    assert_eq!(
+        render(&scene, None, Some(false)).stats.schedule,
+        "persistent"
+    );
+    let mut fewer = scene.clone();
+    fewer.render.spp -= 1;
+    assert_eq!(
+        render(&fewer, None, Some(true)).stats.schedule,
+        "persistent"
+    );
+    // The CPU runs the persistent schedule's loop.
+    let mut cpu = Tracer::new(Backend::Cpu);
+    cpu.walk_stage = Some(true);
+    fewer.render.spp = 1;
+    assert_eq!(cpu.render(&fewer).unwrap().stats.schedule, "persistent");
+}
+
 /// `Tracer::shadow_stage` reaches the GPU tracer: asked for with the walk stage and NEE (and
 /// so by default), the render's schedule says the shadow stage ran, and the image is the one
 /// without it.
@@ -826,7 +875,7 @@ fn the_shadow_stage_is_asked_for_through_the_tracer() {
     // `None`: the tracer's default.
     for setting in [Some(false), Some(true), None] {
         let mut t = Tracer::new(Backend::Gpu);
-        t.schedule = raylume::Schedule::Wavefront;
+        t.schedule = Some(raylume::Schedule::Wavefront);
         t.estimator = raylume::Estimator::Nee;
         t.walk_stage = Some(true);
         if let Some(on) = setting {
