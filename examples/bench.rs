@@ -68,7 +68,8 @@ struct Args {
     #[arg(long, default_value = "30", value_delimiter = ',')]
     reorder_bits: Vec<u32>,
     /// Comma-separated schedules `off` is timed with (persistent, megakernel, wavefront);
-    /// the library's default (persistent) when not given.
+    /// persistent when not given (the library's default chooses per render: bench always
+    /// sets one).
     #[arg(long, default_value = "persistent", value_delimiter = ',')]
     schedule: Vec<Schedule>,
     /// Comma-separated BVH layouts every configuration is timed with (wide, binary); the

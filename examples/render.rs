@@ -72,9 +72,10 @@ struct Args {
     reorder: ReorderPolicy,
     /// GPU schedule: persistent (bounces in registers, a thread starting the next sample when
     /// its path ends), megakernel (a thread a sample) or wavefront (the paper's kernels).
-    /// Default: chosen per render, the wavefront where its walk stage runs (scenes of 10,000
-    /// primitives or more) and the render traces at least 2^21 pixel samples (2 spp at
-    /// 1000x1000), else persistent; the stats line says which ran.
+    /// Default: chosen per render, the wavefront with its stages where the walk stage runs
+    /// (scenes of 10,000 primitives or more), the estimator is NEE and the render traces at
+    /// least 2^26 pixel samples (about 64 spp at 1024x1024), else persistent; the stats line
+    /// says which ran.
     #[arg(long)]
     schedule: Option<Schedule>,
     /// BVH node layout: wide (eight children a node, compressed; the default) or binary.

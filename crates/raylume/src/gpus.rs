@@ -64,6 +64,7 @@ impl Tracer {
         w.reorder_mode = self.reorder_mode;
         w.reorder_key_bits = self.reorder_key_bits;
         w.schedule = self.schedule;
+        w.wavefront_min_samples = self.wavefront_min_samples;
         w.next_event_stage = self.next_event_stage;
         w.walk_stage = self.walk_stage;
         w.shadow_stage = self.shadow_stage;

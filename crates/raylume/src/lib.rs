@@ -94,8 +94,7 @@ pub use tracer::{
     BVH_BUILD_THREADS, Backend, BvhBuilder, CPU_FASTEST_BUILD_SECONDS,
     CPU_RAYS_PER_SECOND_PER_THREAD, GPU_BUILD_FIXED_SECONDS, GPU_BUILD_SECONDS,
     GPU_BUILD_TRACE_FACTOR, GPU_RAYS_PER_SECOND, Progress, ROULETTE_TAIL_SEGMENTS, Render,
-    ReorderPolicy, Tracer, WALK_STAGE_MIN_PRIMITIVES, WAVEFRONT_MIN_SAMPLES, default_schedule,
-    prepare_materials,
+    ReorderPolicy, Tracer, WALK_STAGE_MIN_PRIMITIVES, WAVEFRONT_MIN_SAMPLES, prepare_materials,
 };
 
 pub use raylume_bvh::{BvhLayout, BvhQuality};

@@ -127,21 +127,35 @@ pub const ROULETTE_TAIL_SEGMENTS: u32 = 5;
 /// between were not measured.
 pub const WALK_STAGE_MIN_PRIMITIVES: usize = 10_000;
 
-/// The pixel samples (width x height x samples per pixel) from which a GPU render whose
+/// The default of [`Tracer::wavefront_min_samples`]: the pixel samples (width x height x
+/// samples per pixel) from which a GPU render with next-event estimation whose
 /// [`Tracer::schedule`] is not set runs the wavefront, where its walk stage runs, rather than
-/// the persistent schedule. The wavefront launches its stages once per bounce of each batch,
-/// a fixed cost the persistent schedule does not pay; its walk stage makes each sample
-/// cheaper on a large scene. On the H200 (living room, 1000x1000, 10 bounces) the persistent
-/// schedule was faster at 1 spp (NEE 0.0071 against 0.0081 s, plain 0.0074 against 0.0075)
-/// and the wavefront with its stages at 100 (NEE 0.416 against 0.289 s, plain 0.459 against
-/// 0.378): the costs per sample and per render put the crossing near 2 spp there.
-pub const WAVEFRONT_MIN_SAMPLES: u64 = 1 << 21;
+/// the persistent schedule: 2^26, about 64 spp at 1024x1024. On the H200 (1000x1000, 10
+/// bounces, NEE with roulette from 5, the shadow stage on) the wavefront with its stages took
+/// the living room's 100 spp in 0.289 s against the persistent schedule's 0.416 (eaf8e01, one
+/// call), the teapot's in 0.081-0.082 s (eaf8e01) against the persistent schedule's
+/// 0.085-0.086 (c44418f, ba630c5: other calls); at 1 spp the persistent schedule was faster
+/// (living room 0.0071 against 0.0081 s; the teapot, plain, 0.0010 against 0.0025-0.0031):
+/// the wavefront launches its stages at every bounce of every batch, a cost per batch the
+/// persistent schedule does not pay. A straight line through those ends puts the living
+/// room's crossing near 2 spp and the teapot's near 64. Renders below it (the living room's
+/// 10-spp first image, whose race against Mitsuba was measured with the persistent schedule,
+/// among them) keep the persistent schedule. Plain paths keep it whatever the work: the
+/// teapot's 100 spp took 0.0585 s persistent against 0.0708 with the walk stage (the living
+/// room's 0.460 against 0.384): the stages pay most where they take the shadow rays' walks
+/// too. `tools/table1/table1.sh`'s parts `crossing` and `race` measure both choices.
+pub const WAVEFRONT_MIN_SAMPLES: u64 = 1 << 26;
 
 /// The schedule of a GPU render whose [`Tracer::schedule`] is not set: the wavefront when
-/// its walk stage runs (`walk_stage_runs`) and the render traces at least
-/// [`WAVEFRONT_MIN_SAMPLES`] pixel samples, else the persistent schedule.
-pub fn default_schedule(walk_stage_runs: bool, pixel_samples: u64) -> Schedule {
-    if walk_stage_runs && pixel_samples >= WAVEFRONT_MIN_SAMPLES {
+/// its walk stage runs (`walk_stage_runs`), the estimator samples the lights and the render
+/// traces at least `min_samples` pixel samples, else the persistent schedule.
+fn default_schedule(
+    walk_stage_runs: bool,
+    estimator: Estimator,
+    pixel_samples: u64,
+    min_samples: u64,
+) -> Schedule {
+    if walk_stage_runs && estimator == Estimator::Nee && pixel_samples >= min_samples {
         Schedule::Wavefront
     } else {
         Schedule::Persistent
@@ -479,10 +493,16 @@ pub struct Tracer {
     /// [`Schedule::Wavefront`] (the paper's kernels, one per bounce). `None` (the default):
     /// chosen per render, the wavefront where its walk stage runs ([`Tracer::walk_stage`]: by
     /// default scenes of at least [`WALK_STAGE_MIN_PRIMITIVES`] primitives, over the wide BVH
-    /// on an adapter with subgroups) and the render traces at least [`WAVEFRONT_MIN_SAMPLES`]
-    /// pixel samples, else the persistent schedule; [`RenderStats::schedule`] says which ran.
-    /// The CPU runs the persistent schedule's loop whatever this says.
+    /// on an adapter with subgroups), the estimator is [`Estimator::Nee`] and the render
+    /// traces at least [`Tracer::wavefront_min_samples`] pixel samples, else the persistent
+    /// schedule; [`crate::RenderStats::schedule`] says which ran. The CPU runs the persistent
+    /// schedule's loop whatever this says.
     pub schedule: Option<Schedule>,
+    /// The pixel samples (width x height x samples per pixel of the render, or of its
+    /// [`Tracer::samples`]) from which an unset [`Tracer::schedule`] may choose the wavefront
+    /// (default [`WAVEFRONT_MIN_SAMPLES`], measured on the H200; another GPU's crossing may lie
+    /// elsewhere).
+    pub wavefront_min_samples: u64,
     /// Whether the wavefront takes its light samples (NEE) in a `next_event` stage of their
     /// own after each bounce's `propagate`, two pipelines the driver compiles side by side
     /// (default: off). It can shorten a cold process's wait for its pipelines (the living
@@ -918,6 +938,7 @@ impl std::fmt::Debug for Tracer {
             .field("reorder_mode", &self.reorder_mode)
             .field("reorder_key_bits", &self.reorder_key_bits)
             .field("schedule", &self.schedule)
+            .field("wavefront_min_samples", &self.wavefront_min_samples)
             .field("estimator", &self.estimator)
             .field("sampler", &self.sampler)
             .field("next_event_stage", &self.next_event_stage)
@@ -1001,9 +1022,9 @@ impl Tracer {
     /// A tracer with the defaults a user expects of a path tracer: next-event estimation with
     /// MIS ([`Estimator::Nee`]), scrambled Sobol' points ([`Sampler::Sobol`]) and Russian
     /// roulette from segment 5; batches of [`Tracer::DEFAULT_BATCH_SPP`] samples per pixel,
-    /// no ray reordering, the persistent schedule. For the paper's estimator set
-    /// [`Tracer::paper_estimator`] (plain, independent numbers, no roulette), as the Table-1
-    /// `bench` does.
+    /// no ray reordering, the GPU schedule chosen per render ([`Tracer::schedule`]). For the
+    /// paper's estimator set [`Tracer::paper_estimator`] (plain, independent numbers, no
+    /// roulette), as the Table-1 `bench` does.
     pub fn new(backend: Backend) -> Self {
         Self {
             backend,
@@ -1013,6 +1034,7 @@ impl Tracer {
             reorder_mode: ReorderMode::SortIndex,
             reorder_key_bits: raylume_sort::RAY_KEY_BITS,
             schedule: None,
+            wavefront_min_samples: WAVEFRONT_MIN_SAMPLES,
             next_event_stage: false,
             walk_stage: None,
             shadow_stage: true,
@@ -1209,9 +1231,9 @@ impl Tracer {
     }
 
     /// The GPU schedule a render of `scene` over a tree of `layout` runs (before the reorder
-    /// policy): [`Tracer::schedule`] as set, else [`default_schedule`]'s choice, the walk
-    /// stage running where [`Tracer::walk_stage_for`] asks for it over the wide tree on an
-    /// adapter with `subgroups`.
+    /// policy): [`Tracer::schedule`] as set, else `default_schedule`'s choice, the walk stage
+    /// running where [`Tracer::walk_stage_for`] asks for it over the wide tree on an adapter
+    /// with `subgroups`.
     fn schedule_for(&self, scene: &Scene, layout: BvhLayout, subgroups: bool) -> Schedule {
         self.schedule.unwrap_or_else(|| {
             let r = scene.render;
@@ -1220,7 +1242,9 @@ impl Tracer {
                 .map_or(r.spp, |s| s.end.saturating_sub(s.begin));
             default_schedule(
                 self.walk_stage_for(scene) && layout == BvhLayout::Wide && subgroups,
+                self.estimator,
                 u64::from(r.width) * u64::from(r.height) * u64::from(spp),
+                self.wavefront_min_samples,
             )
         })
     }

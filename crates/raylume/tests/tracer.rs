@@ -810,50 +810,64 @@ fn the_walk_stage_by_default_walks_large_scenes_only() {
 }
 
 /// `Tracer::schedule`'s default (`None`) runs the persistent schedule unless the walk stage
-/// runs and the render traces at least `WAVEFRONT_MIN_SAMPLES` pixel samples; then the
-/// wavefront with its walk stage. The image is the persistent schedule's either way, a set
-/// schedule is kept whatever the work, and the CPU (which has no walk stage) runs the
-/// persistent loop. (The walk stage asked for on the small Cornell box: on lavapipe 2^21
-/// samples of a 10,000-triangle scene would take the test minutes.)
+/// runs, the estimator is NEE and the render traces at least `Tracer::wavefront_min_samples`
+/// pixel samples; then the wavefront with its stages. The image is the persistent schedule's
+/// either way, a set schedule is kept whatever the work, and the CPU (which has no walk
+/// stage) runs the persistent loop. (The walk stage is asked for on the small Cornell box and
+/// the threshold lowered to 2^20 samples: on lavapipe `WAVEFRONT_MIN_SAMPLES` samples of a
+/// 10,000-triangle scene would take the test many minutes.)
 #[test]
-fn the_default_schedule_is_the_wavefront_for_large_work_with_the_walk_stage() {
+fn the_default_schedule_is_the_wavefront_for_large_nee_work_with_the_walk_stage() {
     if raylume_gpu::testing::subgroup_context_or_skip(
-        "the_default_schedule_is_the_wavefront_for_large_work_with_the_walk_stage",
+        "the_default_schedule_is_the_wavefront_for_large_nee_work_with_the_walk_stage",
     )
     .is_none()
     {
         return;
     }
-    let (w, h) = (16, 16);
-    let spp = (raylume::WAVEFRONT_MIN_SAMPLES / (w * h)) as u32;
-    let mut scene = cornell(w as u32, h as u32, spp);
+    let (w, h, min_samples) = (16u32, 16u32, 1u64 << 20);
+    let spp = (min_samples / u64::from(w * h)) as u32;
+    let mut scene = cornell(w, h, spp);
     scene.render.max_bounces = 2;
-    let render = |scene: &raylume::Scene, schedule, walk_stage| {
+    let render = |scene: &raylume::Scene, schedule, walk_stage, estimator| {
         let mut t = Tracer::new(Backend::Gpu);
-        t.estimator = raylume::Estimator::Plain;
+        assert_eq!(t.schedule, None);
+        assert_eq!(t.wavefront_min_samples, raylume::WAVEFRONT_MIN_SAMPLES);
+        t.wavefront_min_samples = min_samples;
+        t.estimator = estimator;
         t.schedule = schedule;
         t.walk_stage = walk_stage;
         t.render(scene).unwrap()
     };
-    let chosen = render(&scene, None, Some(true));
-    assert_eq!(chosen.stats.schedule, "wavefront + walk stage");
-    let persistent = render(&scene, Some(raylume::Schedule::Persistent), Some(true));
+    let nee = raylume::Estimator::Nee;
+    let chosen = render(&scene, None, Some(true), nee);
+    assert_eq!(
+        chosen.stats.schedule,
+        "wavefront + walk stage + shadow stage"
+    );
+    let persistent = render(&scene, Some(raylume::Schedule::Persistent), Some(true), nee);
     assert_eq!(persistent.stats.schedule, "persistent");
     assert_eq!(chosen.pixels, persistent.pixels);
-    // No walk stage, or a sample fewer: persistent.
+    // No walk stage, plain paths, or a sample fewer: persistent.
+    let plain = raylume::Estimator::Plain;
     assert_eq!(
-        render(&scene, None, Some(false)).stats.schedule,
+        render(&scene, None, Some(false), nee).stats.schedule,
+        "persistent"
+    );
+    assert_eq!(
+        render(&scene, None, Some(true), plain).stats.schedule,
         "persistent"
     );
     let mut fewer = scene.clone();
     fewer.render.spp -= 1;
     assert_eq!(
-        render(&fewer, None, Some(true)).stats.schedule,
+        render(&fewer, None, Some(true), nee).stats.schedule,
         "persistent"
     );
     // The CPU runs the persistent schedule's loop.
     let mut cpu = Tracer::new(Backend::Cpu);
     cpu.walk_stage = Some(true);
+    cpu.wavefront_min_samples = 1;
     fewer.render.spp = 1;
     assert_eq!(cpu.render(&fewer).unwrap().stats.schedule, "persistent");
 }
