@@ -7,7 +7,9 @@
 #
 # Needs Mitsuba 3 for Python (`PYVER=3.11 ../shared/peers/mitsuba/pack.sh .mitsuba-local`,
 # extracted to $MITSUBA, default /tmp/mitsuba) and libLLVM ($DRJIT_LIBLLVM_PATH, default
-# Debian 12's libllvm19). Settings: SIZE (1000x1000), SPP (10), ROUNDS (2); 10 bounces
+# Debian 12's libllvm19). Settings: SIZE (1000x1000), SPP (10), ROUNDS (2), TARGET_CPU (unset:
+# the default target, what a dependent's release build gets; `native`: raylume built with
+# `-C target-cpu=native`, as Mitsuba's JIT compiles for the host); 10 bounces
 # (Mitsuba's max_depth 11). Each round then times the issue's equal-error criterion:
 # Bitterli's Cornell box at 128x128, raylume at EQ_SPP (69: the spp at which its error reaches
 # Mitsuba's 64-spp error, docs/RESULTS.md's issue 15 section, the 007f8c0 study), best of 3,
@@ -36,11 +38,19 @@ LR=scenes/living-room
 PY=${PYTHON:-/usr/bin/python3}
 mkdir -p "$OUT"
 [ -d "$MITSUBA/mitsuba" ] || { echo "cpu_vs_mitsuba: no Mitsuba at $MITSUBA (see the header)" >&2; exit 2; }
-cargo build --release --example render -q
-R=target/release/examples/render
+if [ -n "${TARGET_CPU:-}" ]; then
+  # raylume built for TARGET_CPU (e.g. native: Mitsuba's LLVM JIT compiles for the host's),
+  # in a target directory of its own; the release build's flags are the crate's dependents'.
+  CARGO_TARGET_DIR=target/cpu-$TARGET_CPU RUSTFLAGS="-C target-cpu=$TARGET_CPU" \
+    cargo build --release --example render -q
+  R=target/cpu-$TARGET_CPU/release/examples/render
+else
+  cargo build --release --example render -q
+  R=target/release/examples/render
+fi
 echo "# $(date -u +%FT%TZ) commit $(git rev-parse --short HEAD)$(git diff --quiet || echo '+dirty')," \
   "$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(nproc) CPUs;" \
-  "$SIZE, $SPP spp, 10 bounces" | tee "$OUT/summary.md"
+  "$SIZE, $SPP spp, 10 bounces; raylume built for ${TARGET_CPU:-the default target (x86-64)}" | tee "$OUT/summary.md"
 
 # raylume's trace seconds of one render (its closing line): NAME SIZE SPP ARGS...
 raylume() {
