@@ -2387,3 +2387,41 @@ fn schedules_run(out: &TraceStats) -> String {
         many => format!("{} (auto trials)", many.join(" + ")),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `default_schedule` turns to the wavefront only with all three: the walk stage, NEE and
+    /// at least `min_samples` pixel samples (the GPU test of the same rule needs an adapter
+    /// with subgroups; this one runs everywhere).
+    #[test]
+    fn the_default_schedule_needs_the_walk_stage_nee_and_the_samples() {
+        let (nee, plain) = (Estimator::Nee, Estimator::Plain);
+        let min = WAVEFRONT_MIN_SAMPLES;
+        assert_eq!(default_schedule(true, nee, min, min), Schedule::Wavefront);
+        assert_eq!(
+            default_schedule(true, nee, u64::MAX, min),
+            Schedule::Wavefront
+        );
+        assert_eq!(
+            default_schedule(true, nee, min - 1, min),
+            Schedule::Persistent
+        );
+        assert_eq!(default_schedule(false, nee, min, min), Schedule::Persistent);
+        assert_eq!(
+            default_schedule(true, plain, min, min),
+            Schedule::Persistent
+        );
+        // The living room at 100 spp on the H200's Table 1 size turns; its 10-spp first image
+        // (1280x720) does not.
+        assert_eq!(
+            default_schedule(true, nee, 1000 * 1000 * 100, min),
+            Schedule::Wavefront
+        );
+        assert_eq!(
+            default_schedule(true, nee, 1280 * 720 * 10, min),
+            Schedule::Persistent
+        );
+    }
+}
