@@ -289,9 +289,7 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
     tracer.russian_roulette = args.rr_depth.0;
     tracer.environment_guide = args.environment_guide.0;
     tracer.target_error = args.target_error;
-    if args.schedule.is_some() {
-        tracer.schedule = args.schedule;
-    }
+    tracer.schedule = args.schedule;
     if let Some(l) = args.bvh {
         tracer.bvh_layout = l;
     }
