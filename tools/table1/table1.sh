@@ -384,7 +384,7 @@ print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_tra
   # driver's shader cache, Dr.Jit's and OptiX's), then warm ones (a directory per arm, whose
   # round 0 fills it). raylume: `total` of its stats (device opening and PNG included);
   # Mitsuba: load_s + first_render_s (its import and PNG not counted).
-  local arm k d
+  local arm k
   race() { # arm, cache directory, tag
     local d=$2 j=$R/race-$3-$1.json
     mkdir -p $d
