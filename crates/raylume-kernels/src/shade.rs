@@ -302,6 +302,29 @@ pub fn trace_ray<const F: u32>(
     sample: u32,
     depth: u32,
 ) {
+    trace_ray_at::<F>(
+        g,
+        bvh,
+        path,
+        pixel,
+        sampler_pixel(g.scene, pixel),
+        sample,
+        depth,
+    );
+}
+
+/// [`trace_ray`] with the pixel's [`sampler_pixel`] given (the CPU's path loop computes it
+/// once a path, not once a segment).
+#[inline]
+pub fn trace_ray_at<const F: u32>(
+    g: &Globals,
+    bvh: &GpuBvh,
+    path: &mut PathState,
+    pixel: u32,
+    sp: SobolPixel,
+    sample: u32,
+    depth: u32,
+) {
     let ray = Ray {
         origin: path.origin,
         dir: path.dir,
@@ -313,18 +336,36 @@ pub fn trace_ray<const F: u32>(
     // keeps them out of the registers the walk needs. The light's only where a hit could
     // sample the lights (not in a plain render, whose `light_count` is 0, nor at the last
     // segment); it and the roulette's are wasted when the ray escapes or the hit's material
-    // does not sample the lights.
-    let sp = sampler_pixel(g.scene, pixel);
-    let rnd_light = if g.scene.light_count > 0 && depth < g.scene.max_bounces {
-        path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT)
-    } else {
-        Vec4::ZERO
-    };
-    let rnd_scatter = path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_SCATTER);
-    let rnd_roulette = if depth >= g.scene.rr_depth {
-        path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_ROULETTE).x
-    } else {
-        0.0
+    // does not sample the lights. With the `Sobol` sampler the three groups are drawn at once
+    // from the render's table of their hashes (`Globals::sobol_segments`; the same numbers,
+    // eight lanes at a time, with `sampler_pixel` once a path in `trace_path`: the Cornell
+    // box 10-12 % faster, the living room 2-5 %, `docs/RESULTS.md`, issue 15).
+    let wants_light = g.scene.light_count > 0 && depth < g.scene.max_bounces;
+    let wants_roulette = depth >= g.scene.rr_depth;
+    let (rnd_light, rnd_scatter, rnd_roulette) = match g.sobol_segments.get(depth as usize) {
+        // The `Sobol` sampler's three groups at once, their hashes from the render's table
+        // (the same numbers: `SegmentKeys::draw`).
+        Some(keys) if keys.seed == sp.seed && g.scene.sampler == SAMPLER_SOBOL => {
+            let (light, scatter, roulette) = keys.draw(sp, sample);
+            (
+                if wants_light { light } else { Vec4::ZERO },
+                scatter,
+                if wants_roulette { roulette } else { 0.0 },
+            )
+        }
+        _ => (
+            if wants_light {
+                path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT)
+            } else {
+                Vec4::ZERO
+            },
+            path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_SCATTER),
+            if wants_roulette {
+                path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_ROULETTE).x
+            } else {
+                0.0
+            },
+        ),
     };
     let Some(hit) = trace_closest::<F>(bvh, &ray, 0.0, T_MAX) else {
         // Escaped from a vertex that sampled the lights, the environment among them: weigh

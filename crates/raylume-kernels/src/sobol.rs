@@ -467,6 +467,142 @@ pub fn sobol2_of(
     sobol2_at(shuffled, sobol_pixel(seed, pixel, spp), sample, dim)
 }
 
+/// [`fast_owen`] without its two bit reversals: `fast_owen(v, seed) ==
+/// owen_body(v.reverse_bits(), seed, (seed >> 16) | 1).reverse_bits()`, so that a reversal
+/// that another cancels can be left out ([`SegmentKeys`]).
+#[inline(always)]
+fn owen_body(v: u32, seed: u32, mul: u32) -> u32 {
+    let mut v = v;
+    v ^= v.wrapping_mul(0x3d20_adea);
+    v = v.wrapping_add(seed);
+    v = v.wrapping_mul(mul);
+    v ^= v.wrapping_mul(0x0552_6c56);
+    v ^= v.wrapping_mul(0x53a2_2864);
+    v
+}
+
+/// [`sobol_dim1`] without its final bit reversal (the prefix XOR of the index's bits).
+#[inline(always)]
+fn sobol_dim1_unreversed(a: u32) -> u32 {
+    let mut y = a;
+    y ^= (y >> 1) & 0x5555_5555;
+    y ^= (y >> 2) & 0x3333_3333;
+    y ^= (y >> 4) & 0x0f0f_0f0f;
+    y ^= (y >> 8) & 0x00ff_00ff;
+    y ^= (y >> 16) & 0x0000_ffff;
+    y
+}
+
+/// The hashes of the three pair groups a path segment draws from with the `Sobol` sampler
+/// (the light's four numbers, the scattered direction's four, the roulette's first) for one
+/// seed and segment: what [`sobol_scrambles`] and [`sobol_keys`] give for each group, laid out
+/// as the lanes of [`SegmentKeys::draw`] (the same for every path of a render, so the CPU
+/// computes them once per segment number).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(C, align(32))]
+pub struct SegmentKeys {
+    /// The index keys, lanes: light pair 0, light pair 1, scatter pair 0, scatter pair 1,
+    /// roulette pair 0, then repeats of it.
+    keys: [u32; 8],
+    /// Each key's `(key >> 16) | 1`.
+    key_muls: [u32; 8],
+    /// The Owen seeds, lanes: the light's x, y, z, w, the scattered direction's x, y, z, w.
+    scrambles: [u32; 8],
+    /// Each seed's `(seed >> 16) | 1`.
+    scramble_muls: [u32; 8],
+    /// The roulette's x seed and its multiplier.
+    roulette: [u32; 2],
+    /// The seed these were hashed under.
+    pub seed: u32,
+}
+
+impl SegmentKeys {
+    /// The keys of segment `bounce`'s groups `DIM_LIGHT`, `DIM_SCATTER` and `DIM_ROULETTE`
+    /// under `seed` (a [`SobolPixel`]'s).
+    pub fn new(seed: u32, bounce: u32) -> Self {
+        use crate::gpu_types::{DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE};
+        let group = |dim: u32| {
+            let s = sobol_scrambles(seed, bounce * DIMS_PER_BOUNCE + dim);
+            (s, sobol_keys(s))
+        };
+        let (light, scatter, roulette) =
+            (group(DIM_LIGHT), group(DIM_SCATTER), group(DIM_ROULETTE));
+        let keys = [
+            light.1[0],
+            light.1[1],
+            scatter.1[0],
+            scatter.1[1],
+            roulette.1[0],
+            roulette.1[0],
+            roulette.1[0],
+            roulette.1[0],
+        ];
+        let scrambles = [
+            light.0[0],
+            light.0[1],
+            light.0[2],
+            light.0[3],
+            scatter.0[0],
+            scatter.0[1],
+            scatter.0[2],
+            scatter.0[3],
+        ];
+        let mul = |k: u32| (k >> 16) | 1;
+        Self {
+            keys,
+            key_muls: keys.map(mul),
+            scrambles,
+            scramble_muls: scrambles.map(mul),
+            roulette: [roulette.0[0], mul(roulette.0[0])],
+            seed,
+        }
+    }
+
+    /// The segment's numbers at pixel `p`, `sample` (`p.seed` must be [`SegmentKeys::seed`]):
+    /// [`sobol4_at`]`(true, ..)` of its light and scatter groups and the `x` of
+    /// [`sobol2_at`]`(true, ..)` of its roulette group, bit for bit, as eight-lane loops
+    /// (the index hashes, then the scrambles) with the reversals that cancel left out.
+    #[inline(always)]
+    pub fn draw(&self, p: SobolPixel, sample: u32) -> (Vec4, Vec4, f32) {
+        debug_assert_eq!(p.seed, self.seed);
+        let m = p.morton | zsobol_sample_bits(sample, p.log2_spp);
+        let rm = m.reverse_bits();
+        // shuffled_sample_index(m, key) for the five keys.
+        let index: [u32; 8] =
+            std::array::from_fn(|j| owen_body(rm, self.keys[j], self.key_muls[j]).reverse_bits());
+        let pre: [u32; 4] = std::array::from_fn(|j| sobol_dim1_unreversed(index[j]));
+        // fast_owen(index.reverse_bits(), sx) and fast_owen(sobol_dim1(index), sy).
+        let points = [
+            index[0], pre[0], index[1], pre[1], index[2], pre[2], index[3], pre[3],
+        ];
+        let bits: [u32; 8] = std::array::from_fn(|j| {
+            owen_body(points[j], self.scrambles[j], self.scramble_muls[j]).reverse_bits()
+        });
+        let r = owen_body(index[4], self.roulette[0], self.roulette[1]).reverse_bits();
+        let f = |x: u32| rand_f32(x).min(SOBOL_ONE_MINUS_EPSILON);
+        let v: [f32; 8] = std::array::from_fn(|j| f(bits[j]));
+        (
+            Vec4::new(v[0], v[1], v[2], v[3]),
+            Vec4::new(v[4], v[5], v[6], v[7]),
+            f(r),
+        )
+    }
+}
+
+/// Segments whose [`SegmentKeys`] [`segment_keys`] makes at most (160 KiB): paths that go on
+/// past them hash their groups as they draw.
+pub const SEGMENT_KEYS_MAX: u32 = 1024;
+
+/// The [`SegmentKeys`] of segments `0..=scene.max_bounces` (at most [`SEGMENT_KEYS_MAX`]) for
+/// `scene.seed` when `scene` draws from the `Sobol` sampler; empty for the others.
+pub fn segment_keys(scene: &crate::gpu_types::SceneUniforms) -> Vec<SegmentKeys> {
+    if scene.sampler != crate::gpu_types::SAMPLER_SOBOL {
+        return Vec::new();
+    }
+    let n = scene.max_bounces.saturating_add(1).min(SEGMENT_KEYS_MAX);
+    (0..n).map(|b| SegmentKeys::new(scene.seed, b)).collect()
+}
+
 /// The WGSL source of the functions above (it uses `pcg4d` and `rand_f32` from `rng.wgsl`).
 pub const SOBOL_WGSL: &str = include_str!("sobol.wgsl");
 
@@ -958,6 +1094,53 @@ mod tests {
                                 want.to_array().map(f32::to_bits),
                                 "seed {seed} spp {spp} pixel {pixel:?} sample {sample} dim {dim}"
                             );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// A segment's three groups drawn at once from its `SegmentKeys` are the numbers the
+    /// tracer draws one group at a time (`sobol4_at` of the light's and the scattered
+    /// direction's groups, the `x` of `sobol2_at` of the roulette's), bit for bit: pixels of
+    /// the sampler's tiles included (each with its own seed's keys), spp odd and even, deep
+    /// segments.
+    #[test]
+    fn segment_keys_draw_the_groups_the_tracer_draws() {
+        use crate::gpu_types::{DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE};
+        for seed in [0u32, 1, 0xdead_beef] {
+            for spp in [1u32, 3, 16, 1000, 1 << 20] {
+                for pixel in [
+                    (0, 0),
+                    (1, 0),
+                    (17, 5),
+                    (999, 637),
+                    (4095, 4095),
+                    (70_000, 3),
+                ] {
+                    let p = sobol_pixel(seed, UVec2::new(pixel.0, pixel.1), spp);
+                    for bounce in [0u32, 1, 4, 9, 63, SEGMENT_KEYS_MAX] {
+                        let keys = SegmentKeys::new(p.seed, bounce);
+                        let group = |dim| bounce * DIMS_PER_BOUNCE + dim;
+                        for sample in (0..spp).step_by(1 + spp as usize / 7) {
+                            let (light, scatter, roulette) = keys.draw(p, sample);
+                            let bits = |v: Vec4| v.to_array().map(f32::to_bits);
+                            let at = format!(
+                                "seed {seed} spp {spp} pixel {pixel:?} segment {bounce} sample {sample}"
+                            );
+                            assert_eq!(
+                                bits(light),
+                                bits(sobol4_at(true, p, sample, group(DIM_LIGHT))),
+                                "{at}"
+                            );
+                            assert_eq!(
+                                bits(scatter),
+                                bits(sobol4_at(true, p, sample, group(DIM_SCATTER))),
+                                "{at}"
+                            );
+                            let want = sobol2_at(true, p, sample, group(DIM_ROULETTE)).x;
+                            assert_eq!(roulette.to_bits(), want.to_bits(), "{at}");
                         }
                     }
                 }

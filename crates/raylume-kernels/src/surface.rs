@@ -49,6 +49,11 @@ pub struct Globals<'a> {
     pub lights: &'a [GpuLight],
     /// Rough plastics' coat tables, indexed by `GpuMaterial::table`.
     pub plastic_tables: &'a [RoughPlasticTable],
+    /// The `Sobol` sampler's hashes of each segment's pair groups for `scene.seed`, by segment
+    /// number ([`segment_keys`](crate::sobol::segment_keys); the CPU's alone: the WGSL hashes
+    /// them where it draws). May be shorter than the paths or empty: segments past its end,
+    /// and pixels of the sampler's tiles with seeds of their own, hash as they draw.
+    pub sobol_segments: &'a [crate::sobol::SegmentKeys],
 }
 
 /// The surface a ray hit.
@@ -524,6 +529,7 @@ mod tests {
             texels: &texels,
             lights: &[],
             plastic_tables: &[],
+            sobol_segments: &[],
         };
         let (w, h) = (scene.environment_width, scene.environment_height);
         // 1. Texel frequencies: n = 256² stratified samples; each texel's count is binomial
@@ -695,6 +701,7 @@ mod tests {
                 texels: &[],
                 lights: &[],
                 plastic_tables: &[],
+                sobol_segments: &[],
             };
             // A ray from outside at a random point of the primitive.
             let (a, b, c) = (
@@ -788,6 +795,7 @@ mod tests {
                 texels: &[],
                 lights: &[],
                 plastic_tables: &[],
+                sobol_segments: &[],
             };
             let closest = |ray: &Ray| {
                 let sr = shear_ray(ray);

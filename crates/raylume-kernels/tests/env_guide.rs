@@ -63,6 +63,7 @@ fn globals<'a>(
         texels: &data.texels,
         lights: &data.lights,
         plastic_tables: &data.plastic_tables,
+        sobol_segments: &[],
     }
 }
 

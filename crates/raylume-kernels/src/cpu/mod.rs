@@ -141,7 +141,11 @@ impl CpuTracer {
         })
     }
 
-    fn globals<'a>(&'a self, scene: &'a SceneUniforms) -> Globals<'a> {
+    fn globals<'a>(
+        &'a self,
+        scene: &'a SceneUniforms,
+        sobol_segments: &'a [crate::sobol::SegmentKeys],
+    ) -> Globals<'a> {
         Globals {
             scene,
             primitives: &self.bvh.primitives,
@@ -152,6 +156,7 @@ impl CpuTracer {
             texels: &self.data.texels,
             lights: &self.data.lights,
             plastic_tables: &self.data.plastic_tables,
+            sobol_segments,
         }
     }
 
@@ -173,7 +178,8 @@ impl CpuTracer {
             }
         }
         let scene = self.data.uniforms_with(settings, &self.choices);
-        let g = self.globals(&scene);
+        let keys = crate::sobol::segment_keys(&scene);
+        let g = self.globals(&scene, &keys);
         run_variant(
             self.variant,
             OnePath {
@@ -234,6 +240,7 @@ impl CpuTracer {
         }
         let (mut round, mut spp_done) = (0u32, settings.spp);
         let base = self.data.uniforms_with(settings, &self.choices);
+        let keys = crate::sobol::segment_keys(&base);
         let mut image = vec![[0.0f32; 3]; pixels as usize];
         let mut slots: Vec<[f32; 3]> = Vec::new();
         let mut states: Vec<RayState> = Vec::new();
@@ -246,7 +253,7 @@ impl CpuTracer {
             if hook.is_some() {
                 scene.resolve_scale = 1.0; // sums until the hook stops; divided below
             }
-            let g = self.globals(&scene);
+            let g = self.globals(&scene, &keys);
             let bvh = &self.bvh;
             let n = b.rays() as usize;
             slots.clear();

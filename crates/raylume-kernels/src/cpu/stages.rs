@@ -8,7 +8,7 @@ use crate::camera::generate_camera_ray;
 use crate::gpu_types::{DIM_CAMERA, PIXEL_TILE_HEIGHT, PIXEL_TILE_WIDTH, RayState, SceneUniforms};
 use crate::math::sample_is_valid;
 use crate::shade::path_rand4;
-use crate::shade::{PathState, trace_ray};
+use crate::shade::{PathState, sampler_pixel, trace_ray, trace_ray_at};
 use crate::surface::Globals;
 
 /// (pixel, sample) of ray `r` of the batch; consecutive rays are consecutive pixels.
@@ -113,8 +113,9 @@ pub fn trace_path<const F: u32>(g: &Globals, bvh: &GpuBvh, pixel: u32, sample: u
     let mut path = camera_path(scene, pixel, sample);
     let mut traced = 0;
     let mut depth = 0;
+    let sp = sampler_pixel(scene, pixel);
     while depth <= scene.max_bounces && path.alive {
-        trace_ray::<F>(g, bvh, &mut path, pixel, sample, depth);
+        trace_ray_at::<F>(g, bvh, &mut path, pixel, sp, sample, depth);
         traced += 1;
         depth += 1;
     }
