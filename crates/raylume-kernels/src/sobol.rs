@@ -216,26 +216,14 @@ pub fn zsobol_sample_index(m: u32, log2_spp: u32, key: u32) -> u32 {
 /// steps instead of up to 32.
 #[inline]
 pub fn sobol_dim1(a: u32) -> u32 {
-    let mut y = a;
-    y ^= (y >> 1) & 0x5555_5555;
-    y ^= (y >> 2) & 0x3333_3333;
-    y ^= (y >> 4) & 0x0f0f_0f0f;
-    y ^= (y >> 8) & 0x00ff_00ff;
-    y ^= (y >> 16) & 0x0000_ffff;
-    y.reverse_bits()
+    sobol_dim1_unreversed(a).reverse_bits()
 }
 
 /// pbrt-v4's `FastOwenScrambler` (after Laine & Karras 2011 and Burley 2020): a nested
 /// uniform-like scramble of the bits of `v`, the first bit the most significant.
 #[inline]
 pub fn fast_owen(v: u32, seed: u32) -> u32 {
-    let mut v = v.reverse_bits();
-    v ^= v.wrapping_mul(0x3d20_adea);
-    v = v.wrapping_add(seed);
-    v = v.wrapping_mul((seed >> 16) | 1);
-    v ^= v.wrapping_mul(0x0552_6c56);
-    v ^= v.wrapping_mul(0x53a2_2864);
-    v.reverse_bits()
+    owen_body(v.reverse_bits(), seed, (seed >> 16) | 1).reverse_bits()
 }
 
 /// Burley's shuffle (Burley 2020, "Practical Hash-based Owen Scrambling", section 4, after
@@ -467,9 +455,8 @@ pub fn sobol2_of(
     sobol2_at(shuffled, sobol_pixel(seed, pixel, spp), sample, dim)
 }
 
-/// [`fast_owen`] without its two bit reversals: `fast_owen(v, seed) ==
-/// owen_body(v.reverse_bits(), seed, (seed >> 16) | 1).reverse_bits()`, so that a reversal
-/// that another cancels can be left out ([`SegmentKeys`]).
+/// [`fast_owen`] between its two bit reversals, its multiplier `(seed >> 16) | 1` given, so
+/// that a reversal that another cancels can be left out ([`SegmentKeys`]).
 #[inline(always)]
 fn owen_body(v: u32, seed: u32, mul: u32) -> u32 {
     let mut v = v;
