@@ -339,13 +339,14 @@ pub fn trace_ray_at<const F: u32>(
     // does not sample the lights. With the `Sobol` sampler the three groups are drawn at once
     // from the render's table of their hashes (`Globals::sobol_segments`; the same numbers,
     // eight lanes at a time, with `sampler_pixel` once a path in `trace_path`: the Cornell
-    // box 10-12 % faster, the living room 2-5 %, `docs/RESULTS.md`, issue 15).
+    // box 10-12 % faster in the default build, 5-10 % built native, the living room 2-5 %;
+    // `docs/RESULTS.md`, issue 15).
     let wants_light = g.scene.light_count > 0 && depth < g.scene.max_bounces;
     let wants_roulette = depth >= g.scene.rr_depth;
     let (rnd_light, rnd_scatter, rnd_roulette) = match g.sobol_segments.get(depth as usize) {
         // The `Sobol` sampler's three groups at once, their hashes from the render's table
         // (the same numbers: `SegmentKeys::draw`).
-        Some(keys) if keys.seed == sp.seed && g.scene.sampler == SAMPLER_SOBOL => {
+        Some(keys) if keys.seed() == sp.seed && g.scene.sampler == SAMPLER_SOBOL => {
             let (light, scatter, roulette) = keys.draw(sp, sample);
             (
                 if wants_light { light } else { Vec4::ZERO },

@@ -485,7 +485,7 @@ fn sobol_dim1_unreversed(a: u32) -> u32 {
 /// seed and segment: what [`sobol_scrambles`] and [`sobol_keys`] give for each group, laid out
 /// as the lanes of [`SegmentKeys::draw`] (the same for every path of a render, so the CPU
 /// computes them once per segment number).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(C, align(32))]
 pub struct SegmentKeys {
     /// The index keys, lanes: light pair 0, light pair 1, scatter pair 0, scatter pair 1,
@@ -500,10 +500,16 @@ pub struct SegmentKeys {
     /// The roulette's x seed and its multiplier.
     roulette: [u32; 2],
     /// The seed these were hashed under.
-    pub seed: u32,
+    seed: u32,
 }
 
 impl SegmentKeys {
+    /// The seed these keys were hashed under: [`SegmentKeys::draw`] gives the numbers of the
+    /// pixels whose [`SobolPixel::seed`] it is.
+    pub fn seed(&self) -> u32 {
+        self.seed
+    }
+
     /// The keys of segment `bounce`'s groups `DIM_LIGHT`, `DIM_SCATTER` and `DIM_ROULETTE`
     /// under `seed` (a [`SobolPixel`]'s).
     pub fn new(seed: u32, bounce: u32) -> Self {
@@ -545,7 +551,7 @@ impl SegmentKeys {
         }
     }
 
-    /// The segment's numbers at pixel `p`, `sample` (`p.seed` must be [`SegmentKeys::seed`]):
+    /// The segment's numbers at pixel `p`, `sample` (`p.seed` must be [`SegmentKeys::seed`]'s):
     /// [`sobol4_at`]`(true, ..)` of its light and scatter groups and the `x` of
     /// [`sobol2_at`]`(true, ..)` of its roulette group, bit for bit, as eight-lane loops
     /// (the index hashes, then the scrambles) with the reversals that cancel left out.
