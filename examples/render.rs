@@ -359,6 +359,11 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
             eprintln!("warning: {w}");
         }
         eprintln!("raylume: {}", settings_line(&scene_name, s, capped));
+        if s.backend == "cpu"
+            && let Some(advice) = raylume::cpu_build_advice()
+        {
+            eprintln!("note: {advice}");
+        }
     });
     let bar_cb = bar.clone();
     let interval = progress_interval();

@@ -103,6 +103,25 @@ pub use raylume_kernels::{
 };
 pub use raylume_scene::{Feature, Features, RenderSettings, Scene};
 
+/// Advice for a program that renders on the CPU: `Some` when this build targets x86-64 CPUs
+/// without AVX2 (Cargo's default target, the baseline x86-64) while the CPU it runs on has
+/// AVX2, so that building with `RUSTFLAGS="-C target-cpu=native"` would make raylume's CPU
+/// path faster (5-20 % on the development machine's AVX-512 CPU, the same images bit for bit:
+/// `docs/RESULTS.md`, issue 15). `None` for a build that already assumes AVX2, on other
+/// architectures, and on CPUs without AVX2. The `render` example prints it before a CPU
+/// render.
+pub fn cpu_build_advice() -> Option<&'static str> {
+    #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        return Some(
+            "this build targets the baseline x86-64 and this CPU has AVX2: built with \
+             RUSTFLAGS=\"-C target-cpu=native\" the CPU path renders 5-20 % faster, the same \
+             image (a binary built so runs only on CPUs like this one)",
+        );
+    }
+    None
+}
+
 /// The scene model and its loaders (`raylume-scene`, re-exported): [`scene::Camera`],
 /// [`scene::Material`], [`scene::Triangle`], [`scene::Sphere`], [`scene::Environment`], ...
 /// so that building a scene in code needs no second crate.

@@ -118,6 +118,17 @@ fn cpu_render_writes_png_and_stats() {
         "says which backend: {}",
         stderr(&o)
     );
+    // It says how to build for this CPU when the build and the CPU call for it (a baseline
+    // x86-64 build on a CPU with AVX2, as CI's), and only then.
+    assert_eq!(
+        stderr(&o).contains(&format!(
+            "note: {}",
+            raylume::cpu_build_advice().unwrap_or("-")
+        )),
+        raylume::cpu_build_advice().is_some(),
+        "{}",
+        stderr(&o)
+    );
     let img = image::open(&png).unwrap();
     assert_eq!((img.width(), img.height()), (24, 16));
     check_stats(&json(&stats), "cpu");
@@ -142,6 +153,11 @@ fn gpu_render_writes_exr_and_stats() {
     let o = run(&args);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("on GPU"), "{}", stderr(&o));
+    assert!(
+        !stderr(&o).contains("target-cpu=native"),
+        "no CPU build advice for a GPU render: {}",
+        stderr(&o)
+    );
     assert!(
         stderr(&o).contains("raylume: rendering scenes/cornell-box.toml: backend GPU ("),
         "the settings line names the GPU backend and its adapter: {}",
