@@ -387,7 +387,9 @@ print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_tra
   local arm k
   race() { # arm, cache directory, tag
     local d=$2 j=$R/race-$3-$1.json
-    mkdir -p $d
+    # The NVIDIA driver writes its shader cache only into a directory that exists: without
+    # $d/gl every raylume process compiled cold (the first race, 2026-12-05 on an H100).
+    mkdir -p $d/gl $d/cache
     local envs="HOME=$d XDG_CACHE_HOME=$d/cache __GL_SHADER_DISK_CACHE_PATH=$d/gl OPTIX_CACHE_PATH=$d/optix CUDA_CACHE_PATH=$d/cuda"
     case $1 in
       mitsuba)
