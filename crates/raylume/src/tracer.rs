@@ -143,7 +143,11 @@ pub const WALK_STAGE_MIN_PRIMITIVES: usize = 10_000;
 /// among them) keep the persistent schedule. Plain paths keep it whatever the work: the
 /// teapot's 100 spp took 0.0585 s persistent against 0.0708 with the walk stage (the living
 /// room's 0.460 against 0.384): the stages pay most where they take the shadow rays' walks
-/// too. `tools/table1/table1.sh`'s parts `crossing` and `race` measure both choices.
+/// too. `tools/table1/table1.sh`'s parts `crossing` and `race` measure both choices: on an
+/// H100 (2026-12-05) the living room's crossing lay at 2-3 spp with either estimator and the
+/// teapots' beyond 100 spp, their paths being short (1.9-2.4 rays a sample against the living
+/// room's 5.5 with NEE): the paths' length decides, which is not known when the schedule is
+/// chosen (docs/RESULTS.md, issue 13).
 pub const WAVEFRONT_MIN_SAMPLES: u64 = 1 << 26;
 
 /// The schedule of a GPU render whose [`Tracer::schedule`] is not set: the wavefront when
