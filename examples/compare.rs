@@ -65,6 +65,33 @@ struct Args {
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
+    /// Fail (exit status 1, after the report) unless every channel of every pixel is within
+    /// `raylume::merge_bound(SPP)` of the reference, relative to it: the bound within which
+    /// render parts, merged, or one render split over several GPUs (`--backend gpus`) equal
+    /// one render of SPP samples per pixel.
+    #[arg(long, value_name = "SPP")]
+    merge_bound: Option<u32>,
+}
+
+/// The largest `|t - r| / |r|` over every channel of every pixel: what `raylume::merge_bound`
+/// bounds (0 where the two are equal; infinite where they differ and the reference is 0, or
+/// either is not a number).
+fn worst_relative(test: &[[f32; 3]], reference: &[[f32; 3]]) -> f64 {
+    test.iter()
+        .zip(reference)
+        .flat_map(|(t, r)| t.iter().zip(r))
+        .map(|(&t, &r)| {
+            let (t, r) = (f64::from(t), f64::from(r));
+            let d = (t - r).abs();
+            if t == r {
+                0.0
+            } else if d.is_nan() {
+                f64::INFINITY
+            } else {
+                d / r.abs()
+            }
+        })
+        .fold(0.0, f64::max)
 }
 
 type Image = Vec<[f32; 3]>;
@@ -288,6 +315,8 @@ fn run(a: Args) -> Result<(), String> {
     let rmse = e(raylume_post::rmse(&test, &reference))?;
     let mae = e(raylume_post::mae(&test, &reference))?;
     let rel = e(raylume_post::relative_mse(&test, &reference))?;
+    let worst = worst_relative(&test, &reference);
+    let bound = a.merge_bound.map(raylume::merge_bound);
     // SSIM compares what a person sees: both tone-mapped the way `render` writes a PNG.
     let tone = raylume_post::ToneMap::default();
     let display = |px: &[[f32; 3]]| -> Result<Vec<[f32; 3]>, String> {
@@ -298,12 +327,15 @@ fn run(a: Args) -> Result<(), String> {
             .map(|p| p.map(|c| f32::from(c) / 255.0))
             .collect())
     };
-    let ssim = e(raylume_post::ssim(
-        &display(&test)?,
-        &display(&reference)?,
-        w,
-        h,
-    ))?;
+    // Images below SSIM's 11x11 window get none (`null` in JSON); the other metrics stand.
+    let ssim = match raylume_post::ssim(&display(&test)?, &display(&reference)?, w, h) {
+        Ok(v) => Some(v),
+        Err(raylume_post::PostError::TooSmall { .. }) => None,
+        Err(err) => return Err(err.to_string()),
+    };
+    let ssim_text = ssim.map_or("n/a (below 11x11 pixels)".to_string(), |v| {
+        format!("{v:.5}")
+    });
 
     // Image means.
     let tm = channel_means(&test);
@@ -388,6 +420,7 @@ fn run(a: Args) -> Result<(), String> {
     if a.json {
         let mut out = json!({
             "rmse": rmse, "mae": mae, "relative_mse": rel, "ssim": ssim,
+            "worst_relative_difference": worst, "merge_bound": bound,
             "width": w, "height": h,
             "test_mean": tm, "reference_mean": rm,
             "mean_ratio": {"r": ratio[0], "g": ratio[1], "b": ratio[2], "all": ratio[3]},
@@ -430,9 +463,17 @@ fn run(a: Args) -> Result<(), String> {
         outln!("{out}");
     } else {
         outln!(
-            "{}x{}: RMSE {rmse:.6}, MAE {mae:.6}, relative MSE {rel:.6}, SSIM {ssim:.5}",
+            "{}x{}: RMSE {rmse:.6}, MAE {mae:.6}, relative MSE {rel:.6}, SSIM {ssim_text}",
             w,
             h
+        );
+        outln!(
+            "worst relative difference of a channel: {worst:.3e}{}",
+            bound.map_or(String::new(), |b| format!(
+                " ({} the merge bound {b:.3e} of {} spp)",
+                if worst <= b { "within" } else { "OUTSIDE" },
+                a.merge_bound.unwrap_or(0)
+            ))
         );
         let sigma = |i: usize| ratio_sigma.map_or(String::new(), |s| format!(" ± {:.4}", s[i]));
         outln!(
@@ -506,7 +547,13 @@ fn run(a: Args) -> Result<(), String> {
             }
         }
     }
-    Ok(())
+    match bound {
+        Some(b) if worst > b => Err(format!(
+            "the images differ by {worst:.3e} (relative, worst channel), past the merge bound \
+             {b:.3e}"
+        )),
+        _ => Ok(()),
+    }
 }
 
 fn main() -> ExitCode {

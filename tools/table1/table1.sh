@@ -21,6 +21,9 @@
 # 600x600, 4 spp, both estimators); `feature-cost` times the Cornell box and its one-feature
 # variants (tools/features/cornell_variants.py) on the GPU and the CPU; `parts` is issue 16's: a render whole and as 4 parts in
 # separate processes (the overhead of splitting), merged, and --backend gpus on the one GPU;
+# `two-gpus` (not in the default set) is issue 17's: the living room and the Cornell box at
+# 1000 spp on one GPU and split over all (`--backend gpus`), best of 3, images held to the
+# merge bound (T1_GPUS_SIZE, T1_GPUS_SPP, T1_GPUS_ROUNDS shrink it for a dry run);
 # `workgroup` times the Cornell box and the living room with RAYLUME_WORKGROUP_SIZE in
 # T1_WORKGROUPS (default "32 64 128 256"); `stage-knobs` (not in the default set) times the
 # wavefront with its walk stage (and, with NEE, shadow stage) under each of the stages' run-time
@@ -329,6 +332,53 @@ print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_tra
     done
     TIMEFORMAT="$tag merge of 4 parts: %R s"
     time (/tmp/merge -o /tmp/merged.exr /tmp/part-1.exr /tmp/part-2.exr /tmp/part-3.exr /tmp/part-4.exr 2>&1 | tail -1)
+  done
+  fi
+  if [[ $parts == *" two-gpus "* ]]; then
+  # Issue 17 (not in the default set): each scene rendered on one GPU and split over every GPU
+  # of the machine (`--backend gpus`), T1_GPUS_SIZE (1000x1000), 10 bounces, T1_GPUS_SPP (1000)
+  # spp, the library's defaults, T1_GPUS_ROUNDS (3) rounds of a process per backend; the
+  # speed-up of the best traces, each GPU's share and trace seconds (the stats' `workers`), and
+  # every round's split image against its one-GPU image within raylume::merge_bound
+  # (`compare --merge-bound`). On a one-GPU machine it measures what splitting costs there.
+  local gsize=${T1_GPUS_SIZE:-1000x1000} gspp=${T1_GPUS_SPP:-1000} gsc gtag k b
+  echo "== issue 17: one GPU against --backend gpus over $(nvidia-smi -L | wc -l) GPUs, $gsize, $gspp spp (at $(el) s)"
+  nvidia-smi -L || true
+  for gsc in scenes/living-room/scene.json scenes/cornell-box.toml; do
+    gtag=$(basename "$gsc" | sed 's/\.[a-z]*$//'); [ "$gtag" = scene ] && gtag=$(basename "$(dirname "$gsc")")
+    for k in $(seq 1 "${T1_GPUS_ROUNDS:-3}"); do
+      for b in gpu gpus; do
+        rm -f "/tmp/$gtag-$b.exr"
+        timeout 300 /tmp/render "$gsc" -o "/tmp/$gtag-$b.exr" --backend $b --size "$gsize" \
+          --spp "$gspp" --bounces 10 --stats "$R/gpus-$gtag-$b-$k.json" -q \
+          > "$R/gpus-$gtag-$b-$k.log" 2>&1 || echo "$gtag $b, round $k: exit $?"
+        grep -E '^raylume: trace|error' "$R/gpus-$gtag-$b-$k.log" | sed "s|^|$gtag $b, round $k: |" || true
+      done
+      /tmp/compare "/tmp/$gtag-gpus.exr" "/tmp/$gtag-gpu.exr" --merge-bound "$gspp" --blocks 0 \
+        2>&1 | grep -E 'worst relative|error' | sed "s|^|$gtag round $k, gpus against gpu: |" || true
+    done
+    python3 - "$R" "$gtag" "${T1_GPUS_ROUNDS:-3}" <<'EOP'
+import json, sys
+R, tag, rounds = sys.argv[1], sys.argv[2], int(sys.argv[3])
+def load(b, k):
+    try:
+        return json.load(open(f"{R}/gpus-{tag}-{b}-{k}.json"))
+    except OSError:
+        return None
+one = [s for s in (load("gpu", k) for k in range(1, rounds + 1)) if s]
+split = [s for s in (load("gpus", k) for k in range(1, rounds + 1)) if s]
+if not one or not split:
+    print(f"{tag}: no stats to summarise"); sys.exit(0)
+t1 = min(s["seconds"]["trace"] for s in one)
+best = min(split, key=lambda s: s["seconds"]["trace"])
+tn = best["seconds"]["trace"]
+print(f"{tag}: one GPU {t1:.4f} s, split over {len(best['workers'])} {tn:.4f} s: "
+      f"speed-up {t1 / tn:.2f}x (best traces of {len(one)} and {len(split)} processes)")
+for i, w in enumerate(best["workers"]):
+    smp = w.get("samples") or {}
+    print(f"  worker {i} ({w['adapter']}): samples {smp.get('begin')}..{smp.get('end')}, "
+          f"trace {w['trace_seconds']:.4f} s, total {w['total_seconds']:.4f} s")
+EOP
   done
   fi
   if [[ $parts == *" large "* ]]; then

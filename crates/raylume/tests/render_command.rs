@@ -750,6 +750,36 @@ fn parts_and_merge_commands_make_the_whole_render() {
             assert!((x - y).abs() <= bound * y.abs(), "{x} vs {y}");
         }
     }
+    // `compare --merge-bound` checks the same bound (what the two-GPU run of issue 17 uses):
+    // the merge passes; a render of another seed, and the bound of one sample per pixel for
+    // an image that differs by more, fail with the worst difference named.
+    let compare = |test: &Path, reference: &Path, spp: &str| {
+        Command::new(common::compare_exe())
+            .arg(test)
+            .arg(reference)
+            .args(["--merge-bound", spp, "--blocks", "0"])
+            .output()
+            .expect("run compare")
+    };
+    let o = compare(&merged, &whole, "4");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("within the merge bound"),
+        "{}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    let other = dir.join("other-seed.exr");
+    let o = run(&s(&with(&["--seed", "7", "-o", other.to_str().unwrap()])));
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = compare(&other, &whole, "4");
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("past the merge bound"),
+        "{}",
+        stderr(&o)
+    );
+    let o = compare(&whole, &whole, "1");
+    assert!(o.status.success(), "{}", stderr(&o));
     // A missing part: an error naming the samples, no output.
     let lonely = dir.join("lonely.png");
     let o = merge(&lonely, &[&parts[0]]);

@@ -17,6 +17,11 @@ pub fn merge_exe() -> PathBuf {
     example_exe("merge")
 }
 
+/// The `compare` example binary (see [`render_exe`]).
+pub fn compare_exe() -> PathBuf {
+    example_exe("compare")
+}
+
 fn example_exe(name: &str) -> PathBuf {
     let exe = std::env::current_exe().expect("test binary path");
     let profile_dir = exe
