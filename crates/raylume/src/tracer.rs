@@ -147,7 +147,9 @@ pub const WALK_STAGE_MIN_PRIMITIVES: usize = 10_000;
 /// H100 (2026-12-05) the living room's crossing lay at 2-3 spp with either estimator and the
 /// teapots' beyond 100 spp, their paths being short (1.9-2.4 rays a sample against the living
 /// room's 5.5 with NEE): the paths' length decides, which is not known when the schedule is
-/// chosen (docs/RESULTS.md, issue 13).
+/// chosen. Nor would it alone: on the H200 the living room's own first image (1280x720, 64
+/// bounces, 9.2 M samples, long paths) traced 11-15 % slower with the wavefront, which
+/// launches its stages at every bounce that still has a ray (docs/RESULTS.md, issue 13).
 pub const WAVEFRONT_MIN_SAMPLES: u64 = 1 << 26;
 
 /// The schedule of a GPU render whose [`Tracer::schedule`] is not set: the wavefront when
