@@ -17,7 +17,7 @@
 # its error reaches that, docs/RESULTS.md's issue 15 section), and `independent` (Mitsuba's
 # default, 3.444e-3) against raylume at EQ_SPP_DEFAULT (40; raylume's own errors at 32-69 spp
 # in docs/study/cpu-c53d150-equal-error.md); raylume best of 3. (Until session 29 the part
-# set the multijitter error against the independent sampler's time, 12 % less than
+# set the multijitter error against the independent sampler's time, 5-12 % less than
 # multijitter's own.)
 #
 # The scenes: Bitterli's Cornell box (`tungsten.py` on Mitsuba's side) and raylume's copy of
@@ -67,6 +67,11 @@ mitsuba_cb() {
   PYTHONPATH=$MITSUBA "$PY" ../shared/peers/mitsuba/tungsten.py "$CB" "$OUT" llvm_ad_rgb \
     --size "$1" --spp "$2" --depth 11 2>/dev/null | sed -n "s/.*spp $2: \([0-9.]*\) s/\1/p"
 }
+# Mitsuba's 64-spp seconds with sampler $1 from mitsuba_series.py's record (below).
+mi64() {
+  "$PY" -c 'import json, sys; print(json.load(open(sys.argv[1]))["times"]["64"])' \
+    "$OUT/mi/$(basename "$CB")-mi-series-$1.json"
+}
 for r in $(seq "$ROUNDS"); do
   cb=$(raylume cornell "$SIZE" "$SPP" "$CB/scene.json")
   lr_off=$(raylume living-room-guide-off "$SIZE" "$SPP" --environment-guide off "$LR/scene.json")
@@ -91,8 +96,6 @@ for r in $(seq "$ROUNDS"); do
   PYTHONPATH=$MITSUBA "$PY" tools/study/mitsuba_series.py "$CB" "$OUT/mi" --size 128x128 --spp 64 \
     --samplers multijitter,independent --depth 11 --variant llvm_ad_rgb \
     --tungsten ../shared/peers/mitsuba/tungsten.py >/dev/null 2>&1
-  mi64() { "$PY" -c 'import json, sys; print(json.load(open(sys.argv[1]))["times"]["64"])' \
-    "$OUT/mi/$(basename "$CB")-mi-series-$1.json"; }
   mmj=$(mi64 multijitter)
   mind=$(mi64 independent)
   awk -v r="$r" -v eq="$eq" -v eqd="$eqd" -v mmj="$mmj" -v mind="$mind" -v s="$EQ_SPP" -v sd="$EQ_SPP_DEFAULT" 'BEGIN {

@@ -751,8 +751,8 @@ fn parts_and_merge_commands_make_the_whole_render() {
         }
     }
     // `compare --merge-bound` checks the same bound (what the two-GPU run of issue 17 uses):
-    // the merge passes; a render of another seed, and the bound of one sample per pixel for
-    // an image that differs by more, fail with the worst difference named.
+    // the merge passes; a render of another seed fails, the worst difference named; an image
+    // passes against itself at any bound.
     let compare = |test: &Path, reference: &Path, spp: &str| {
         Command::new(common::compare_exe())
             .arg(test)
