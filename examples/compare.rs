@@ -73,27 +73,6 @@ struct Args {
     merge_bound: Option<u32>,
 }
 
-/// The largest `|t - r| / |r|` over every channel of every pixel: what `raylume::merge_bound`
-/// bounds (0 where the two are equal; infinite where they differ and the reference is 0, or
-/// either is not a number).
-fn worst_relative(test: &[[f32; 3]], reference: &[[f32; 3]]) -> f64 {
-    test.iter()
-        .zip(reference)
-        .flat_map(|(t, r)| t.iter().zip(r))
-        .map(|(&t, &r)| {
-            let (t, r) = (f64::from(t), f64::from(r));
-            let d = (t - r).abs();
-            if t == r {
-                0.0
-            } else if d.is_nan() {
-                f64::INFINITY
-            } else {
-                d / r.abs()
-            }
-        })
-        .fold(0.0, f64::max)
-}
-
 type Image = Vec<[f32; 3]>;
 
 fn load(path: &Path) -> Result<(u32, u32, Image), String> {
@@ -315,7 +294,7 @@ fn run(a: Args) -> Result<(), String> {
     let rmse = e(raylume_post::rmse(&test, &reference))?;
     let mae = e(raylume_post::mae(&test, &reference))?;
     let rel = e(raylume_post::relative_mse(&test, &reference))?;
-    let worst = worst_relative(&test, &reference);
+    let worst = raylume::worst_relative_difference(&test, &reference);
     let bound = a.merge_bound.map(raylume::merge_bound);
     // SSIM compares what a person sees: both tone-mapped the way `render` writes a PNG.
     let tone = raylume_post::ToneMap::default();

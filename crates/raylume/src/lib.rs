@@ -87,7 +87,9 @@ pub use build::{MaterialId, SceneBuilder, Transform};
 pub use error::Error;
 pub use gpus::WorkerStats;
 pub use output::{ImageFormat, save_exr, save_png};
-pub use parts::{Part, PartHeader, SampleRange, join, merge, merge_bound};
+pub use parts::{
+    Part, PartHeader, SampleRange, join, merge, merge_bound, worst_relative_difference,
+};
 pub use stats::{DepthSeconds, LightStats, NO_LIGHT_WARNING, RenderStats, StageSeconds};
 pub use timeline::{Timeline, TimelineMark};
 pub use tracer::{

@@ -228,11 +228,35 @@ impl Part {
 }
 
 /// The relative bound on `|merged - whole render|` per channel of a merge of parts of an
-/// `spp`-sample render (the module's docs derive it).
+/// `spp`-sample render (the module's docs derive it): what [`worst_relative_difference`] of
+/// the merged image against the whole render stays within.
 pub fn merge_bound(spp: u32) -> f64 {
     // 2 (spp - 1) u for the two orders of summation, 2 u for the two roundings of the
     // product by 1/spp: 2 spp u, u = f32::EPSILON / 2.
     f64::from(spp) * f64::from(f32::EPSILON)
+}
+
+/// The largest `|t - r| / |r|` over every channel of every pixel of `test` against
+/// `reference` (paired in order; the shorter one's length counts): the quantity
+/// [`merge_bound`] bounds for merged parts, or one render split over several GPUs, against a
+/// single render. 0 where a channel is equal in both; infinite where they differ over a
+/// zero reference or either is not a number, so such a pair is never within a bound.
+pub fn worst_relative_difference(test: &[[f32; 3]], reference: &[[f32; 3]]) -> f64 {
+    test.iter()
+        .zip(reference)
+        .flat_map(|(t, r)| t.iter().zip(r))
+        .map(|(&t, &r)| {
+            let (t, r) = (f64::from(t), f64::from(r));
+            let d = (t - r).abs();
+            if t == r {
+                0.0
+            } else if d.is_nan() {
+                f64::INFINITY
+            } else {
+                d / r.abs()
+            }
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Joins parts of one render whose sample ranges follow each other without gap or overlap
@@ -321,4 +345,26 @@ pub fn merge(parts: &[Part], names: &[String]) -> Result<(PartHeader, Vec<[f32; 
         }
     }
     Ok((joined.header, out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn worst_relative_difference_is_the_largest_channel_error_relative_to_the_reference() {
+        let r = [[1.0, 2.0, 0.0], [4.0, 0.5, 8.0]];
+        assert_eq!(worst_relative_difference(&r, &r), 0.0);
+        // 2.0 -> 2.5 is 0.25 of its channel; 8.0 -> 7.0 is 0.125.
+        let t = [[1.0, 2.5, 0.0], [4.0, 0.5, 7.0]];
+        assert_eq!(worst_relative_difference(&t, &r), 0.25);
+        // Anything but equality over a zero reference, and a NaN on either side, is never
+        // within a bound.
+        let t = [[1.0, 2.0, 1e-30], [4.0, 0.5, 8.0]];
+        assert_eq!(worst_relative_difference(&t, &r), f64::INFINITY);
+        let t = [[1.0, 2.0, 0.0], [f32::NAN, 0.5, 8.0]];
+        assert_eq!(worst_relative_difference(&t, &r), f64::INFINITY);
+        assert_eq!(worst_relative_difference(&r, &t), f64::INFINITY);
+        assert!(worst_relative_difference(&r, &r) <= merge_bound(1));
+    }
 }

@@ -105,11 +105,8 @@ pub fn add_floor_grid(scene: &mut raylume::Scene) {
     }
 }
 
-/// The largest per-channel difference of `a` from `b`, relative to `b` (floored at 1e-30).
+/// The largest per-channel difference of `a` from `b`, relative to `b`
+/// ([`raylume::worst_relative_difference`]).
 pub fn worst_relative(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
-    a.iter()
-        .zip(b)
-        .flat_map(|(x, y)| (0..3).map(move |k| (f64::from(x[k]), f64::from(y[k]))))
-        .map(|(x, y)| (x - y).abs() / y.abs().max(1e-30))
-        .fold(0.0, f64::max)
+    raylume::worst_relative_difference(a, b)
 }
