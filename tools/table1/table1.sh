@@ -344,6 +344,8 @@ print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_tra
   local gsize=${T1_GPUS_SIZE:-1000x1000} gspp=${T1_GPUS_SPP:-1000} gsc gtag k b
   echo "== issue 17: one GPU against --backend gpus over $(nvidia-smi -L | wc -l) GPUs, $gsize, $gspp spp (at $(el) s)"
   nvidia-smi -L || true
+  # How the GPUs are linked (NVLink or PCIe): the split's merge reads each device's sums back.
+  nvidia-smi topo -m > "$R/gpus-topology.txt" 2>&1 || true
   for gsc in scenes/living-room/scene.json scenes/cornell-box.toml; do
     gtag=$(basename "$gsc" | sed 's/\.[a-z]*$//'); [ "$gtag" = scene ] && gtag=$(basename "$(dirname "$gsc")")
     for k in $(seq 1 "${T1_GPUS_ROUNDS:-3}"); do
