@@ -4,7 +4,7 @@
 
 mod common;
 
-use raylume::{Backend, SampleRange, Tracer, merge_bound};
+use raylume::{Backend, SampleRange, Tracer, merge_bound, worst_relative_difference};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext};
 
 /// Samples per pixel of the test renders.
@@ -42,7 +42,7 @@ fn two_devices_render_what_one_does() {
                 .iter()
                 .all(|w| w.trace_seconds > 0.0 && w.rays_traced > 0)
         );
-        let err = common::worst_relative(&r.pixels, &one.pixels);
+        let err = worst_relative_difference(&r.pixels, &one.pixels);
         assert!(
             err <= merge_bound(8),
             "round {round}: {err:.3e} past {:.3e}",
@@ -63,7 +63,7 @@ fn two_devices_render_what_one_does() {
         header,
         "the same header on one or two devices"
     );
-    assert!(common::worst_relative(&p.pixels, &q.pixels) <= merge_bound(8));
+    assert!(worst_relative_difference(&p.pixels, &q.pixels) <= merge_bound(8));
     // Unsupported: a target error.
     two.samples = None;
     two.target_error = Some(1e-3);

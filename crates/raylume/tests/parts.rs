@@ -4,7 +4,9 @@
 
 mod common;
 
-use raylume::{Backend, Part, SampleRange, Scene, Tracer, join, merge, merge_bound};
+use raylume::{
+    Backend, Part, SampleRange, Scene, Tracer, join, merge, merge_bound, worst_relative_difference,
+};
 
 /// Samples per pixel of the test renders.
 const SPP: u32 = 6;
@@ -37,7 +39,7 @@ fn parts_merge_into_the_render(backend: Backend) {
             let parts: Vec<Part> = (1..=n).rev().map(|i| part(&mut t, &scene, i, n)).collect();
             let (header, merged) = merge(&parts, &[]).unwrap();
             assert_eq!(header.samples, SampleRange { begin: 0, end: 6 });
-            let err = common::worst_relative(&merged, &whole.pixels);
+            let err = worst_relative_difference(&merged, &whole.pixels);
             assert!(
                 err <= merge_bound(scene.render.spp),
                 "{backend:?}, {n} parts, batches of {batch_spp}: relative error {err:.3e} past the bound {:.3e}",
@@ -48,7 +50,7 @@ fn parts_merge_into_the_render(backend: Backend) {
         let mut other = Tracer::new(backend);
         other.seed = Some(scene.render.seed + 1);
         let o = other.render(&scene).unwrap();
-        assert!(common::worst_relative(&o.pixels, &whole.pixels) > 1e3 * merge_bound(6));
+        assert!(worst_relative_difference(&o.pixels, &whole.pixels) > 1e3 * merge_bound(6));
     }
 }
 

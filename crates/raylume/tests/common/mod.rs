@@ -104,9 +104,3 @@ pub fn add_floor_grid(scene: &mut raylume::Scene) {
         ));
     }
 }
-
-/// The largest per-channel difference of `a` from `b`, relative to `b`
-/// ([`raylume::worst_relative_difference`]).
-pub fn worst_relative(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
-    raylume::worst_relative_difference(a, b)
-}
