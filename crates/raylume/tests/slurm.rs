@@ -115,13 +115,8 @@ fn a_slurm_job_array_renders_the_parts_and_merges_them() {
     let a = image::open(&merged).unwrap().into_rgb32f();
     let b = image::open(&whole).unwrap().into_rgb32f();
     let bound = raylume::merge_bound(8);
-    let mut worst = 0.0f64;
-    for (x, y) in a.pixels().zip(b.pixels()) {
-        for k in 0..3 {
-            let (x, y) = (f64::from(x[k]), f64::from(y[k]));
-            worst = worst.max((x - y).abs() / y.abs().max(1e-30));
-        }
-    }
+    let pixels = |im: &image::Rgb32FImage| im.pixels().map(|p| p.0).collect::<Vec<_>>();
+    let worst = raylume::worst_relative_difference(&pixels(&a), &pixels(&b));
     assert!(
         worst <= bound,
         "merged vs single render: {worst:.3e} > {bound:.3e}"
