@@ -49,7 +49,7 @@ use crate::sampling::{sample_diffuse, sample_sphere_cap, sphere_cap_pdf};
 use crate::sobol::{SobolPixel, sobol_pixel, sobol2_at, sobol4_at};
 use crate::surface::{
     Globals, SurfaceHit, environment_cell, environment_pdf, environment_radiance, material_at,
-    offset_ray_origin, sample_environment, surface_at,
+    offset_ray_origin, prefetch_texture, sample_environment, surface_at,
 };
 
 /// A path between two segments, as a thread holds it in registers.
@@ -385,7 +385,10 @@ pub fn trace_ray_at<const F: u32>(
         return;
     };
     let surface = surface_at::<F>(g, &hit, path.origin, path.dir);
-    let mat = material_at::<F>(g, &surface);
+    // The material's record, untextured: what the light sample and the emission's weight
+    // read. Its texels are asked for now, and read by `material_at` below.
+    let record = &g.materials[surface.material as usize];
+    prefetch_texture::<F>(g, record, surface.uv);
     let last = depth >= g.scene.max_bounces;
     // An emissive triangle hit by a direction sampled where the lights were sampled too: the
     // shadow ray there could have found this point; weigh the two estimates.
@@ -409,30 +412,41 @@ pub fn trace_ray_at<const F: u32>(
         let cos_l = n.dot(path.dir).abs() / n.length();
         mis_weight(
             path.mis_pdf,
-            light_pdf(g, Vec3::from(mat.emission), hit.t * hit.t, cos_l),
+            light_pdf(g, Vec3::from(record.emission), hit.t * hit.t, cos_l),
         )
     } else if has(F, Feature::Spheres) && path.mis_pdf > 0.0 && prim.kind() == PRIM_SPHERE {
         let (center, r) = (Vec3::new(prim.a[0], prim.a[1], prim.a[2]), prim.a[3]);
         let cap_pdf = sphere_cap_pdf(center, r, path.origin);
         mis_weight(
             path.mis_pdf,
-            sphere_light_pdf(g, Vec3::from(mat.emission), r, cap_pdf),
+            sphere_light_pdf(g, Vec3::from(record.emission), r, cap_pdf),
         )
     } else {
         1.0
     };
-    let sample_here = lit && g.scene.light_count > 0 && samples_lights::<F>(&mat) && !last;
-    // The hit is shaded before the light sample's shadow ray is traced (as the WGSL, which
-    // traces the path's ray and the shadow ray through one call of the walk): the light's
-    // contribution, the emission and the scattered ray; then the ray decides whether the
-    // light's term counts, and the two terms are added in the order of the `next_event`
-    // stage's sums (the light's, then the emission).
-    let light = sample_here.then(|| {
-        let query = light_query::<F>(g, &surface, &mat, path.dir, rnd_light);
-        let light_in = query.map_or(Vec3::ZERO, |q| {
-            light_contribution::<F>(g, &q, &mat, path.dir)
-        });
-        (path.throughput, light_in, query)
+    let sample_here = lit && g.scene.light_count > 0 && samples_lights::<F>(record) && !last;
+    // The light sample first, which reads the material's record alone; then the textured
+    // material, the light's contribution, the emission and the scattered ray; the light's
+    // term and the emission are added in the order of the `next_event` stage's sums. Where
+    // the variant has textures, the shadow ray is walked before the texels are read (asked
+    // for above), so that the walk hides their latency (the living room at 1000x1000, 10
+    // spp, 4 % faster by the best of three; `docs/RESULTS.md`, issue 15); elsewhere after
+    // the shading, where the next segment's start overlaps it (the Cornell box ~1 % faster
+    // so). The WGSL shades the hit first and
+    // walks the path's ray and the shadow ray through one call of the walk: the values are
+    // the same in any order.
+    let query = if sample_here {
+        light_query::<F>(g, &surface, record, path.dir, rnd_light)
+    } else {
+        None
+    };
+    let shadow =
+        |q: &Option<LightQuery>| q.is_some_and(|q| trace_any::<F>(bvh, &q.ray, 0.0, q.t_max));
+    let early = has(F, Feature::Textures).then(|| shadow(&query));
+    let mat = material_at::<F>(g, &surface);
+    let throughput_in = path.throughput;
+    let light_in = query.map_or(Vec3::ZERO, |q| {
+        light_contribution::<F>(g, &q, &mat, path.dir)
     });
     let emission = emitted::<F>(path, &surface, &mat, emission_weight);
     let pdf = shade_hit::<F>(g, path, &surface, &mat, rnd_scatter, last);
@@ -440,8 +454,8 @@ pub fn trace_ray_at<const F: u32>(
     if path.alive && depth >= g.scene.rr_depth {
         russian_roulette(path, rnd_roulette);
     }
-    if let Some((throughput_in, light_in, query)) = light {
-        let occluded = query.is_some_and(|q| trace_any::<F>(bvh, &q.ray, 0.0, q.t_max));
+    if sample_here {
+        let occluded = early.unwrap_or_else(|| shadow(&query));
         path.radiance += throughput_in * if occluded { Vec3::ZERO } else { light_in };
     }
     path.radiance += emission;

@@ -236,6 +236,56 @@ pub fn material_at<const F: u32>(g: &Globals, surface: &SurfaceHit) -> GpuMateri
     m
 }
 
+/// Asks the CPU's caches for the texels [`material_at`] will read at `surface` (the rows
+/// around its texture coordinates), so that work which does not need the texture (the light
+/// sample and its shadow ray: [`crate::shade::trace_ray_at`]) runs while they arrive. A hint:
+/// it changes no value, and does nothing off x86-64 or for untextured materials. CPU only (the
+/// GPU hides the latency with other threads); no WGSL twin.
+#[inline]
+pub fn prefetch_texture<const F: u32>(g: &Globals, m: &GpuMaterial, uv: Vec2) {
+    if !has(F, Feature::Textures) || m.texture == NO_TEXTURE || m.kind == MATERIAL_GLASS {
+        return;
+    }
+    let h = g.texture_headers[m.texture as usize];
+    if h.width == 0 || h.height == 0 {
+        return;
+    }
+    // The texel under `uv` and the rows above and below it: the bilinear footprint is two of
+    // these three rows (`texture_bilinear`, which wraps `u` and `v` for materials), and its
+    // two columns are adjacent words (or three-word groups) of a row.
+    let (u, v) = (uv.x - uv.x.floor(), uv.y - uv.y.floor());
+    if !(u.is_finite() && v.is_finite()) {
+        return;
+    }
+    let x = ((u * h.width as f32) as u32).min(h.width - 1);
+    let y = ((v * h.height as f32) as u32).min(h.height - 1);
+    let words = if h.format == TEXELS_SRGB8 { 1 } else { 3 };
+    for row in [y.wrapping_sub(1), y, y + 1] {
+        let row = if row >= h.height {
+            if row == h.height { 0 } else { h.height - 1 }
+        } else {
+            row
+        };
+        let i = h.offset as usize + (row as usize * h.width as usize + x as usize) * words;
+        if let Some(word) = g.texels.get(i) {
+            prefetch(word);
+        }
+    }
+}
+
+/// A prefetch of the cache line holding `x` (x86-64's `prefetcht0`; nothing elsewhere).
+#[inline(always)]
+fn prefetch<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch only hints the cache; `x` is a valid reference.
+    unsafe {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
+}
+
 /// Radiance arriving from the environment along the unit direction `dir`.
 #[inline]
 pub fn environment_radiance<const F: u32>(g: &Globals, dir: Vec3) -> Vec3 {
