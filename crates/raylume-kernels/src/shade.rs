@@ -432,9 +432,8 @@ pub fn trace_ray_at<const F: u32>(
     // for above), so that the walk hides their latency (the living room at 1000x1000, 10
     // spp, 4 % faster by the best of three; `docs/RESULTS.md`, issue 15); elsewhere after
     // the shading, where the next segment's start overlaps it (the Cornell box ~1 % faster
-    // so). The WGSL shades the hit first and
-    // walks the path's ray and the shadow ray through one call of the walk: the values are
-    // the same in any order.
+    // so). The WGSL shades the hit first and walks the path's ray and the shadow ray through
+    // one call of the walk: the values are the same in any order.
     let query = if sample_here {
         light_query::<F>(g, &surface, record, path.dir, rnd_light)
     } else {

@@ -260,12 +260,7 @@ pub fn prefetch_texture<const F: u32>(g: &Globals, m: &GpuMaterial, uv: Vec2) {
     let x = ((u * h.width as f32) as u32).min(h.width - 1);
     let y = ((v * h.height as f32) as u32).min(h.height - 1);
     let words = if h.format == TEXELS_SRGB8 { 1 } else { 3 };
-    for row in [y.wrapping_sub(1), y, y + 1] {
-        let row = if row >= h.height {
-            if row == h.height { 0 } else { h.height - 1 }
-        } else {
-            row
-        };
+    for row in [(y + h.height - 1) % h.height, y, (y + 1) % h.height] {
         let i = h.offset as usize + (row as usize * h.width as usize + x as usize) * words;
         if let Some(word) = g.texels.get(i) {
             prefetch(word);
