@@ -228,12 +228,19 @@ pub fn texture_bilinear(
 #[inline]
 pub fn material_at<const F: u32>(g: &Globals, surface: &SurfaceHit) -> GpuMaterial {
     let mut m = g.materials[surface.material as usize];
-    if has(F, Feature::Textures) && m.texture != NO_TEXTURE && m.kind != MATERIAL_GLASS {
+    if reads_albedo_texture::<F>(&m) {
         let h = g.texture_headers[m.texture as usize];
         let t = texture_bilinear(g, h.offset, h.width, h.height, h.format, surface.uv, true);
         m.color = (Vec3::from(m.color) * t).into();
     }
     m
+}
+
+/// Whether [`material_at`] reads `m`'s albedo texture (never on glass). The WGSL tests the
+/// same inline.
+#[inline(always)]
+fn reads_albedo_texture<const F: u32>(m: &GpuMaterial) -> bool {
+    has(F, Feature::Textures) && m.texture != NO_TEXTURE && m.kind != MATERIAL_GLASS
 }
 
 /// Asks the CPU's caches for the texels [`material_at`] will read at `surface` (the rows
@@ -243,7 +250,7 @@ pub fn material_at<const F: u32>(g: &Globals, surface: &SurfaceHit) -> GpuMateri
 /// GPU hides the latency with other threads); no WGSL twin.
 #[inline]
 pub fn prefetch_texture<const F: u32>(g: &Globals, m: &GpuMaterial, uv: Vec2) {
-    if !has(F, Feature::Textures) || m.texture == NO_TEXTURE || m.kind == MATERIAL_GLASS {
+    if !reads_albedo_texture::<F>(m) {
         return;
     }
     let h = g.texture_headers[m.texture as usize];
