@@ -64,7 +64,7 @@ use std::mem::MaybeUninit;
 use glam::{UVec2, UVec4, Vec3, Vec4};
 
 use crate::intersect::{
-    Ray, ShearedRay, TriangleBlock, intersect_primitive, intersect_triangle_block,
+    Ray, ShearedRay, T_MISS, TriangleBlock, intersect_primitive, intersect_triangle_block,
     intersect_triangles4, shear_ray,
 };
 use crate::traverse::{Hit, T_MAX_LIMIT};
@@ -642,8 +642,12 @@ enum Leaves<'a> {
 /// The primitives `prims` (offsets from `base`) of a node's hit leaves against the ray, in
 /// the walks' order (the highest offset first), `hit` becoming the closer of it and theirs;
 /// true when `any_hit` and one was hit (the walk returns it). Without `SPHERES` up to four
-/// at a time, as `leaves` holds them (same hits: see [`leaf_group4`]); `block_base` is the
-/// node's first block in [`Leaves::Blocks`] (unread for the records).
+/// at a time, as `leaves` holds them (same hits: see [`leaf_group4`]); from
+/// [`Leaves::Blocks`] even one alone, through its block (the scalar test's indexing of a
+/// vector by the ray's axes costs more than the three lanes it spares: with the lanes picked
+/// without a branch, Bitterli's Cornell box 4-5 % faster on the CPU, `docs/RESULTS.md`, issue
+/// 15); `block_base` is the node's first block in [`Leaves::Blocks`] (unread for the
+/// records).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn test_leaves<const SPHERES: bool>(
@@ -661,7 +665,7 @@ fn test_leaves<const SPHERES: bool>(
     };
     let mut prims = prims;
     while prims != 0 {
-        if !SPHERES && prims.count_ones() > 1 {
+        if !SPHERES && (matches!(leaves, Leaves::Blocks(..)) || prims.count_ones() > 1) {
             let found = match leaves {
                 Leaves::Records(p) => leaf_group4(p, base, &mut prims, sheared, t_min, hit),
                 Leaves::Blocks(b, _) => {
@@ -762,21 +766,36 @@ fn leaf_block4(
     let first = base + lo;
     let block = &blocks[(block_base + lo / 4) as usize];
     let [t, u, v] = intersect_triangle_block(sheared, block, t_min, hit.t);
-    let (t, u, v) = (t.to_array(), u.to_array(), v.to_array());
-    let mut found = false;
-    for j in (0..4).rev() {
-        if lanes >> j & 1 == 1 && t[j] < hit.t {
-            *hit = Hit {
-                t: t[j],
-                prim: first + j as u32,
-                u: u[j],
-                v: v[j],
-            };
-            found = true;
-        }
+    // The lanes whose bit is set, their misses at T_MISS; the one-at-a-time loop (highest lane
+    // first, strictly closer replacing) ends at their smallest t, of equal ones the highest
+    // lane: found without a branch per lane.
+    let live = LANE_MASKS[lanes as usize];
+    let t = Vec4::select(live, t, Vec4::splat(T_MISS));
+    let t_best = t.min_element();
+    if t_best < hit.t {
+        let j = first_leading_bit(t.cmpeq(Vec4::splat(t_best)).bitmask()) as usize;
+        *hit = Hit {
+            t: t_best,
+            prim: first + j as u32,
+            u: u.to_array()[j],
+            v: v.to_array()[j],
+        };
+        true
+    } else {
+        false
     }
-    found
 }
+
+/// `LANE_MASKS[m]`: lane `j` set where bit `j` of `m` is.
+static LANE_MASKS: [glam::BVec4A; 16] = {
+    let mut t = [glam::BVec4A::FALSE; 16];
+    let mut m = 0;
+    while m < 16 {
+        t[m] = glam::BVec4A::new(m & 1 != 0, m & 2 != 0, m & 4 != 0, m & 8 != 0);
+        m += 1;
+    }
+    t
+};
 
 /// The closest hit with `t_min < t < t_max` in the wide tree `nodes` over `primitives`, or a
 /// miss (`prim == INVALID_INDEX`, `t == min(t_max, T_MAX_LIMIT)`).
