@@ -129,6 +129,12 @@ struct Args {
     /// when the render's rays repay the walks, e.g. not for a thumbnail).
     #[arg(long, default_value = "auto", value_parser = parse_on_off_auto, action = clap::ArgAction::Set)]
     environment_guide: OnOffAuto,
+    /// The highest instruction-set level the CPU path may run at: x86-64-v4 (the default:
+    /// AVX-512 where the CPU has it, else the highest it has), x86-64-v3 (AVX2) or build (what
+    /// this binary was built for). The same image at every level; the stats line says which
+    /// ran.
+    #[arg(long, default_value = "x86-64-v4", value_parser = parse_cpu_isa)]
+    cpu_isa: raylume::CpuIsa,
     /// Skip the scene's bloom pass.
     #[arg(long)]
     no_bloom: bool,
@@ -146,6 +152,10 @@ struct Args {
     /// process's start, to find what the image waited for. `--stats` writes them anyway.
     #[arg(long)]
     timeline: bool,
+}
+
+fn parse_cpu_isa(s: &str) -> Result<raylume::CpuIsa, String> {
+    raylume::CpuIsa::parse(s.trim()).ok_or_else(|| format!("`{s}`: x86-64-v4, x86-64-v3 or build"))
 }
 
 /// `--rr-depth`: a segment number or `off`.
@@ -288,6 +298,7 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
     }
     tracer.russian_roulette = args.rr_depth.0;
     tracer.environment_guide = args.environment_guide.0;
+    tracer.cpu_isa = args.cpu_isa;
     tracer.target_error = args.target_error;
     tracer.schedule = args.schedule;
     if let Some(l) = args.bvh {
@@ -359,11 +370,6 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
             eprintln!("warning: {w}");
         }
         eprintln!("raylume: {}", settings_line(&scene_name, s, capped));
-        if s.backend == "cpu"
-            && let Some(advice) = raylume::cpu_build_advice()
-        {
-            eprintln!("note: {advice}");
-        }
     });
     let bar_cb = bar.clone();
     let interval = progress_interval();

@@ -216,7 +216,7 @@ pub fn sample_cosine_local(u: Vec2) -> Vec3 {
 /// `specular_reflectance`, Tungsten's conductor albedo); `eta`, `k`: the complex IOR (`eta = 0`:
 /// Fresnel = 1). Fresnel is evaluated at the microfacet normal. Weight `reflectance · F(wo·m) ·
 /// G1(wi, m)`.
-#[inline]
+#[inline(always)]
 pub fn sample_conductor(
     dir: Vec3,
     n: Vec3,
@@ -265,7 +265,7 @@ pub fn sample_conductor(
 /// [`sample_conductor`]'s `f · cos θ_wi` and pdf for the scattered direction `wi`: `F(wo·h)
 /// D(h) G1(wo, h) G1(wi, h) / (4 cos θ_o)` times `reflectance`, pdf `D(h) G1(wo, h) / (4 cos
 /// θ_o)`. Zero for the mirror (delta) and below the surface.
-#[inline]
+#[inline(always)]
 pub fn eval_conductor(
     dir: Vec3,
     n: Vec3,
@@ -321,7 +321,7 @@ pub fn plastic_specular_probability(f_i: f32, w: f32) -> f32 {
 
 /// The diffuse base of the smooth plastic in the local frame (`wo.z > 0`, `wl.z > 0`):
 /// `albedo / (1 - fdr_int) / ior² · (1 - F_i)(1 - F_o) · cos θ_o / π`, pdf `(1 - p_spec) cos θ_o / π`.
-#[inline]
+#[inline(always)]
 pub fn plastic_diffuse_local(wo: Vec3, wl: Vec3, ior: f32, albedo: Vec3) -> BsdfEval {
     let inv_ior = 1.0 / ior;
     let f_i = fresnel_dielectric(wo.z.min(1.0), inv_ior);
@@ -340,7 +340,7 @@ pub fn plastic_diffuse_local(wo: Vec3, wl: Vec3, ior: f32, albedo: Vec3) -> Bsdf
 /// dielectric coat of index `ior`. The specular lobe is a delta (pdf 0, weight `F_i / p_spec`),
 /// chosen when `u.x < p_spec`; else a cosine direction from `(u.y, u.z)`, weight
 /// `albedo / (1 - fdr_int) / ior² (1 - F_i)(1 - F_o) / (1 - p_spec)`, pdf `(1 - p_spec) cos / π`.
-#[inline]
+#[inline(always)]
 pub fn sample_plastic(dir: Vec3, n: Vec3, ior: f32, albedo: Vec3, u: Vec3) -> BsdfSample {
     let cos_i = -dir.dot(n);
     if cos_i <= 0.0 {
@@ -376,7 +376,7 @@ pub fn sample_plastic(dir: Vec3, n: Vec3, ior: f32, albedo: Vec3, u: Vec3) -> Bs
 
 /// [`sample_plastic`]'s diffuse lobe for the direction `wi` (the coat's delta is not
 /// evaluated): value and pdf as there. Zero below the surface.
-#[inline]
+#[inline(always)]
 pub fn eval_plastic(dir: Vec3, n: Vec3, wi: Vec3, ior: f32, albedo: Vec3) -> BsdfEval {
     let (t, b) = orthonormal_basis(n);
     let wo = to_local(-dir, t, b, n);
@@ -423,7 +423,7 @@ pub fn rough_transmittance(table: &RoughPlasticTable, cos_i: f32) -> f32 {
 /// The rough plastic in the local frame (`wo.z > 0`, `wl.z > 0`): specular `F(wo·h) D G1 G1 /
 /// (4 cos θ_o)` plus the diffuse base `albedo / (1 - R_int) / ior² · t_i t_o cos θ_l / π`;
 /// pdf the mixture `p_spec D(h) G1(wo, h) / (4 cos θ_o) + (1 - p_spec) cos θ_l / π`.
-#[inline]
+#[inline(always)]
 pub fn rough_plastic_local(
     wo: Vec3,
     wl: Vec3,
@@ -454,7 +454,7 @@ pub fn rough_plastic_local(
 /// `u.x < p_spec` (from the rough transmittance `t_i` and the albedo) samples a visible normal
 /// from `(u.y, u.z)` and reflects; otherwise a cosine direction from `(u.y, u.z)`. The pdf is
 /// that of the mixture of both lobes and the weight the whole BSDF over it.
-#[inline]
+#[inline(always)]
 pub fn sample_rough_plastic(
     dir: Vec3,
     n: Vec3,
@@ -495,7 +495,7 @@ pub fn sample_rough_plastic(
 
 /// [`sample_rough_plastic`]'s value and mixture pdf for the direction `wi`; zero below the
 /// surface.
-#[inline]
+#[inline(always)]
 pub fn eval_rough_plastic(
     dir: Vec3,
     n: Vec3,
@@ -524,7 +524,7 @@ pub fn eval_rough_plastic(
 /// (weight `tint · G1(wi, m) · eta²`, the radiance scaling of the module notes); total
 /// internal reflection at `m` always reflects. `alpha <= 0`: the smooth dielectric of
 /// [`sample_glass`] (delta, pdf 0, `u.x` only; weight `tint · eta²` on transmission).
-#[inline]
+#[inline(always)]
 pub fn sample_rough_dielectric(
     dir: Vec3,
     n: Vec3,
@@ -594,7 +594,7 @@ pub fn sample_rough_dielectric(
 /// transmission `tint eta² (1 - F) D G |wo·h| |wi·h| / (cos θ_o (eta wo·h + wi·h)²)`, pdf the
 /// same without `G1(wi, h)`, `tint` and `eta²`, with `h ∝ wo + wi / eta`. Zero for the smooth (delta)
 /// boundary and where the microfacet and the macro-surface disagree on a side.
-#[inline]
+#[inline(always)]
 pub fn eval_rough_dielectric(
     dir: Vec3,
     n: Vec3,

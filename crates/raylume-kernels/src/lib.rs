@@ -92,6 +92,7 @@ pub mod sobol;
 pub mod surface;
 
 pub use cpu::CpuTracer;
+pub use cpu::isa::CpuIsa;
 pub use error::KernelError;
 pub use gpu::{
     BatchPlan, BatchPolicy, BatchTiming, DepthTiming, GpuScene, GpuTracer, GpuWorkspace,

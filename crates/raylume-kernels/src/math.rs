@@ -88,7 +88,7 @@ pub fn acos_poly(x: f32) -> f32 {
 
 /// The equirectangular coordinates of a unit direction (no rotation): `u = 0.5 + φ / 2π`
 /// with `φ = atan2(x, -z)`, `v = θ / π` from +y (math.wgsl's `direction_to_equirect`).
-#[inline]
+#[inline(always)]
 pub fn direction_to_equirect(d: Vec3) -> glam::Vec2 {
     let phi = atan2_poly(d.x, -d.z);
     glam::Vec2::new(0.5 + phi * INV_2PI, acos_poly(d.y) * INV_PI)

@@ -78,7 +78,7 @@ pub fn sphere_cap_pdf(center: Vec3, r: f32, p: Vec3) -> f32 {
 /// the cone the sphere subtends (pdf [`sphere_cap_pdf`]): pbrt-v4's `Sphere::Sample(ctx, u)`,
 /// which finds the point from the angle `α` at the centre, so that it lies on the sphere and
 /// faces `p` however small and far the sphere is. `None` on or inside the sphere.
-#[inline]
+#[inline(always)]
 pub fn sample_sphere_cap(center: Vec3, r: f32, p: Vec3, u: Vec2) -> Option<Vec3> {
     let to_c = center - p;
     let d2 = to_c.length_squared();
@@ -117,7 +117,7 @@ pub fn smith_lambda(w: Vec3, alpha: f32) -> f32 {
 /// numbers `u` (Heitz 2018, listing 1: the hemisphere configuration; `u.x` picks the radius
 /// and `u.y` the angle on the projected disk). Its density is
 /// `D(m) G1(wo, m) max(0, wo·m) / wo.z`.
-#[inline]
+#[inline(always)]
 pub fn sample_ggx_vndf(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
     let vh = normalize(Vec3::new(alpha * wo.x, alpha * wo.y, wo.z));
     let lensq = vh.x * vh.x + vh.y * vh.y;

@@ -112,7 +112,7 @@ impl PathState {
 /// What the surface's emission adds to the path arriving at `hit`: the emission times the
 /// throughput and `emission_weight`, or zero (no emission, or the back of a one-sided
 /// emitter). [`trace_ray`] adds it before [`shade_hit`] scatters the path.
-#[inline]
+#[inline(always)]
 pub fn emitted<const F: u32>(
     path: &PathState,
     hit: &SurfaceHit,
@@ -130,7 +130,7 @@ pub fn emitted<const F: u32>(
 /// the random numbers `rnd` and sets up the next ray, or ends the path when it is absorbed.
 /// Returns the solid-angle pdf of the scattered direction (0 for a delta lobe: a smooth
 /// mirror, glass or coat).
-#[inline]
+#[inline(always)]
 pub fn shade_hit<const F: u32>(
     g: &Globals,
     path: &mut PathState,
@@ -241,7 +241,7 @@ pub fn lobe_first(rnd: Vec4) -> Vec3 {
 /// [`rand4`] (independent), or [`sobol4_at`] (ZSobol, shuffled for `SAMPLER_SOBOL`) with pair group
 /// `bounce * DIMS_PER_BOUNCE + dim`, the pixel's (x, y) and the render's spp. Every random
 /// number of a path comes from here, so both samplers serve every estimator.
-#[inline]
+#[inline(always)]
 pub fn path_rand4(scene: &SceneUniforms, pixel: u32, sample: u32, bounce: u32, dim: u32) -> Vec4 {
     path_rand4_at(
         scene,
@@ -268,7 +268,7 @@ pub fn sampler_pixel(scene: &SceneUniforms, pixel: u32) -> SobolPixel {
 }
 
 /// [`path_rand4`] with the pixel's [`sampler_pixel`] given.
-#[inline]
+#[inline(always)]
 pub fn path_rand4_at(
     scene: &SceneUniforms,
     sp: SobolPixel,
@@ -315,7 +315,7 @@ pub fn trace_ray<const F: u32>(
 
 /// [`trace_ray`] with the pixel's [`sampler_pixel`] given (the CPU's path loop computes it
 /// once a path, not once a segment).
-#[inline]
+#[inline(always)]
 pub fn trace_ray_at<const F: u32>(
     g: &Globals,
     bvh: &GpuBvh,
@@ -439,14 +439,16 @@ pub fn trace_ray_at<const F: u32>(
     } else {
         None
     };
-    let shadow =
-        |q: &Option<LightQuery>| q.is_some_and(|q| trace_any::<F>(bvh, &q.ray, 0.0, q.t_max));
-    let early = has(F, Feature::Textures).then(|| shadow(&query));
+    // (Written out, not as closures: a closure the compiler leaves out of line would run at
+    // the build's instruction level, not the one `cpu::isa` compiled the path for.)
+    let early = has(F, Feature::Textures)
+        && query.is_some_and(|q| trace_any::<F>(bvh, &q.ray, 0.0, q.t_max));
     let mat = material_at::<F>(g, &surface);
     let throughput_in = path.throughput;
-    let light_in = query.map_or(Vec3::ZERO, |q| {
-        light_contribution::<F>(g, &q, &mat, path.dir)
-    });
+    let light_in = match &query {
+        Some(q) => light_contribution::<F>(g, q, &mat, path.dir),
+        None => Vec3::ZERO,
+    };
     let emission = emitted::<F>(path, &surface, &mat, emission_weight);
     let pdf = shade_hit::<F>(g, path, &surface, &mat, rnd_scatter, last);
     path.mis_pdf = if sample_here { pdf } else { 0.0 };
@@ -454,7 +456,11 @@ pub fn trace_ray_at<const F: u32>(
         russian_roulette(path, rnd_roulette);
     }
     if sample_here {
-        let occluded = early.unwrap_or_else(|| shadow(&query));
+        let occluded = if has(F, Feature::Textures) {
+            early
+        } else {
+            query.is_some_and(|q| trace_any::<F>(bvh, &q.ray, 0.0, q.t_max))
+        };
         path.radiance += throughput_in * if occluded { Vec3::ZERO } else { light_in };
     }
     path.radiance += emission;
@@ -511,7 +517,7 @@ pub fn light_side<const F: u32>(
 /// same pdf, so that multiple importance sampling weighs the two strategies consistently).
 /// Zero for materials [`samples_lights`] excludes. `front`: the ray meets the geometric
 /// front face (glass: it enters).
-#[inline]
+#[inline(always)]
 pub fn eval_material<const F: u32>(
     g: &Globals,
     mat: &GpuMaterial,
@@ -617,7 +623,7 @@ pub struct LightQuery {
 /// geometric or shading normal, the surface behind a one-sided light, an empty selection).
 /// [`trace_ray`] traces the ray after the hit's shading (the WGSL through one call of the walk
 /// for both its rays), and [`light_contribution`] says what arrives if it is not blocked.
-#[inline]
+#[inline(always)]
 pub fn light_query<const F: u32>(
     g: &Globals,
     hit: &SurfaceHit,
@@ -744,7 +750,7 @@ pub fn light_query<const F: u32>(
 /// blocked: `f cos θ_surface · L_e · cos θ_light · area / (distance² · p_select)`
 /// ([`eval_material`]; for the sky and spheres their own densities), times its
 /// multiple-importance weight against the material's own sampling.
-#[inline]
+#[inline(always)]
 pub fn light_contribution<const F: u32>(
     g: &Globals,
     q: &LightQuery,

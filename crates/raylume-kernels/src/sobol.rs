@@ -244,7 +244,7 @@ pub fn shuffled_sample_index(m: u32, key: u32) -> u32 {
 /// The 32-bit Sobol' points of one pair: dimensions 0 and 1 of the permuted index of
 /// [`zsobol_morton_index`] `m` under `key` ([`shuffled_sample_index`] when `shuffled`, else
 /// [`zsobol_sample_index`]), Owen-scrambled with `scramble_x` and `scramble_y`.
-#[inline]
+#[inline(always)]
 pub fn zsobol_pair_bits(
     m: u32,
     log2_spp: u32,
@@ -358,7 +358,7 @@ pub fn zsobol_setup_at(p: SobolPixel, dim: u32, shuffled: bool) -> ZSobolSetup {
 }
 
 /// Pair `which` (0 or 1) of `z` at `sample`, as floats in `[0, 1)`.
-#[inline]
+#[inline(always)]
 pub fn zsobol_pair(z: &ZSobolSetup, sample: u32, which: usize) -> glam::Vec2 {
     let (sx, sy) = (z.scrambles[2 * which], z.scrambles[2 * which + 1]);
     let a = zsobol_pair_bits(
@@ -410,7 +410,7 @@ pub fn sobol4_of(shuffled: bool, seed: u32, pixel: UVec2, sample: u32, spp: u32,
 }
 
 /// [`sobol4_of`] of a pixel whose [`SobolPixel`] is known.
-#[inline]
+#[inline(always)]
 pub fn sobol4_at(shuffled: bool, p: SobolPixel, sample: u32, dim: u32) -> Vec4 {
     let z = zsobol_setup_at(p, dim, shuffled);
     if shuffled {
@@ -436,7 +436,7 @@ pub fn sobol4_at(shuffled: bool, p: SobolPixel, sample: u32, dim: u32) -> Vec4 {
 }
 
 /// [`sobol2_of`] of a pixel whose [`SobolPixel`] is known.
-#[inline]
+#[inline(always)]
 pub fn sobol2_at(shuffled: bool, p: SobolPixel, sample: u32, dim: u32) -> glam::Vec2 {
     zsobol_pair(&zsobol_setup_at(p, dim, shuffled), sample, 0)
 }

@@ -79,7 +79,7 @@ pub struct SurfaceHit {
 pub use crate::math::direction_to_equirect;
 
 /// The surface at `hit` of the ray `(origin, dir)`.
-#[inline]
+#[inline(always)]
 pub fn surface_at<const F: u32>(g: &Globals, hit: &Hit, origin: Vec3, dir: Vec3) -> SurfaceHit {
     let prim = &g.primitives[hit.prim as usize];
     let material = g.prim_materials[hit.prim as usize];
@@ -152,7 +152,7 @@ fn srgb8(g: &Globals, c: u32) -> f32 {
 
 /// Texel `(x, y)` of the texture whose texels start at word `offset`, row length `width`,
 /// in `format` ([`TEXELS_LINEAR`] or [`TEXELS_SRGB8`]), linear RGB.
-#[inline]
+#[inline(always)]
 pub fn texel(g: &Globals, offset: u32, width: u32, format: u32, x: u32, y: u32) -> Vec3 {
     let j = y * width + x;
     if format == TEXELS_SRGB8 {
@@ -179,7 +179,7 @@ fn wrap_index(i: i32, n: i32) -> i32 {
 /// Bilinear lookup at `uv` in a `width x height` texture of texels in `format` starting at
 /// word `offset` (see [`texel`]); `u` wraps, `v` wraps when `wrap_v` and is clamped
 /// otherwise. Interpolates linear values (8-bit codes are decoded first).
-#[inline]
+#[inline(always)]
 pub fn texture_bilinear(
     g: &Globals,
     offset: u32,
@@ -225,7 +225,7 @@ pub fn texture_bilinear(
 }
 
 /// The material at a surface, its colour multiplied by its albedo texture (never on glass).
-#[inline]
+#[inline(always)]
 pub fn material_at<const F: u32>(g: &Globals, surface: &SurfaceHit) -> GpuMaterial {
     let mut m = g.materials[surface.material as usize];
     if reads_albedo_texture::<F>(&m) {
@@ -248,7 +248,7 @@ fn reads_albedo_texture<const F: u32>(m: &GpuMaterial) -> bool {
 /// sample and its shadow ray: [`crate::shade::trace_ray_at`]) runs while they arrive. A hint:
 /// it changes no value, and does nothing off x86-64 or for untextured materials. CPU only (the
 /// GPU hides the latency with other threads); no WGSL twin.
-#[inline]
+#[inline(always)]
 pub fn prefetch_texture<const F: u32>(g: &Globals, m: &GpuMaterial, uv: Vec2) {
     if !reads_albedo_texture::<F>(m) {
         return;
@@ -289,7 +289,7 @@ fn prefetch<T>(x: &T) {
 }
 
 /// Radiance arriving from the environment along the unit direction `dir`.
-#[inline]
+#[inline(always)]
 pub fn environment_radiance<const F: u32>(g: &Globals, dir: Vec3) -> Vec3 {
     let s = g.scene;
     if has(F, Feature::ConstantEnvironment) && s.environment_kind == ENVIRONMENT_CONSTANT {
@@ -343,7 +343,7 @@ fn cdf_step(g: &Globals, base: u32, i: u32) -> (f32, f32) {
 /// The guide cell ([`crate::env_guide`]) of point `p` (a vertex's outgoing ray origin on
 /// its front side): its grid cell over the scene's bounds, x fastest; 0 without a spatial
 /// guide (`environment_grid` of ones, zero scale).
-#[inline]
+#[inline(always)]
 pub fn environment_cell(g: &Globals, p: Vec3) -> u32 {
     let s = &g.scene;
     let q = (p - Vec3::from(s.scene_min)) * Vec3::from(s.environment_grid_scale);
@@ -365,7 +365,7 @@ fn environment_cdf_base(g: &Globals, cell: u32) -> u32 {
 /// environment, unguided); with one (a map's, or a guide's, [`crate::env_guide`]), its
 /// cell's probability times `width * height` over the Jacobian `2π² sin θ` of the
 /// equirectangular mapping.
-#[inline]
+#[inline(always)]
 pub fn environment_pdf<const F: u32>(g: &Globals, dir: Vec3, cell: u32) -> f32 {
     let s = &g.scene;
     let sky = has(F, Feature::ConstantEnvironment) || has(F, Feature::EnvironmentMap);

@@ -101,26 +101,20 @@ pub use tracer::{
 
 pub use raylume_bvh::{BvhLayout, BvhQuality};
 pub use raylume_kernels::{
-    BatchPlan, Estimator, Reorder, ReorderMode, Sampler, Schedule, Specialisation,
+    BatchPlan, CpuIsa, Estimator, Reorder, ReorderMode, Sampler, Schedule, Specialisation,
 };
 pub use raylume_scene::{Feature, Features, RenderSettings, Scene};
 
-/// Advice for a program that renders on the CPU: `Some` when this build targets x86-64 CPUs
-/// without AVX2 (Cargo's default target, the baseline x86-64) while the CPU it runs on has
-/// AVX2, so that building with `RUSTFLAGS="-C target-cpu=native"` would make raylume's CPU
-/// path faster (5-20 % on the development machine's AVX-512 CPU, the same images bit for bit:
-/// `docs/RESULTS.md`, issue 15). `None` for a build that already assumes AVX2, on other
-/// architectures, and on CPUs without AVX2. The `render` example prints it before a CPU
-/// render.
+/// Advice for a program that renders on the CPU about how to build raylume; always `None`
+/// now. It said to build with `RUSTFLAGS="-C target-cpu=native"` where the build targeted the
+/// baseline x86-64 on a CPU with AVX2; the CPU path now picks the CPU's instruction set when
+/// it runs ([`CpuIsa`]: AVX2 or AVX-512 from a default build, the same image), which gives a
+/// default build the speed of a native one (`docs/RESULTS.md`, issue 15).
+#[deprecated(
+    since = "0.1.0",
+    note = "the CPU path picks the CPU's instruction set at run time (`CpuIsa`): no build advice is needed"
+)]
 pub fn cpu_build_advice() -> Option<&'static str> {
-    #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
-    if std::arch::is_x86_feature_detected!("avx2") {
-        return Some(
-            "this build targets the baseline x86-64 and this CPU has AVX2: built with \
-             RUSTFLAGS=\"-C target-cpu=native\" the CPU path renders 5-20 % faster, the same \
-             image (a binary built so runs only on CPUs like this one)",
-        );
-    }
     None
 }
 

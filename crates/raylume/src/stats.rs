@@ -56,7 +56,8 @@ pub struct StageSeconds {
 pub struct RenderStats {
     /// `"gpu"` or `"cpu"`.
     pub backend: String,
-    /// The adapter (`"NVIDIA H100 80GB HBM3 (Vulkan, DiscreteGpu)"`) or the CPU (`"CPU, 16 threads"`).
+    /// The adapter (`"NVIDIA H100 80GB HBM3 (Vulkan, DiscreteGpu)"`) or the CPU and the
+    /// instruction-set level its paths ran at (`"CPU, 16 threads, x86-64-v4"`: [`crate::CpuIsa`]).
     pub adapter: String,
     /// Why this backend was chosen (for `Auto`).
     pub backend_reason: String,

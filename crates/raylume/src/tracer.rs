@@ -12,8 +12,8 @@ use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, GpuError};
 use raylume_kernels::batches::{RoundHook, RoundSums};
 use raylume_kernels::{
-    BatchPlan, CpuTracer, Estimator, GpuScene, GpuTracer, GpuWorkspace, Reorder, ReorderMode,
-    Sampler, Schedule, Specialisation, TraceSettings, TraceStats,
+    BatchPlan, CpuIsa, CpuTracer, Estimator, GpuScene, GpuTracer, GpuWorkspace, Reorder,
+    ReorderMode, Sampler, Schedule, Specialisation, TraceSettings, TraceStats,
     gpu::{GuideLearner, LbvhBuilder, PathVariant, ResidentBvh, TracerPipelines},
     scene_data::SceneData,
 };
@@ -624,6 +624,12 @@ pub struct Tracer {
     /// for measuring what a feature costs when present but unused (`bench --extra-feature`).
     /// The image is the same.
     pub extra_features: raylume_scene::Features,
+    /// The highest instruction-set level the CPU path's kernel may run at
+    /// ([`CpuIsa`]; default [`CpuIsa::X86_64V4`]): it runs at the highest level at most this
+    /// that the CPU executes, whatever the build targets (a default `cargo build` included),
+    /// the same image bit for bit at every level. [`RenderStats::adapter`] says which ran.
+    /// For measuring what the wider instructions give (`render --cpu-isa`).
+    pub cpu_isa: CpuIsa,
     /// Render only these samples of every pixel (default `None`: all of them): a render
     /// **part**, whose image holds each pixel's *sum* over the range and whose
     /// [`Render::part`] says what it belongs to; parts that tile `0..spp` merge into the
@@ -1054,6 +1060,7 @@ impl Tracer {
             bvh_layout: BvhLayout::default(),
             specialisation: Specialisation::default(),
             extra_features: raylume_scene::Features::NONE,
+            cpu_isa: CpuIsa::X86_64V4,
             samples: None,
             bloom: true,
             tone: raylume_post::ToneMap::default(),
@@ -2346,6 +2353,8 @@ impl Tracer {
         // The tree and the data are shared, not copied (hundreds of MB for a large scene).
         let mut tracer = CpuTracer::with_shared(bvh.clone(), data.clone())?;
         tracer.set_specialisation(self.specialisation, self.extra_features);
+        let isa = tracer.set_isa(self.cpu_isa);
+        stats.adapter = format!("{}, {}", stats.adapter, isa.name());
         stats.specialisation = self.specialisation.name().into();
         stats.pipeline_features = tracer.variant_features().names();
         stats.seconds.upload += t.elapsed().as_secs_f64();

@@ -3,6 +3,7 @@
 //! it is the reference the GPU tests compare against. Like the paper's CPU path, it never
 //! sorts rays.
 
+pub mod isa;
 pub mod stages;
 pub mod variant;
 
@@ -18,6 +19,7 @@ use crate::gpu_types::{RayState, SceneUniforms};
 use crate::scene_data::{RenderChoices, SceneData, SceneOptions};
 use crate::surface::Globals;
 use crate::{KernelError, Schedule, Specialisation, TraceOutput, TraceSettings};
+use isa::CpuIsa;
 use variant::{ForVariant, run_variant, variant_of};
 
 /// Rays per batch on the CPU: bounds the wavefront's ray states to 256 MiB.
@@ -33,6 +35,8 @@ pub struct CpuTracer {
     choices: RenderChoices,
     /// The variant of the per-bounce functions the renders run ([`variant`]).
     variant: usize,
+    /// The instruction-set level the renders' paths run at ([`isa`]), available on this CPU.
+    isa: CpuIsa,
     prepare_seconds: f64,
 }
 
@@ -83,6 +87,20 @@ impl CpuTracer {
         self.variant = variant_of(raylume_scene::Features::from_bits(features), specialisation);
     }
 
+    /// Runs the paths of the next renders at instruction-set level `isa` ([`isa`]), or at the
+    /// highest level below it that this CPU executes when it lacks `isa`'s (default: the
+    /// highest it executes, [`CpuIsa::best`]). The image is the same bit for bit at every
+    /// level; only the time differs. Returns the level set.
+    pub fn set_isa(&mut self, isa: CpuIsa) -> CpuIsa {
+        self.isa = CpuIsa::best_up_to(isa);
+        self.isa
+    }
+
+    /// The instruction-set level the renders' paths run at ([`CpuTracer::set_isa`]).
+    pub fn isa(&self) -> CpuIsa {
+        self.isa
+    }
+
     /// The feature bits of the variant the renders run ([`variant::variant`]).
     pub fn variant_features(&self) -> raylume_scene::Features {
         raylume_scene::Features::from_bits(variant::variant(self.variant))
@@ -115,6 +133,7 @@ impl CpuTracer {
             bvh: Arc::new(bvh.clone()),
             choices: data.choices(),
             variant: variant_of(data.features, Specialisation::default()),
+            isa: CpuIsa::best(),
             data: Arc::new(data),
             prepare_seconds: t.elapsed().as_secs_f64(),
         })
@@ -136,6 +155,7 @@ impl CpuTracer {
             bvh,
             choices: data.choices(),
             variant: variant_of(data.features, Specialisation::default()),
+            isa: CpuIsa::best(),
             data,
             prepare_seconds: 0.0,
         })
@@ -265,6 +285,7 @@ impl CpuTracer {
                     bvh,
                     scene: &scene,
                     schedule: settings.schedule,
+                    isa: self.isa,
                     max_bounces: settings.max_bounces,
                     rays: b.rays(),
                     slots: &mut slots,
@@ -332,6 +353,7 @@ struct BatchRun<'a> {
     bvh: &'a GpuBvh,
     scene: &'a SceneUniforms,
     schedule: Schedule,
+    isa: CpuIsa,
     max_bounces: u32,
     rays: u32,
     slots: &'a mut Vec<[f32; 3]>,
@@ -357,6 +379,7 @@ impl ForVariant for BatchRun<'_> {
             bvh,
             scene,
             schedule,
+            isa,
             max_bounces,
             rays,
             slots,
@@ -371,7 +394,7 @@ impl ForVariant for BatchRun<'_> {
                     .par_iter_mut()
                     .enumerate()
                     .map(|(r, slot)| {
-                        let (v, d, traced) = stages::trace_paths::<F>(g, bvh, r as u32);
+                        let (v, d, traced) = isa::trace_paths::<F>(isa, g, bvh, r as u32);
                         *slot = v;
                         (u64::from(traced), u64::from(d))
                     })

@@ -107,7 +107,7 @@ pub fn propagate<const F: u32>(
 
 /// The whole path of one pixel sample, all bounces in a loop: its radiance and the rays it
 /// traced.
-#[inline]
+#[inline(always)]
 pub fn trace_path<const F: u32>(g: &Globals, bvh: &GpuBvh, pixel: u32, sample: u32) -> (Vec3, u32) {
     let scene = g.scene;
     let mut path = camera_path(scene, pixel, sample);
@@ -124,7 +124,7 @@ pub fn trace_path<const F: u32>(g: &Globals, bvh: &GpuBvh, pixel: u32, sample: u
 
 /// `trace_paths`: the whole path of ray `r` of the batch; returns its slot value, whether
 /// it was dropped, and the rays traced.
-#[inline]
+#[inline(always)]
 pub fn trace_paths<const F: u32>(g: &Globals, bvh: &GpuBvh, r: u32) -> ([f32; 3], bool, u32) {
     let (pixel, sample) = batch_ray(g.scene, r);
     let (radiance, traced) = trace_path::<F>(g, bvh, pixel, sample);

@@ -1,0 +1,171 @@
+//! The instruction set the CPU path's per-path kernel runs with, picked when it runs.
+//!
+//! Cargo's default target is the baseline x86-64 (SSE2), which every x86-64 CPU runs; the
+//! CPUs that render have AVX2 and often AVX-512, whose wider registers, three-operand forms,
+//! bit instructions (`lzcnt`, `popcnt`, ...) and, with AVX-512, twice the vector registers
+//! make the same arithmetic faster. So that a dependent's plain `cargo build --release` gets
+//! them without `-C target-cpu=native` (which makes a binary that runs only on CPUs like the
+//! build machine's), [`stages::trace_paths`] is compiled three times over: as the build
+//! targets, for x86-64-v3 (AVX2, FMA, BMI1/2, LZCNT, POPCNT) and for x86-64-v4 (those and
+//! AVX-512 F/BW/CD/DQ/VL), each copy a `#[target_feature]` function into which the whole
+//! path is inlined (the per-bounce functions it calls are `#[inline(always)]` for that: a
+//! function left out of line would run at the build's level). [`CpuIsa::best`] is the
+//! highest level the running CPU has; the tracer runs that one unless told otherwise
+//! ([`crate::CpuTracer::set_isa`]).
+//!
+//! **The same image bit for bit** at every level: Rust never fuses `a * b + c` on its own
+//! (only `mul_add`, which is exactly rounded on every level: an instruction or libm's `fmaf`),
+//! nor reorders float arithmetic, so the wider instructions compute the same values
+//! (`tests/cpu_isa.rs` renders a scene of every feature group at each level the CPU has and
+//! compares the images bit for bit). Only the persistent and megakernel schedules dispatch
+//! (the CPU's default); the wavefront's stages, a reference for the GPU's, run as the build
+//! targets.
+//!
+//! On the AMD EPYC development VM (AVX-512), a default build: Bitterli's Cornell box 14 %
+//! faster at x86-64-v4 than at the build's level, the living room 9-10 %; at x86-64-v3 7 %
+//! and 0-2 %; a build with `-C target-cpu=native` no faster than x86-64-v4 from the default
+//! one (`docs/RESULTS.md`, issue 15).
+
+use raylume_bvh::GpuBvh;
+
+use crate::surface::Globals;
+
+use super::stages;
+
+/// An instruction-set level of the CPU path's kernel ([`self`](crate::cpu::isa)): ordered,
+/// each one a superset of those below it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum CpuIsa {
+    /// What the build targets (Cargo's default: the baseline x86-64; on other architectures,
+    /// the only level).
+    #[default]
+    Build,
+    /// x86-64-v3: AVX2, FMA, BMI1, BMI2, LZCNT, POPCNT, F16C, MOVBE.
+    X86_64V3,
+    /// x86-64-v4: x86-64-v3 and AVX-512 F, BW, CD, DQ, VL.
+    X86_64V4,
+}
+
+impl CpuIsa {
+    /// Every level, lowest first.
+    pub const ALL: [CpuIsa; 3] = [CpuIsa::Build, CpuIsa::X86_64V3, CpuIsa::X86_64V4];
+
+    /// The name `--cpu-isa` takes and the stats print: `build`, `x86-64-v3`, `x86-64-v4`.
+    pub fn name(self) -> &'static str {
+        match self {
+            CpuIsa::Build => "build",
+            CpuIsa::X86_64V3 => "x86-64-v3",
+            CpuIsa::X86_64V4 => "x86-64-v4",
+        }
+    }
+
+    /// The level named `name` ([`CpuIsa::name`]), if any.
+    pub fn parse(name: &str) -> Option<CpuIsa> {
+        CpuIsa::ALL.into_iter().find(|i| i.name() == name)
+    }
+
+    /// Whether the running CPU executes this level's instructions ([`CpuIsa::Build`]
+    /// always: the program runs).
+    pub fn available(self) -> bool {
+        match self {
+            CpuIsa::Build => true,
+            #[cfg(target_arch = "x86_64")]
+            CpuIsa::X86_64V3 => {
+                std::arch::is_x86_feature_detected!("avx2")
+                    && std::arch::is_x86_feature_detected!("fma")
+                    && std::arch::is_x86_feature_detected!("bmi1")
+                    && std::arch::is_x86_feature_detected!("bmi2")
+                    && std::arch::is_x86_feature_detected!("lzcnt")
+                    && std::arch::is_x86_feature_detected!("popcnt")
+                    && std::arch::is_x86_feature_detected!("f16c")
+                    && std::arch::is_x86_feature_detected!("movbe")
+            }
+            #[cfg(target_arch = "x86_64")]
+            CpuIsa::X86_64V4 => {
+                CpuIsa::X86_64V3.available()
+                    && std::arch::is_x86_feature_detected!("avx512f")
+                    && std::arch::is_x86_feature_detected!("avx512bw")
+                    && std::arch::is_x86_feature_detected!("avx512cd")
+                    && std::arch::is_x86_feature_detected!("avx512dq")
+                    && std::arch::is_x86_feature_detected!("avx512vl")
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            _ => false,
+        }
+    }
+
+    /// The highest level the running CPU executes: what the tracer runs by default.
+    pub fn best() -> CpuIsa {
+        CpuIsa::best_up_to(CpuIsa::X86_64V4)
+    }
+
+    /// The highest level at most `limit` that the running CPU executes.
+    pub fn best_up_to(limit: CpuIsa) -> CpuIsa {
+        CpuIsa::ALL
+            .into_iter()
+            .rev()
+            .find(|i| *i <= limit && i.available())
+            .unwrap_or(CpuIsa::Build)
+    }
+}
+
+/// [`stages::trace_paths`] compiled for x86-64-v3 (see the module docs). Not compiled where
+/// the build already targets AVX2: there [`CpuIsa::Build`] is at least this.
+#[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
+#[target_feature(enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,f16c,movbe")]
+fn trace_paths_v3<const F: u32>(g: &Globals, bvh: &GpuBvh, r: u32) -> ([f32; 3], bool, u32) {
+    stages::trace_paths::<F>(g, bvh, r)
+}
+
+/// [`stages::trace_paths`] compiled for x86-64-v4 (see the module docs). Not compiled where
+/// the build already targets AVX-512.
+#[cfg(all(target_arch = "x86_64", not(target_feature = "avx512f")))]
+#[target_feature(
+    enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,f16c,movbe,avx512f,avx512bw,avx512cd,avx512dq,avx512vl"
+)]
+fn trace_paths_v4<const F: u32>(g: &Globals, bvh: &GpuBvh, r: u32) -> ([f32; 3], bool, u32) {
+    stages::trace_paths::<F>(g, bvh, r)
+}
+
+/// [`stages::trace_paths`] at level `isa`, which must be [`CpuIsa::available`] (the tracer
+/// checks it when it is set: [`crate::CpuTracer::set_isa`]); a level the build already
+/// targets runs the build's copy.
+#[inline(always)]
+pub fn trace_paths<const F: u32>(
+    isa: CpuIsa,
+    g: &Globals,
+    bvh: &GpuBvh,
+    r: u32,
+) -> ([f32; 3], bool, u32) {
+    debug_assert!(isa.available());
+    match isa {
+        #[cfg(all(target_arch = "x86_64", not(target_feature = "avx512f")))]
+        // SAFETY: the CPU has x86-64-v4's features (`isa.available()`, the caller's promise).
+        CpuIsa::X86_64V4 => unsafe { trace_paths_v4::<F>(g, bvh, r) },
+        #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
+        // SAFETY: the CPU has x86-64-v3's features (`isa.available()`, the caller's promise).
+        CpuIsa::X86_64V3 => unsafe { trace_paths_v3::<F>(g, bvh, r) },
+        _ => stages::trace_paths::<F>(g, bvh, r),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn levels_round_trip_their_names_and_best_is_available() {
+        for isa in CpuIsa::ALL {
+            assert_eq!(CpuIsa::parse(isa.name()), Some(isa));
+        }
+        assert_eq!(CpuIsa::parse("native"), None);
+        assert!(CpuIsa::best().available());
+        assert_eq!(CpuIsa::best_up_to(CpuIsa::Build), CpuIsa::Build);
+        // Levels are cumulative: one available means every one below it is.
+        for (i, isa) in CpuIsa::ALL.into_iter().enumerate() {
+            if isa.available() {
+                assert!(CpuIsa::ALL[..i].iter().all(|l| l.available()), "{isa:?}");
+            }
+        }
+    }
+}

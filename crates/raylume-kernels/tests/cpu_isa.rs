@@ -1,0 +1,87 @@
+//! The CPU path's instruction-set levels (`raylume_kernels::cpu::isa`): every level this CPU
+//! executes renders the same image as the build's own, bit for bit, over the fixture scenes
+//! that hold every feature group (spheres; metal, glass, plastic, rough ones; textures; an
+//! environment), with each estimator and sampler.
+
+mod support;
+
+use raylume_kernels::{CpuIsa, CpuTracer, Estimator, Sampler, Schedule, Specialisation};
+use raylume_scene::Features;
+use support::*;
+
+#[test]
+fn every_available_level_renders_the_builds_image_bit_for_bit() {
+    let levels: Vec<CpuIsa> = CpuIsa::ALL.into_iter().filter(|i| i.available()).collect();
+    eprintln!("levels this CPU executes: {levels:?}");
+    let scenes = [
+        ("cornell", cornell_box()),
+        ("spheres", spheres()),
+        ("materials", materials()),
+        ("textured", textured()),
+        ("environment", environment_lit()),
+    ];
+    let runs = [
+        (
+            Estimator::Nee,
+            Sampler::Sobol,
+            Some(3),
+            Specialisation::default(),
+        ),
+        (
+            Estimator::Plain,
+            Sampler::Independent,
+            None,
+            Specialisation::default(),
+        ),
+        (
+            Estimator::Nee,
+            Sampler::ZSobol,
+            Some(2),
+            Specialisation::Generic,
+        ),
+    ];
+    let s = settings(24, 16, 4, 6, Schedule::Persistent);
+    for (name, scene) in &scenes {
+        let bvh = bvh(scene);
+        let mut tracer = CpuTracer::new(scene, &bvh).unwrap();
+        for &(estimator, sampler, roulette, specialisation) in &runs {
+            tracer.set_estimator(estimator);
+            tracer.set_sampler(sampler);
+            tracer.set_russian_roulette(roulette);
+            tracer.set_specialisation(specialisation, Features::NONE);
+            let mut reference = None;
+            for &isa in &levels {
+                assert_eq!(tracer.set_isa(isa), isa, "an available level is taken");
+                let out = tracer.render(&s, &mut |_, _| {}).unwrap();
+                let bits: Vec<[u32; 3]> =
+                    out.radiance.iter().map(|p| p.map(f32::to_bits)).collect();
+                assert!(out.rays_traced > 0);
+                match &reference {
+                    None => reference = Some((bits, out.rays_traced)),
+                    Some((want, rays)) => {
+                        let differ = bits.iter().zip(want).filter(|(a, b)| a != b).count();
+                        assert_eq!(
+                            differ, 0,
+                            "{name} {estimator:?} {sampler:?} at {isa:?}: {differ} pixels differ \
+                             from the build's image"
+                        );
+                        assert_eq!(out.rays_traced, *rays, "{name} at {isa:?}: rays traced");
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_tracer_runs_the_best_level_by_default_and_clamps_what_the_cpu_lacks() {
+    let scene = cornell_box();
+    let mut tracer = CpuTracer::new(&scene, &bvh(&scene)).unwrap();
+    assert_eq!(tracer.isa(), CpuIsa::best());
+    assert_eq!(tracer.set_isa(CpuIsa::Build), CpuIsa::Build);
+    // Asking for the highest level gets the highest this CPU has, never one it lacks.
+    let got = tracer.set_isa(CpuIsa::X86_64V4);
+    assert_eq!(got, CpuIsa::best());
+    assert!(got.available());
+    assert_eq!(tracer.isa(), got);
+}
