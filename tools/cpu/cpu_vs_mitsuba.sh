@@ -8,8 +8,9 @@
 # Needs Mitsuba 3 for Python (`PYVER=3.11 ../shared/peers/mitsuba/pack.sh .mitsuba-local`,
 # extracted to $MITSUBA, default /tmp/mitsuba) and libLLVM ($DRJIT_LIBLLVM_PATH, default
 # Debian 12's libllvm19). Settings: SIZE (1000x1000), SPP (10), ROUNDS (2), TARGET_CPU (unset:
-# the default target, what a dependent's release build gets; `native`: raylume built with
-# `-C target-cpu=native`, as Mitsuba's JIT compiles for the host); 10 bounces
+# the default target, what a dependent's release build gets, whose CPU path runs at the CPU's
+# best instruction-set level since 7e661ca (`raylume_kernels::cpu::isa`); `native`: raylume
+# built with `-C target-cpu=native`, as Mitsuba's JIT compiles for the host); 10 bounces
 # (Mitsuba's max_depth 11). Each round then times the issue's equal-error criterion:
 # Bitterli's Cornell box at 128x128, Mitsuba at 64 spp with each of two samplers, timed with
 # the sampler whose error it sets (`tools/study/mitsuba_series.py`: a warm-up, then best of
