@@ -339,15 +339,15 @@ fn no_light_query() -> LightQuery {
         false, false, false, 0u, 0u, vec3<f32>(0.0), 0.0, 0.0, 0.0, 0.0);
 }
 
-// Next-event estimation's light sample at a hit (shade.rs `light_query`): a point (from
-// rnd.xy) on the light chosen by rnd.z and the shadow ray toward it. The BSDF samplers likewise
-// get rnd.zxy (shade.rs `lobe_first`).
+// Next-event estimation's light sample at a hit (shade.rs `light_query`): the light chosen by
+// rnd.x, a point on it from (rnd.x rescaled within the light's share, rnd.y), and the shadow ray
+// toward it. The BSDF samplers get rnd.zxy (shade.rs `lobe_first`).
 fn light_query(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4<f32>) -> LightQuery {
     var lo = 0u;
     var hi = scene.light_count - 1u;
     while (lo < hi) {
         let mid = (lo + hi) / 2u;
-        if (lights[mid].cdf > rnd.z) {
+        if (lights[mid].cdf > rnd.x) {
             hi = mid;
         } else {
             lo = mid + 1u;
@@ -359,6 +359,10 @@ fn light_query(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4<f
         before = lights[lo - 1u].cdf;
     }
     let p_select = light.cdf - before;
+    var x = 0.0;
+    if (p_select > 0.0) {
+        x = min((rnd.x - before) / p_select, SOBOL_ONE_MINUS_EPSILON);
+    }
     let ng = hit.geometric_normal;
     let front = dot(dir_in, ng) < 0.0;
     let ng_facing = select(-ng, ng, front);
@@ -374,7 +378,7 @@ fn light_query(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4<f
     var dist2 = 0.0;
     var cos_l = 1.0;
     if (is_env) {
-        let es = sample_environment(rnd.xy, cell);
+        let es = sample_environment(vec2<f32>(x, rnd.y), cell);
         wi = es.dir;
         env_pdf = es.pdf;
         side = light_side(mat, ns_facing, ng_facing, wi);
@@ -382,11 +386,11 @@ fn light_query(hit: SurfaceHit, mat: GpuMaterial, dir_in: vec3<f32>, rnd: vec4<f
             return no_light_query();
         }
     } else {
-        let su = sqrt(rnd.x);
+        let su = sqrt(x);
         var point = light.p0 + light.e1 * (su * (1.0 - rnd.y)) + light.e2 * (su * rnd.y);
 //#if spheres
         if (is_sphere) {
-            let cap = sample_sphere_cap(light.p0, light.e1.x, origin, rnd.xy);
+            let cap = sample_sphere_cap(light.p0, light.e1.x, origin, vec2<f32>(x, rnd.y));
             if (!cap.valid) {
                 return no_light_query();
             }
