@@ -440,10 +440,7 @@ pub fn trace_ray_at<const F: u32>(
     } else {
         None
     };
-    // (Written out, not as closures: a closure the compiler leaves out of line would run at
-    // the build's instruction level, not the one `cpu::isa` compiled the path for.)
-    let early = has(F, Feature::Textures)
-        && query.is_some_and(|q| trace_any::<F>(bvh, &q.ray, 0.0, q.t_max));
+    let early = has(F, Feature::Textures) && shadowed::<F>(bvh, &query);
     let mat = material_at::<F>(g, &surface);
     let throughput_in = path.throughput;
     let light_in = match &query {
@@ -460,11 +457,19 @@ pub fn trace_ray_at<const F: u32>(
         let occluded = if has(F, Feature::Textures) {
             early
         } else {
-            query.is_some_and(|q| trace_any::<F>(bvh, &q.ray, 0.0, q.t_max))
+            shadowed::<F>(bvh, &query)
         };
         path.radiance += throughput_in * if occluded { Vec3::ZERO } else { light_in };
     }
     path.radiance += emission;
+}
+
+/// Whether the light sample `query`'s shadow ray is blocked (false without a sample).
+/// A function, not a closure in [`trace_ray_at`]: one the compiler left out of line would run
+/// at the build's instruction level, not the one `cpu::isa` compiled the path for.
+#[inline(always)]
+fn shadowed<const F: u32>(bvh: &GpuBvh, query: &Option<LightQuery>) -> bool {
+    query.is_some_and(|q| trace_any::<F>(bvh, &q.ray, 0.0, q.t_max))
 }
 
 /// Russian roulette: the path goes on with probability `q = min(max throughput,

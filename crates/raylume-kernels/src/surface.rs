@@ -396,7 +396,7 @@ pub fn environment_pdf<const F: u32>(g: &Globals, dir: Vec3, cell: u32) -> f32 {
 /// in `(u, v)`, and turned into a direction by the inverse of [`direction_to_equirect`] (with
 /// the map's rotation; a constant environment has none). Pdf 0 (a direction to ignore) at the
 /// poles.
-#[inline]
+#[inline(always)]
 pub fn sample_environment<const F: u32>(g: &Globals, u: Vec2, cell: u32) -> (Vec3, f32) {
     let s = &g.scene;
     let sky = has(F, Feature::ConstantEnvironment) || has(F, Feature::EnvironmentMap);
