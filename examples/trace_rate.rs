@@ -32,6 +32,8 @@ use raylume::Scene;
 use raylume::glam::{Vec2, Vec3};
 use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh, Hit, Primitive, Ray};
 use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, wgpu};
+use raylume_kernels::CpuIsa;
+use raylume_kernels::cpu::isa::with_isa;
 use rayon::prelude::*;
 
 #[path = "support/scene_name.rs"]
@@ -62,6 +64,14 @@ struct Args {
     /// Write each scene's triangles and ray sets here (see the module docs).
     #[arg(long)]
     dump: Option<PathBuf>,
+    /// The highest instruction-set level the CPU walks run at (x86-64-v4, x86-64-v3 or build),
+    /// as the renders' `--cpu-isa`: by default the CPU's best, what the renders run.
+    #[arg(long, default_value = "x86-64-v4", value_parser = parse_cpu_isa)]
+    cpu_isa: CpuIsa,
+}
+
+fn parse_cpu_isa(s: &str) -> Result<CpuIsa, String> {
+    CpuIsa::parse(s.trim()).ok_or_else(|| format!("`{s}`: x86-64-v4, x86-64-v3 or build"))
 }
 
 /// One query as the kernel reads it (32 bytes).
@@ -222,7 +232,7 @@ fn dump(
     let mut hits = Vec::new();
     for (kind, qs) in sets {
         std::fs::write(dir.join(format!("{kind}.f32")), bytemuck::cast_slice(qs))?;
-        let hit = cpu_rate(bvh, qs, false, 1).1;
+        let hit = cpu_rate(bvh, qs, false, 1, CpuIsa::Build).1;
         hits.push(format!(
             "\"{kind}\": {{\"rays\": {}, \"hit\": {hit}}}",
             qs.len()
@@ -305,8 +315,9 @@ fn gpu_rate(
     (best, hits)
 }
 
-/// Best-of-`repeat` seconds and hit count of `queries` on the CPU (every core).
-fn cpu_rate(bvh: &GpuBvh, queries: &[Query], any: bool, repeat: u32) -> (f64, u32) {
+/// Best-of-`repeat` seconds and hit count of `queries` on the CPU (every core), each walk at
+/// level `isa` (`with_isa`, as the renders' paths).
+fn cpu_rate(bvh: &GpuBvh, queries: &[Query], any: bool, repeat: u32, isa: CpuIsa) -> (f64, u32) {
     let mut best = f64::INFINITY;
     let mut hits = 0;
     for _ in 0..repeat {
@@ -318,11 +329,17 @@ fn cpu_rate(bvh: &GpuBvh, queries: &[Query], any: bool, repeat: u32) -> (f64, u3
                     origin: Vec3::from(q.origin),
                     dir: Vec3::from(q.dir),
                 };
-                if any {
-                    bvh.trace_any(&ray, q.t_min, q.t_max)
-                } else {
-                    bvh.trace_closest(&ray, q.t_min, q.t_max).is_some()
-                }
+                with_isa(
+                    isa,
+                    #[inline(always)]
+                    || {
+                        if any {
+                            bvh.trace_any(&ray, q.t_min, q.t_max)
+                        } else {
+                            bvh.trace_closest(&ray, q.t_min, q.t_max).is_some()
+                        }
+                    },
+                )
             })
             .count() as u32;
         best = best.min(t.elapsed().as_secs_f64());
@@ -343,9 +360,11 @@ fn main() {
     if let Some(ctx) = &ctx {
         println!("GPU: {}", ctx.describe());
     }
+    let isa = CpuIsa::best_up_to(args.cpu_isa);
     println!(
-        "CPU: {} threads; {w}x{h} rays per set, best of {}",
+        "CPU: {} threads, {}; {w}x{h} rays per set, best of {}",
         rayon::current_num_threads(),
+        isa.name(),
         args.repeat
     );
     println!();
@@ -373,8 +392,8 @@ fn main() {
                             gpu_rate(ctx, &bvh, qs, "any", args.repeat, args.passes),
                         ),
                         _ => (
-                            cpu_rate(&bvh, qs, false, args.repeat),
-                            cpu_rate(&bvh, qs, true, args.repeat),
+                            cpu_rate(&bvh, qs, false, args.repeat, isa),
+                            cpu_rate(&bvh, qs, true, args.repeat, isa),
                         ),
                     };
                     assert_eq!(hc, ha, "closest and any-hit disagree on what is hit");

@@ -67,8 +67,14 @@ impl CpuIsa {
     }
 
     /// Whether the running CPU executes this level's instructions ([`CpuIsa::Build`]
-    /// always: the program runs).
+    /// always: the program runs). One load once detected ([`CpuIsa::best`]).
     pub fn available(self) -> bool {
+        self <= CpuIsa::best()
+    }
+
+    /// The CPU's features, tested (levels are cumulative: [`CpuIsa::best`] asks each only if
+    /// the one below has them).
+    fn detect(self) -> bool {
         match self {
             CpuIsa::Build => true,
             #[cfg(target_arch = "x86_64")]
@@ -84,8 +90,7 @@ impl CpuIsa {
             }
             #[cfg(target_arch = "x86_64")]
             CpuIsa::X86_64V4 => {
-                CpuIsa::X86_64V3.available()
-                    && std::arch::is_x86_feature_detected!("avx512f")
+                std::arch::is_x86_feature_detected!("avx512f")
                     && std::arch::is_x86_feature_detected!("avx512bw")
                     && std::arch::is_x86_feature_detected!("avx512cd")
                     && std::arch::is_x86_feature_detected!("avx512dq")
@@ -96,42 +101,62 @@ impl CpuIsa {
         }
     }
 
-    /// The highest level the running CPU executes: what the tracer runs by default.
+    /// The highest level the running CPU executes: what the tracer runs by default (detected
+    /// once a process).
     pub fn best() -> CpuIsa {
-        CpuIsa::best_up_to(CpuIsa::X86_64V4)
+        static BEST: std::sync::OnceLock<CpuIsa> = std::sync::OnceLock::new();
+        *BEST.get_or_init(|| {
+            CpuIsa::ALL
+                .into_iter()
+                .take_while(|i| i.detect())
+                .last()
+                .unwrap_or(CpuIsa::Build)
+        })
     }
 
     /// The highest level at most `limit` that the running CPU executes.
     pub fn best_up_to(limit: CpuIsa) -> CpuIsa {
-        CpuIsa::ALL
-            .into_iter()
-            .rev()
-            .find(|i| *i <= limit && i.available())
-            .unwrap_or(CpuIsa::Build)
+        limit.min(CpuIsa::best())
     }
 }
 
-/// [`stages::trace_paths`] compiled for x86-64-v3 (see the module docs). Not compiled where
-/// the build already targets AVX2: there [`CpuIsa::Build`] is at least this.
+/// `f()` compiled for x86-64-v3 (see the module docs): what it inlines runs with AVX2. Not
+/// compiled where the build already targets AVX2: there [`CpuIsa::Build`] is at least this.
 #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
 #[target_feature(enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,f16c,movbe")]
-fn trace_paths_v3<const F: u32>(g: &Globals, bvh: &GpuBvh, r: u32) -> ([f32; 3], bool, u32) {
-    stages::trace_paths::<F>(g, bvh, r)
+fn call_v3<R>(f: impl FnOnce() -> R) -> R {
+    f()
 }
 
-/// [`stages::trace_paths`] compiled for x86-64-v4 (see the module docs). Not compiled where
-/// the build already targets AVX-512.
+/// `f()` compiled for x86-64-v4 (see the module docs). Not compiled where the build already
+/// targets AVX-512.
 #[cfg(all(target_arch = "x86_64", not(target_feature = "avx512f")))]
 #[target_feature(
     enable = "avx,avx2,fma,bmi1,bmi2,lzcnt,popcnt,f16c,movbe,avx512f,avx512bw,avx512cd,avx512dq,avx512vl"
 )]
-fn trace_paths_v4<const F: u32>(g: &Globals, bvh: &GpuBvh, r: u32) -> ([f32; 3], bool, u32) {
-    stages::trace_paths::<F>(g, bvh, r)
+fn call_v4<R>(f: impl FnOnce() -> R) -> R {
+    f()
 }
 
-/// [`stages::trace_paths`] at level `isa`, which must be [`CpuIsa::available`] (the tracer
-/// checks it when it is set: [`crate::CpuTracer::set_isa`]); a level the build already
-/// targets runs the build's copy.
+/// `f()` at level `isa`, which must be [`CpuIsa::available`] (the tracer checks it when it is
+/// set: [`crate::CpuTracer::set_isa`]): a copy of `f` and of everything it inlines compiled
+/// for that level (a level the build already targets runs the build's). For a hot loop's
+/// body, e.g. one path ([`trace_paths`]) or one ray of a walk (`trace_rate --backend cpu`).
+#[inline(always)]
+pub fn with_isa<R>(isa: CpuIsa, f: impl FnOnce() -> R) -> R {
+    assert!(isa.available(), "{isa:?} is not available on this CPU");
+    match isa {
+        #[cfg(all(target_arch = "x86_64", not(target_feature = "avx512f")))]
+        // SAFETY: the CPU has x86-64-v4's features (asserted above).
+        CpuIsa::X86_64V4 => unsafe { call_v4(f) },
+        #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
+        // SAFETY: the CPU has x86-64-v3's features (asserted above).
+        CpuIsa::X86_64V3 => unsafe { call_v3(f) },
+        _ => f(),
+    }
+}
+
+/// [`stages::trace_paths`] at level `isa` ([`with_isa`]).
 #[inline(always)]
 pub fn trace_paths<const F: u32>(
     isa: CpuIsa,
@@ -139,16 +164,11 @@ pub fn trace_paths<const F: u32>(
     bvh: &GpuBvh,
     r: u32,
 ) -> ([f32; 3], bool, u32) {
-    debug_assert!(isa.available());
-    match isa {
-        #[cfg(all(target_arch = "x86_64", not(target_feature = "avx512f")))]
-        // SAFETY: the CPU has x86-64-v4's features (`isa.available()`, the caller's promise).
-        CpuIsa::X86_64V4 => unsafe { trace_paths_v4::<F>(g, bvh, r) },
-        #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2")))]
-        // SAFETY: the CPU has x86-64-v3's features (`isa.available()`, the caller's promise).
-        CpuIsa::X86_64V3 => unsafe { trace_paths_v3::<F>(g, bvh, r) },
-        _ => stages::trace_paths::<F>(g, bvh, r),
-    }
+    with_isa(
+        isa,
+        #[inline(always)]
+        || stages::trace_paths::<F>(g, bvh, r),
+    )
 }
 
 #[cfg(test)]
@@ -163,10 +183,11 @@ mod tests {
         assert_eq!(CpuIsa::parse("native"), None);
         assert!(CpuIsa::best().available());
         assert_eq!(CpuIsa::best_up_to(CpuIsa::Build), CpuIsa::Build);
-        // Levels are cumulative: one available means every one below it is.
-        for (i, isa) in CpuIsa::ALL.into_iter().enumerate() {
+        // Levels are cumulative: the best one's features and every one's below it are there.
+        for isa in CpuIsa::ALL {
+            assert_eq!(isa.available(), isa <= CpuIsa::best(), "{isa:?}");
             if isa.available() {
-                assert!(CpuIsa::ALL[..i].iter().all(|l| l.available()), "{isa:?}");
+                assert!(isa.detect(), "{isa:?}");
             }
         }
     }
