@@ -10,7 +10,7 @@
 //! AVX-512 F/BW/CD/DQ/VL), each copy a `#[target_feature]` function into which the whole
 //! path is inlined (the per-bounce functions it calls are `#[inline(always)]` for that: a
 //! function left out of line would run at the build's level: the disassembly of a release
-//! build's `trace_paths_v4` copies should call nothing but libm's `sincosf` through the PLT;
+//! build's `call_v4` copies should call nothing but libm's `sincosf` through the PLT;
 //! at bf09b4f `sample_environment` had dropped out of line, and was marked).
 //! [`CpuIsa::best`] is the highest level the running CPU has; the tracer runs that one unless
 //! told otherwise ([`crate::CpuTracer::set_isa`]).
