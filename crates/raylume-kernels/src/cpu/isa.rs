@@ -141,7 +141,12 @@ fn call_v4<R>(f: impl FnOnce() -> R) -> R {
 /// `f()` at level `isa`, which must be [`CpuIsa::available`] (the tracer checks it when it is
 /// set: [`crate::CpuTracer::set_isa`]): a copy of `f` and of everything it inlines compiled
 /// for that level (a level the build already targets runs the build's). For a hot loop's
-/// body, e.g. one path ([`trace_paths`]) or one ray of a walk (`trace_rate --backend cpu`).
+/// body, e.g. one path ([`trace_paths`]) or one ray of a walk (`trace_rate --backend cpu`);
+/// mark the closure `#[inline(always)]`, or it may stay out of line at the build's level.
+///
+/// # Panics
+/// If the CPU lacks `isa` (running its instructions would be undefined behaviour): take the
+/// level from [`CpuIsa::best`] or [`CpuIsa::best_up_to`].
 #[inline(always)]
 pub fn with_isa<R>(isa: CpuIsa, f: impl FnOnce() -> R) -> R {
     assert!(isa.available(), "{isa:?} is not available on this CPU");
