@@ -75,26 +75,23 @@ impl CpuIsa {
     /// The CPU's features, tested (levels are cumulative: [`CpuIsa::best`] asks each only if
     /// the one below has them).
     fn detect(self) -> bool {
+        // Every feature named, detected (the std macro takes literal tokens only). The lists are those of
+        // the `#[target_feature]` attributes of `call_v3` and `call_v4` below: keep them equal.
+        #[cfg(target_arch = "x86_64")]
+        macro_rules! all_detected {
+            ($($f:tt),+) => { $(std::arch::is_x86_feature_detected!($f))&&+ };
+        }
         match self {
             CpuIsa::Build => true,
             #[cfg(target_arch = "x86_64")]
             CpuIsa::X86_64V3 => {
-                std::arch::is_x86_feature_detected!("avx2")
-                    && std::arch::is_x86_feature_detected!("fma")
-                    && std::arch::is_x86_feature_detected!("bmi1")
-                    && std::arch::is_x86_feature_detected!("bmi2")
-                    && std::arch::is_x86_feature_detected!("lzcnt")
-                    && std::arch::is_x86_feature_detected!("popcnt")
-                    && std::arch::is_x86_feature_detected!("f16c")
-                    && std::arch::is_x86_feature_detected!("movbe")
+                all_detected!(
+                    "avx2", "fma", "bmi1", "bmi2", "lzcnt", "popcnt", "f16c", "movbe"
+                )
             }
             #[cfg(target_arch = "x86_64")]
             CpuIsa::X86_64V4 => {
-                std::arch::is_x86_feature_detected!("avx512f")
-                    && std::arch::is_x86_feature_detected!("avx512bw")
-                    && std::arch::is_x86_feature_detected!("avx512cd")
-                    && std::arch::is_x86_feature_detected!("avx512dq")
-                    && std::arch::is_x86_feature_detected!("avx512vl")
+                all_detected!("avx512f", "avx512bw", "avx512cd", "avx512dq", "avx512vl")
             }
             #[cfg(not(target_arch = "x86_64"))]
             _ => false,
