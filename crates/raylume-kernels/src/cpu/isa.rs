@@ -75,8 +75,9 @@ impl CpuIsa {
     /// The CPU's features, tested (levels are cumulative: [`CpuIsa::best`] asks each only if
     /// the one below has them).
     fn detect(self) -> bool {
-        // Every feature named, detected (the std macro takes literal tokens only). The lists are those of
-        // the `#[target_feature]` attributes of `call_v3` and `call_v4` below: keep them equal.
+        // Every feature named, detected (the std macro takes literal tokens only). The lists
+        // are the `#[target_feature]` attributes' of `call_v3` and (both together) `call_v4`
+        // below: keep them equal.
         #[cfg(target_arch = "x86_64")]
         macro_rules! all_detected {
             ($($f:tt),+) => { $(std::arch::is_x86_feature_detected!($f))&&+ };
