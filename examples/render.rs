@@ -135,6 +135,11 @@ struct Args {
     /// ran.
     #[arg(long, default_value = "x86-64-v4", value_parser = parse_cpu_isa)]
     cpu_isa: raylume::CpuIsa,
+    /// Whether the CPU path traces scenes of diffuse triangles (no other material, texture,
+    /// sphere or sky) eight paths at a time (on, the default) or one at a time (off). The same
+    /// image; the stats line says `packets` when they ran.
+    #[arg(long, default_value = "on", value_parser = parse_on_off, action = clap::ArgAction::Set)]
+    cpu_packets: bool,
     /// Skip the scene's bloom pass.
     #[arg(long)]
     no_bloom: bool,
@@ -299,6 +304,7 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
     tracer.russian_roulette = args.rr_depth.0;
     tracer.environment_guide = args.environment_guide.0;
     tracer.cpu_isa = args.cpu_isa;
+    tracer.cpu_packets = args.cpu_packets;
     tracer.target_error = args.target_error;
     tracer.schedule = args.schedule;
     if let Some(l) = args.bvh {

@@ -342,47 +342,9 @@ pub fn trace_ray_at<const F: u32>(
     // eight lanes at a time, with `sampler_pixel` once a path in `trace_path`: the Cornell
     // box 10-12 % faster in the default build, 5-10 % built native, the living room 2-5 %;
     // `docs/RESULTS.md`, issue 15).
-    let wants_light = g.scene.light_count > 0 && depth < g.scene.max_bounces;
-    let wants_roulette = depth >= g.scene.rr_depth;
-    let (rnd_light, rnd_scatter, rnd_roulette) = match g.sobol_segments.get(depth as usize) {
-        // The `Sobol` sampler's three groups at once, their hashes from the render's table
-        // (the same numbers: `SegmentKeys::draw`).
-        Some(keys) if keys.seed() == sp.seed && g.scene.sampler == SAMPLER_SOBOL => {
-            let (light, scatter, roulette) = keys.draw(sp, sample);
-            (
-                if wants_light { light } else { Vec4::ZERO },
-                scatter,
-                if wants_roulette { roulette } else { 0.0 },
-            )
-        }
-        _ => (
-            if wants_light {
-                path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT)
-            } else {
-                Vec4::ZERO
-            },
-            path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_SCATTER),
-            if wants_roulette {
-                path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_ROULETTE).x
-            } else {
-                0.0
-            },
-        ),
-    };
+    let (rnd_light, rnd_scatter, rnd_roulette) = segment_rands(g, sp, pixel, sample, depth);
     let Some(hit) = trace_closest::<F>(bvh, &ray, 0.0, T_MAX) else {
-        // Escaped from a vertex that sampled the lights, the environment among them: weigh
-        // the scattered ray's estimate against the shadow ray's.
-        let w = if path.mis_pdf > 0.0 && g.scene.environment_select > 0.0 {
-            mis_weight(
-                path.mis_pdf,
-                g.scene.environment_select
-                    * environment_pdf::<F>(g, path.dir, environment_cell(g, path.origin)),
-            )
-        } else {
-            1.0
-        };
-        path.radiance += path.throughput * environment_radiance::<F>(g, path.dir) * w;
-        path.alive = false;
+        escape::<F>(g, path);
         return;
     };
     let surface = surface_at::<F>(g, &hit, path.origin, path.dir);
@@ -462,6 +424,65 @@ pub fn trace_ray_at<const F: u32>(
         path.radiance += throughput_in * if occluded { Vec3::ZERO } else { light_in };
     }
     path.radiance += emission;
+}
+
+/// The random numbers of a path's segment `depth`: the light's four (zero where no light can
+/// be sampled: a plain render, or the last segment), the scattered direction's four, and the
+/// roulette's (zero before `rr_depth`), as [`trace_ray_at`] draws them.
+#[inline(always)]
+pub fn segment_rands(
+    g: &Globals,
+    sp: SobolPixel,
+    pixel: u32,
+    sample: u32,
+    depth: u32,
+) -> (Vec4, Vec4, f32) {
+    let wants_light = g.scene.light_count > 0 && depth < g.scene.max_bounces;
+    let wants_roulette = depth >= g.scene.rr_depth;
+    match g.sobol_segments.get(depth as usize) {
+        // The `Sobol` sampler's three groups at once, their hashes from the render's table
+        // (the same numbers: `SegmentKeys::draw`).
+        Some(keys) if keys.seed() == sp.seed && g.scene.sampler == SAMPLER_SOBOL => {
+            let (light, scatter, roulette) = keys.draw(sp, sample);
+            (
+                if wants_light { light } else { Vec4::ZERO },
+                scatter,
+                if wants_roulette { roulette } else { 0.0 },
+            )
+        }
+        _ => (
+            if wants_light {
+                path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_LIGHT)
+            } else {
+                Vec4::ZERO
+            },
+            path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_SCATTER),
+            if wants_roulette {
+                path_rand4_at(g.scene, sp, pixel, sample, depth, DIM_ROULETTE).x
+            } else {
+                0.0
+            },
+        ),
+    }
+}
+
+/// A path whose ray escaped the scene: adds the environment it sees (weighed against the
+/// light sample of the vertex it left, when that sampled the lights) and ends it.
+#[inline(always)]
+pub fn escape<const F: u32>(g: &Globals, path: &mut PathState) {
+    // Escaped from a vertex that sampled the lights, the environment among them: weigh the
+    // scattered ray's estimate against the shadow ray's.
+    let w = if path.mis_pdf > 0.0 && g.scene.environment_select > 0.0 {
+        mis_weight(
+            path.mis_pdf,
+            g.scene.environment_select
+                * environment_pdf::<F>(g, path.dir, environment_cell(g, path.origin)),
+        )
+    } else {
+        1.0
+    };
+    path.radiance += path.throughput * environment_radiance::<F>(g, path.dir) * w;
+    path.alive = false;
 }
 
 /// Whether the light sample `query`'s shadow ray is blocked (false without a sample).

@@ -630,6 +630,12 @@ pub struct Tracer {
     /// the same image bit for bit at every level. [`RenderStats::adapter`] says which ran.
     /// For measuring what the wider instructions give (`render --cpu-isa`).
     pub cpu_isa: CpuIsa,
+    /// Whether the CPU path traces scenes of diffuse triangles (no other material, texture,
+    /// sphere or sky) eight paths at a time, their shading in vector instructions
+    /// (`raylume_kernels::cpu::packet`; default `true`), or one path at a time as every other
+    /// scene. The same image bit for bit; [`RenderStats::adapter`] says `packets` when they
+    /// ran. For measuring what they give (`render --cpu-packets`).
+    pub cpu_packets: bool,
     /// Render only these samples of every pixel (default `None`: all of them): a render
     /// **part**, whose image holds each pixel's *sum* over the range and whose
     /// [`Render::part`] says what it belongs to; parts that tile `0..spp` merge into the
@@ -1061,6 +1067,7 @@ impl Tracer {
             specialisation: Specialisation::default(),
             extra_features: raylume_scene::Features::NONE,
             cpu_isa: CpuIsa::X86_64V4,
+            cpu_packets: true,
             samples: None,
             bloom: true,
             tone: raylume_post::ToneMap::default(),
@@ -2354,7 +2361,11 @@ impl Tracer {
         let mut tracer = CpuTracer::with_shared(bvh.clone(), data.clone())?;
         tracer.set_specialisation(self.specialisation, self.extra_features);
         let isa = tracer.set_isa(self.cpu_isa);
+        tracer.set_packets(self.cpu_packets);
         stats.adapter = format!("{}, {}", stats.adapter, isa.name());
+        if tracer.packets() {
+            stats.adapter += ", packets";
+        }
         stats.specialisation = self.specialisation.name().into();
         stats.pipeline_features = tracer.variant_features().names();
         stats.seconds.upload += t.elapsed().as_secs_f64();

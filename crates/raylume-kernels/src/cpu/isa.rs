@@ -174,6 +174,22 @@ pub fn trace_paths<const F: u32>(
     )
 }
 
+/// [`packet::trace_chunk`](super::packet::trace_chunk) at instruction-set level `isa`.
+#[inline(always)]
+pub fn trace_chunk<const F: u32>(
+    isa: CpuIsa,
+    g: &Globals,
+    bvh: &GpuBvh,
+    r0: u32,
+    slots: &mut [[f32; 3]],
+) -> (u64, u64) {
+    with_isa(
+        isa,
+        #[inline(always)]
+        || super::packet::trace_chunk::<F>(g, bvh, r0, slots),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -4,6 +4,7 @@
 //! sorts rays.
 
 pub mod isa;
+pub mod packet;
 pub mod stages;
 pub mod variant;
 
@@ -25,6 +26,9 @@ use variant::{ForVariant, run_variant, variant_of};
 /// Rays per batch on the CPU: bounds the wavefront's ray states to 256 MiB.
 pub const CPU_MAX_RAYS_PER_BATCH: u64 = 1 << 22;
 
+/// Paths per rayon task of [`packet`]'s schedule, which traces them `packet::LANES` at a time.
+const PACKET_CHUNK: usize = 2048;
+
 /// Renders a scene on the CPU with rayon, through the same stage functions as the GPU.
 pub struct CpuTracer {
     /// Shared with whoever made the tracer (`CpuTracer::with_shared`): never copied.
@@ -37,6 +41,8 @@ pub struct CpuTracer {
     variant: usize,
     /// The instruction-set level the renders' paths run at ([`isa`]), available on this CPU.
     isa: CpuIsa,
+    /// Whether the variant [`packet`] runs traces several paths at once ([`packet`]).
+    packets: bool,
     prepare_seconds: f64,
 }
 
@@ -96,6 +102,18 @@ impl CpuTracer {
         self.isa
     }
 
+    /// Whether scenes of diffuse triangles are traced [`packet::LANES`] paths at a time
+    /// ([`packet`], default `true`) or one at a time, as every other scene: the same image
+    /// bit for bit either way, in less time with packets.
+    pub fn set_packets(&mut self, on: bool) {
+        self.packets = on;
+    }
+
+    /// Whether the renders trace several paths at once where they can ([`CpuTracer::set_packets`]).
+    pub fn packets(&self) -> bool {
+        self.packets && packet::runs(variant::variant(self.variant))
+    }
+
     /// The instruction-set level the renders' paths run at ([`CpuTracer::set_isa`]).
     pub fn isa(&self) -> CpuIsa {
         self.isa
@@ -134,6 +152,7 @@ impl CpuTracer {
             choices: data.choices(),
             variant: variant_of(data.features, Specialisation::default()),
             isa: CpuIsa::best(),
+            packets: true,
             data: Arc::new(data),
             prepare_seconds: t.elapsed().as_secs_f64(),
         })
@@ -156,6 +175,7 @@ impl CpuTracer {
             choices: data.choices(),
             variant: variant_of(data.features, Specialisation::default()),
             isa: CpuIsa::best(),
+            packets: true,
             data,
             prepare_seconds: 0.0,
         })
@@ -286,6 +306,7 @@ impl CpuTracer {
                     scene: &scene,
                     schedule: settings.schedule,
                     isa: self.isa,
+                    packets: self.packets,
                     max_bounces: settings.max_bounces,
                     rays: b.rays(),
                     slots: &mut slots,
@@ -354,6 +375,7 @@ struct BatchRun<'a> {
     scene: &'a SceneUniforms,
     schedule: Schedule,
     isa: CpuIsa,
+    packets: bool,
     max_bounces: u32,
     rays: u32,
     slots: &'a mut Vec<[f32; 3]>,
@@ -380,6 +402,7 @@ impl ForVariant for BatchRun<'_> {
             scene,
             schedule,
             isa,
+            packets,
             max_bounces,
             rays,
             slots,
@@ -390,6 +413,19 @@ impl ForVariant for BatchRun<'_> {
             // The persistent schedule only changes which GPU thread traces a sample.
             Schedule::Megakernel | Schedule::Persistent => {
                 let t = Instant::now();
+                if packets && packet::runs(F) {
+                    // Scenes of diffuse triangles: `packet::LANES` paths at a time.
+                    (c.rays, c.dropped) = slots
+                        .par_chunks_mut(PACKET_CHUNK)
+                        .enumerate()
+                        .map(|(i, chunk)| {
+                            let r0 = (i * PACKET_CHUNK) as u32;
+                            isa::trace_chunk::<F>(isa, g, bvh, r0, chunk)
+                        })
+                        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+                    c.paths = t.elapsed().as_secs_f64();
+                    return c;
+                }
                 (c.rays, c.dropped) = slots
                     .par_iter_mut()
                     .enumerate()

@@ -56,7 +56,7 @@ pub fn sample_slot(scene: &SceneUniforms, pixel: u32, sample: u32) -> u32 {
 }
 
 /// The camera path of a pixel sample.
-#[inline]
+#[inline(always)]
 pub fn camera_path(scene: &SceneUniforms, pixel: u32, sample: u32) -> PathState {
     let j = path_rand4(scene, pixel, sample, 0, DIM_CAMERA);
     let dir = generate_camera_ray(scene, pixel, Vec2::new(j.x, j.y));

@@ -1,0 +1,837 @@
+//! The CPU path of scenes of diffuse triangles, [`LANES`] paths at a time.
+//!
+//! One path at a time, a segment of Bitterli's Cornell box costs about 2,000 instructions
+//! (cachegrind, issue 15 in `docs/RESULTS.md`): some 1,000 in its two walks, ~250 in the
+//! sampler, the rest in the shading and the light sample, scalar code whose every operation
+//! serves one path. Mitsuba 3's LLVM backend runs those stages over 8 or 16 paths an
+//! instruction. This module does so for the variant without any feature group ([`runs`]:
+//! diffuse triangles, emission, next-event estimation, no sky, textures, spheres or other
+//! materials): a chunk of the batch's paths is traced [`LANES`] at a time, each lane taking
+//! the chunk's next path when its own ends. Per segment, the random numbers and the walks run
+//! lane by lane (the scalar functions: [`segment_rands`], the tree's walk; a lane whose path
+//! escapes takes the next one and walks again, so that the shading finds every lane with a
+//! hit), and everything between them (the surface, the emission's weight, next-event
+//! estimation's light sample, the scattered direction, Russian roulette) runs on all lanes at
+//! once, as pairs of glam `Vec4`s (SSE, which every x86-64 level has); the paths are held a
+//! field's lanes side by side (`Paths`). Bitterli's Cornell box: ~6 % fewer instructions,
+//! 6-10 % less time than one path at a time (`docs/RESULTS.md`, issue 15).
+//!
+//! **The same image bit for bit** as [`stages::trace_paths`](super::stages::trace_paths):
+//! every lane computes what [`trace_ray_at`](crate::shade::trace_ray_at) computes for its
+//! path, the same IEEE operations in the same order (each step below names the scalar
+//! function it mirrors; glam's `min`/`max` are selects on `<`/`>`, as SSE's `minps`/`maxps`,
+//! `f32::min`/`max` keep their NaN rule); sines and cosines come from the same libm calls,
+//! lane by lane. `tests/cpu_packet.rs` renders scenes of this variant both ways, at every
+//! instruction-set level, and compares the images bit for bit (reassociating one sum of the
+//! scattered direction fails it).
+
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+use glam::{BVec4A, Vec3, Vec4};
+use raylume_bvh::{GpuBvh, Ray};
+use raylume_scene::Feature;
+
+use super::stages::{batch_ray, camera_path, write_sample};
+use super::variant::{ALWAYS, has, trace_any, trace_closest};
+use crate::gpu_types::{
+    LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_TWO_SIDED, RR_MAX_SURVIVAL, SHADOW_T_SCALE, T_MAX,
+};
+use crate::math::{INV_PI, PI};
+use crate::shade::{PathState, escape, sampler_pixel, segment_rands};
+use crate::sobol::{SOBOL_ONE_MINUS_EPSILON, SobolPixel};
+use crate::surface::{Globals, OFFSET_BACK_ULPS, OFFSET_HIT_ULPS, OFFSET_T_ULPS, UNIT_ROUNDOFF};
+
+/// Paths traced together.
+pub const LANES: usize = 8;
+
+/// Whether variant `f` (`cpu::variant`) is traced by this module: the variant of no feature
+/// group, [`ALWAYS`].
+pub const fn runs(f: u32) -> bool {
+    f == ALWAYS
+}
+
+/// One number per lane: two glam `Vec4`s, whose SSE arithmetic every x86-64 level has.
+#[derive(Clone, Copy, Debug, Default)]
+struct L([Vec4; 2]);
+
+/// One truth per lane.
+#[derive(Clone, Copy, Debug, Default)]
+struct M([BVec4A; 2]);
+
+impl L {
+    #[inline(always)]
+    fn splat(x: f32) -> L {
+        L([Vec4::splat(x); 2])
+    }
+
+    #[inline(always)]
+    fn from_array(a: [f32; LANES]) -> L {
+        L([Vec4::from_slice(&a[..4]), Vec4::from_slice(&a[4..])])
+    }
+
+    #[inline(always)]
+    fn to_array(self) -> [f32; LANES] {
+        let mut a = [0.0; LANES];
+        self.0[0].write_to_slice(&mut a[..4]);
+        self.0[1].write_to_slice(&mut a[4..]);
+        a
+    }
+
+    #[inline(always)]
+    fn zip(self, o: L, f: impl Fn(Vec4, Vec4) -> Vec4) -> L {
+        L([f(self.0[0], o.0[0]), f(self.0[1], o.0[1])])
+    }
+
+    #[inline(always)]
+    fn test(self, o: L, f: impl Fn(Vec4, Vec4) -> BVec4A) -> M {
+        M([f(self.0[0], o.0[0]), f(self.0[1], o.0[1])])
+    }
+
+    #[inline(always)]
+    fn sqrt(self) -> L {
+        L(self.0.map(Vec4::sqrt))
+    }
+
+    #[inline(always)]
+    fn abs(self) -> L {
+        L(self.0.map(Vec4::abs))
+    }
+
+    /// `f32::max` (IEEE maxNum: a NaN operand gives the other), lane by lane.
+    #[inline(always)]
+    fn fmax(self, o: L) -> L {
+        self.zip(o, |a, b| {
+            Vec4::select(b.is_nan_mask(), a, Vec4::select(b.cmpgt(a), b, a))
+        })
+    }
+
+    /// `f32::min` (IEEE minNum: a NaN operand gives the other), lane by lane.
+    #[inline(always)]
+    fn fmin(self, o: L) -> L {
+        self.zip(o, |a, b| {
+            Vec4::select(b.is_nan_mask(), a, Vec4::select(b.cmplt(a), b, a))
+        })
+    }
+
+    #[inline(always)]
+    fn lt(self, o: L) -> M {
+        self.test(o, Vec4::cmplt)
+    }
+
+    #[inline(always)]
+    fn gt(self, o: L) -> M {
+        self.test(o, Vec4::cmpgt)
+    }
+
+    #[inline(always)]
+    fn ge(self, o: L) -> M {
+        self.test(o, Vec4::cmpge)
+    }
+}
+
+macro_rules! lane_op {
+    ($trait:ident, $f:ident, $op:tt) => {
+        impl $trait for L {
+            type Output = L;
+            #[inline(always)]
+            fn $f(self, o: L) -> L {
+                self.zip(o, |a, b| a $op b)
+            }
+        }
+    };
+}
+lane_op!(Add, add, +);
+lane_op!(Sub, sub, -);
+lane_op!(Mul, mul, *);
+lane_op!(Div, div, /);
+
+impl Neg for L {
+    type Output = L;
+    #[inline(always)]
+    fn neg(self) -> L {
+        L(self.0.map(|a| -a))
+    }
+}
+
+impl M {
+    #[inline(always)]
+    fn from_array(a: [bool; LANES]) -> M {
+        M([
+            BVec4A::new(a[0], a[1], a[2], a[3]),
+            BVec4A::new(a[4], a[5], a[6], a[7]),
+        ])
+    }
+
+    /// Lane `i`'s truth in bit `i`.
+    #[inline(always)]
+    fn bits(self) -> u32 {
+        self.0[0].bitmask() | self.0[1].bitmask() << 4
+    }
+
+    #[inline(always)]
+    fn and(self, o: M) -> M {
+        M([self.0[0] & o.0[0], self.0[1] & o.0[1]])
+    }
+
+    #[inline(always)]
+    fn or(self, o: M) -> M {
+        M([self.0[0] | o.0[0], self.0[1] | o.0[1]])
+    }
+
+    #[inline(always)]
+    fn not(self) -> M {
+        M([!self.0[0], !self.0[1]])
+    }
+
+    /// `a` where true, else `b`.
+    #[inline(always)]
+    fn pick(self, a: L, b: L) -> L {
+        L([
+            Vec4::select(self.0[0], a.0[0], b.0[0]),
+            Vec4::select(self.0[1], a.0[1], b.0[1]),
+        ])
+    }
+
+    #[inline(always)]
+    fn pick3(self, a: V3, b: V3) -> V3 {
+        V3 {
+            x: self.pick(a.x, b.x),
+            y: self.pick(a.y, b.y),
+            z: self.pick(a.z, b.z),
+        }
+    }
+}
+
+/// A `Vec3` per lane, with glam's `Vec3` arithmetic (the same operations in the same order).
+#[derive(Clone, Copy, Debug, Default)]
+struct V3 {
+    x: L,
+    y: L,
+    z: L,
+}
+
+impl V3 {
+    #[inline(always)]
+    fn from_arrays(v: &[[f32; LANES]; 3]) -> V3 {
+        V3 {
+            x: L::from_array(v[0]),
+            y: L::from_array(v[1]),
+            z: L::from_array(v[2]),
+        }
+    }
+
+    #[inline(always)]
+    fn to_arrays(self) -> [[f32; LANES]; 3] {
+        [self.x.to_array(), self.y.to_array(), self.z.to_array()]
+    }
+
+    #[inline(always)]
+    fn zero() -> V3 {
+        V3::default()
+    }
+
+    #[inline(always)]
+    fn splat(v: [f32; 3]) -> V3 {
+        V3 {
+            x: L::splat(v[0]),
+            y: L::splat(v[1]),
+            z: L::splat(v[2]),
+        }
+    }
+
+    /// `Vec3 * f32`.
+    #[inline(always)]
+    fn scale(self, s: L) -> V3 {
+        V3 {
+            x: self.x * s,
+            y: self.y * s,
+            z: self.z * s,
+        }
+    }
+
+    /// `Vec3 / f32`.
+    #[inline(always)]
+    fn div(self, s: L) -> V3 {
+        V3 {
+            x: self.x / s,
+            y: self.y / s,
+            z: self.z / s,
+        }
+    }
+
+    /// `Vec3 * Vec3`.
+    #[inline(always)]
+    fn mul(self, o: V3) -> V3 {
+        V3 {
+            x: self.x * o.x,
+            y: self.y * o.y,
+            z: self.z * o.z,
+        }
+    }
+
+    #[inline(always)]
+    fn dot(self, o: V3) -> L {
+        (self.x * o.x) + (self.y * o.y) + (self.z * o.z)
+    }
+
+    #[inline(always)]
+    fn cross(self, o: V3) -> V3 {
+        V3 {
+            x: self.y * o.z - o.y * self.z,
+            y: self.z * o.x - o.z * self.x,
+            z: self.x * o.y - o.x * self.y,
+        }
+    }
+
+    #[inline(always)]
+    fn length(self) -> L {
+        self.dot(self).sqrt()
+    }
+
+    #[inline(always)]
+    fn abs(self) -> V3 {
+        V3 {
+            x: self.x.abs(),
+            y: self.y.abs(),
+            z: self.z.abs(),
+        }
+    }
+
+    /// glam's `Vec3::min`: `if a < b { a } else { b }`.
+    #[inline(always)]
+    fn min(self, o: V3) -> V3 {
+        V3 {
+            x: self.x.lt(o.x).pick(self.x, o.x),
+            y: self.y.lt(o.y).pick(self.y, o.y),
+            z: self.z.lt(o.z).pick(self.z, o.z),
+        }
+    }
+
+    /// glam's `Vec3::max`: `if a > b { a } else { b }`.
+    #[inline(always)]
+    fn max(self, o: V3) -> V3 {
+        V3 {
+            x: self.x.gt(o.x).pick(self.x, o.x),
+            y: self.y.gt(o.y).pick(self.y, o.y),
+            z: self.z.gt(o.z).pick(self.z, o.z),
+        }
+    }
+
+    /// glam's `Vec3::max_element`: `max(max(x, y), z)` with `if a > b { a } else { b }`.
+    #[inline(always)]
+    fn max_element(self) -> L {
+        let m = self.x.gt(self.y).pick(self.x, self.y);
+        m.gt(self.z).pick(m, self.z)
+    }
+}
+
+impl Add for V3 {
+    type Output = V3;
+    #[inline(always)]
+    fn add(self, o: V3) -> V3 {
+        V3 {
+            x: self.x + o.x,
+            y: self.y + o.y,
+            z: self.z + o.z,
+        }
+    }
+}
+
+impl Sub for V3 {
+    type Output = V3;
+    #[inline(always)]
+    fn sub(self, o: V3) -> V3 {
+        V3 {
+            x: self.x - o.x,
+            y: self.y - o.y,
+            z: self.z - o.z,
+        }
+    }
+}
+
+impl Neg for V3 {
+    type Output = V3;
+    #[inline(always)]
+    fn neg(self) -> V3 {
+        V3 {
+            x: -self.x,
+            y: -self.y,
+            z: -self.z,
+        }
+    }
+}
+
+/// The lanes' paths, a field's lanes side by side (what [`PathState`] holds per path).
+#[derive(Clone, Copy)]
+struct Paths {
+    origin: [[f32; LANES]; 3],
+    dir: [[f32; LANES]; 3],
+    throughput: [[f32; LANES]; 3],
+    radiance: [[f32; LANES]; 3],
+    mis_pdf: [f32; LANES],
+    alive: [bool; LANES],
+}
+
+impl Paths {
+    #[inline(always)]
+    fn get(&self, j: usize) -> PathState {
+        let v = |a: &[[f32; LANES]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
+        PathState {
+            origin: v(&self.origin),
+            dir: v(&self.dir),
+            throughput: v(&self.throughput),
+            radiance: v(&self.radiance),
+            alive: self.alive[j],
+            mis_pdf: self.mis_pdf[j],
+        }
+    }
+
+    #[inline(always)]
+    fn set(&mut self, j: usize, p: &PathState) {
+        for k in 0..3 {
+            self.origin[k][j] = p.origin[k];
+            self.dir[k][j] = p.dir[k];
+            self.throughput[k][j] = p.throughput[k];
+            self.radiance[k][j] = p.radiance[k];
+        }
+        (self.alive[j], self.mis_pdf[j]) = (p.alive, p.mis_pdf);
+    }
+}
+
+/// What a lane's walk found and the numbers its shading draws from.
+#[derive(Clone, Copy, Default)]
+struct Found {
+    prim: [u32; LANES],
+    t: [f32; LANES],
+    u: [f32; LANES],
+    v: [f32; LANES],
+    /// The light's x and y, the scattered direction's x and y, the roulette's.
+    light_x: [f32; LANES],
+    light_y: [f32; LANES],
+    scatter_x: [f32; LANES],
+    scatter_y: [f32; LANES],
+    roulette: [f32; LANES],
+}
+
+/// `mis_weight`: Veach's power heuristic.
+#[inline(always)]
+fn mis_weight(a: L, b: L) -> L {
+    let (a2, b2) = (a * a, b * b);
+    (a2 + b2)
+        .gt(L::splat(0.0))
+        .pick(a2 / (a2 + b2), L::splat(0.0))
+}
+
+/// `light_pdf`: the solid-angle pdf of a light's point.
+#[inline(always)]
+fn light_pdf(g: &Globals, emission: V3, dist2: L, cos_l: L) -> L {
+    emission.dot(V3::splat(LUMINANCE)) * dist2 / (L::splat(g.scene.light_power) * cos_l)
+}
+
+/// The surface of the lanes' hits (`surface_at` for triangles without shading data).
+#[derive(Clone, Copy)]
+struct Surface {
+    position: V3,
+    /// Geometric normal, which is also the shading normal here.
+    ng: V3,
+    offset: L,
+    back_offset: L,
+}
+
+/// `offset_ray_origin`.
+#[inline(always)]
+fn offset_ray_origin(s: &Surface, dir_in: V3, n: V3) -> V3 {
+    let ng = s.ng;
+    let back = dir_in
+        .dot(n)
+        .lt(L::splat(0.0))
+        .pick3(dir_in, dir_in - ng.scale(dir_in.dot(ng)));
+    s.position - back.scale(s.back_offset) + n.scale(s.offset)
+}
+
+/// Traces the paths `r0..r0 + slots.len()` of the batch, writing each one's slot value as
+/// [`stages::trace_paths`](super::stages::trace_paths) does; returns the segments traced and
+/// the samples dropped. Only for a variant that [`runs`].
+#[inline(always)]
+pub fn trace_chunk<const F: u32>(
+    g: &Globals,
+    bvh: &GpuBvh,
+    r0: u32,
+    slots: &mut [[f32; 3]],
+) -> (u64, u64) {
+    debug_assert!(runs(F));
+    let scene = g.scene;
+    let mut paths = Paths {
+        origin: [[0.0; LANES]; 3],
+        dir: [[0.0; LANES]; 3],
+        throughput: [[0.0; LANES]; 3],
+        radiance: [[0.0; LANES]; 3],
+        mis_pdf: [0.0; LANES],
+        alive: [false; LANES],
+    };
+    // The slot each lane traces (`usize::MAX`: none), its pixel, sample, sampler setup and
+    // segment number.
+    let mut slot = [usize::MAX; LANES];
+    let mut pixel = [0u32; LANES];
+    let mut sample = [0u32; LANES];
+    let mut sp = [SobolPixel::default(); LANES];
+    let mut depth = [0u32; LANES];
+    let mut next = 0usize;
+    let (mut rays, mut dropped) = (0u64, 0u64);
+    let mut found = Found::default();
+    loop {
+        // Every lane walks until its path hits something: a path that escapes ends there,
+        // and the lane takes the chunk's next path, so that the shading below finds every
+        // lane busy but at the chunk's end.
+        let mut hit = [false; LANES];
+        for j in 0..LANES {
+            loop {
+                if slot[j] == usize::MAX {
+                    if next == slots.len() {
+                        break;
+                    }
+                    let (p, s) = batch_ray(scene, r0 + next as u32);
+                    paths.set(j, &camera_path(scene, p, s));
+                    (pixel[j], sample[j], depth[j]) = (p, s, 0);
+                    sp[j] = sampler_pixel(scene, p);
+                    slot[j] = next;
+                    next += 1;
+                }
+                let (rl, rs, rr) = segment_rands(g, sp[j], pixel[j], sample[j], depth[j]);
+                (found.light_x[j], found.light_y[j]) = (rl.x, rl.y);
+                (found.scatter_x[j], found.scatter_y[j], found.roulette[j]) = (rs.x, rs.y, rr);
+                let (o, d) = (&paths.origin, &paths.dir);
+                let ray = Ray {
+                    origin: Vec3::new(o[0][j], o[1][j], o[2][j]),
+                    dir: Vec3::new(d[0][j], d[1][j], d[2][j]),
+                };
+                rays += 1;
+                if let Some(h) = trace_closest::<F>(bvh, &ray, 0.0, T_MAX) {
+                    (found.prim[j], found.t[j], found.u[j], found.v[j]) = (h.prim, h.t, h.u, h.v);
+                    hit[j] = true;
+                    break;
+                }
+                let mut path = paths.get(j);
+                escape::<F>(g, &mut path);
+                let (v, d) = write_sample(path.radiance);
+                slots[slot[j]] = v;
+                dropped += u64::from(d);
+                slot[j] = usize::MAX;
+            }
+        }
+        if !hit.iter().any(|&h| h) {
+            return (rays, dropped);
+        }
+        shade::<F>(g, bvh, &mut paths, &hit, &found, &depth);
+        for j in 0..LANES {
+            if !hit[j] {
+                continue;
+            }
+            depth[j] += 1;
+            if !(depth[j] <= scene.max_bounces && paths.alive[j]) {
+                let r = &paths.radiance;
+                let (v, d) = write_sample(Vec3::new(r[0][j], r[1][j], r[2][j]));
+                slots[slot[j]] = v;
+                dropped += u64::from(d);
+                slot[j] = usize::MAX;
+            }
+        }
+    }
+}
+
+/// The rest of `trace_ray_at` for the lanes `hit` marks, all at once: the surface, the
+/// emission's weight, the light sample, the scattered direction and the roulette, then the
+/// shadow rays lane by lane, then the radiance.
+#[inline(always)]
+fn shade<const F: u32>(
+    g: &Globals,
+    bvh: &GpuBvh,
+    paths: &mut Paths,
+    hit: &[bool; LANES],
+    found: &Found,
+    depth: &[u32; LANES],
+) {
+    let scene = g.scene;
+    // Gathered: the hit's triangle and material (a lane without a hit reads the first hit
+    // lane's triangle, and its results are not stored).
+    let first = (0..LANES).find(|&j| hit[j]).unwrap_or(0);
+    let mut f = [[[0.0f32; LANES]; 3]; 5];
+    let [fa, fb, fc, fcolor, femission] = &mut f;
+    let (mut two_sided, mut diffuse, mut last, mut roulette) = (
+        [false; LANES],
+        [false; LANES],
+        [false; LANES],
+        [false; LANES],
+    );
+    for j in 0..LANES {
+        let prim = found.prim[if hit[j] { j } else { first }] as usize;
+        let p = &g.primitives[prim];
+        let m = &g.materials[g.prim_materials[prim] as usize];
+        for k in 0..3 {
+            fa[k][j] = p.a[k];
+            fb[k][j] = p.b[k];
+            fc[k][j] = p.c[k];
+            fcolor[k][j] = m.color[k];
+            femission[k][j] = m.emission[k];
+        }
+        two_sided[j] = m.flags & MATERIAL_TWO_SIDED != 0;
+        diffuse[j] = m.kind == MATERIAL_DIFFUSE;
+        last[j] = depth[j] >= scene.max_bounces;
+        roulette[j] = depth[j] >= scene.rr_depth;
+    }
+    debug_assert!(
+        (0..LANES).all(|j| !hit[j] || diffuse[j]),
+        "a variant of diffuse surfaces"
+    );
+    let (a, b, c) = (
+        V3::from_arrays(fa),
+        V3::from_arrays(fb),
+        V3::from_arrays(fc),
+    );
+    let (origin, dir) = (V3::from_arrays(&paths.origin), V3::from_arrays(&paths.dir));
+    let throughput = V3::from_arrays(&paths.throughput);
+    let radiance = V3::from_arrays(&paths.radiance);
+    let (color, emission) = (V3::from_arrays(fcolor), V3::from_arrays(femission));
+    let (t, u, v) = (
+        L::from_array(found.t),
+        L::from_array(found.u),
+        L::from_array(found.v),
+    );
+    let mis_pdf = L::from_array(paths.mis_pdf);
+    let rl_y = L::from_array(found.light_y);
+    let (rs_x, rs_y) = (
+        L::from_array(found.scatter_x),
+        L::from_array(found.scatter_y),
+    );
+    let rr = L::from_array(found.roulette);
+    let hit_mask = M::from_array(*hit);
+    let (two_sided, diffuse, last, roulette) = (
+        M::from_array(two_sided),
+        M::from_array(diffuse),
+        M::from_array(last),
+        M::from_array(roulette),
+    );
+    let zero = L::splat(0.0);
+    let one = L::splat(1.0);
+
+    // surface_at, a triangle.
+    let w = one - u - v;
+    let position = a.scale(w) + b.scale(u) + c.scale(v);
+    let cr = (b - a).cross(c - a);
+    let cr_length = cr.dot(cr).sqrt();
+    let ng = cr.scale(one / cr_length);
+    let extent = (a.max(b).max(c) - a.min(b).min(c)).max_element();
+    let magnitude = a.abs().max(b.abs()).max(c.abs());
+    let aspect = extent * extent / cr_length;
+    let offset = L::splat(OFFSET_HIT_ULPS * UNIT_ROUNDOFF) * ng.abs().dot(magnitude)
+        + L::splat(OFFSET_T_ULPS * UNIT_ROUNDOFF) * extent * aspect.fmax(one);
+    let back_offset = (L::splat(OFFSET_BACK_ULPS * UNIT_ROUNDOFF) * magnitude.max_element())
+        .fmin(L::splat(0.5) * t);
+    let surface = Surface {
+        position,
+        ng,
+        offset,
+        back_offset,
+    };
+
+    // The emission's weight against the light sample of the vertex before.
+    let lit = has(F, Feature::Emission) && has(F, Feature::Diffuse);
+    let emission_weight = if lit {
+        let cos_l = cr.dot(dir).abs() / cr.length();
+        mis_pdf.gt(zero).pick(
+            mis_weight(mis_pdf, light_pdf(g, emission, t * t, cos_l)),
+            one,
+        )
+    } else {
+        one
+    };
+    let sample_here = if lit && scene.light_count > 0 {
+        diffuse.and(last.not())
+    } else {
+        M::default()
+    }
+    .and(hit_mask);
+
+    // light_query, a triangle light.
+    let front = dir.dot(ng).lt(zero);
+    let ng_facing = front.pick3(ng, -ng);
+    let ns_facing = ng_facing;
+    let mut lf = [[[0.0f32; LANES]; 3]; 4];
+    let [fp0, fe1, fe2, flight_emission] = &mut lf;
+    let (mut farea, mut fp_select, mut fx) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+    let mut light_two_sided = [false; LANES];
+    let sample_bits = sample_here.bits();
+    for j in 0..LANES {
+        if sample_bits >> j & 1 == 0 {
+            continue;
+        }
+        let rx = found.light_x[j];
+        let (mut lo, mut hi) = (0u32, scene.light_count - 1);
+        while lo < hi {
+            let mid = (lo + hi) / 2;
+            if g.lights[mid as usize].cdf > rx {
+                hi = mid;
+            } else {
+                lo = mid + 1;
+            }
+        }
+        let light = &g.lights[lo as usize];
+        let before = if lo > 0 {
+            g.lights[lo as usize - 1].cdf
+        } else {
+            0.0
+        };
+        let ps = light.cdf - before;
+        fp_select[j] = ps;
+        fx[j] = if ps > 0.0 {
+            ((rx - before) / ps).min(SOBOL_ONE_MINUS_EPSILON)
+        } else {
+            0.0
+        };
+        for k in 0..3 {
+            fp0[k][j] = light.p0[k];
+            fe1[k][j] = light.e1[k];
+            fe2[k][j] = light.e2[k];
+            flight_emission[k][j] = light.emission[k];
+        }
+        farea[j] = light.area;
+        light_two_sided[j] = light.two_sided != 0;
+    }
+    let (p0, e1, e2) = (
+        V3::from_arrays(fp0),
+        V3::from_arrays(fe1),
+        V3::from_arrays(fe2),
+    );
+    let light_emission = V3::from_arrays(flight_emission);
+    let (area, p_select, x) = (
+        L::from_array(farea),
+        L::from_array(fp_select),
+        L::from_array(fx),
+    );
+    let light_two_sided = M::from_array(light_two_sided);
+    let shadow_origin = offset_ray_origin(&surface, dir, ng_facing);
+    let su = x.sqrt();
+    let point = p0 + e1.scale(su * (one - rl_y)) + e2.scale(su * rl_y);
+    let to = point - shadow_origin;
+    let dist2 = to.dot(to);
+    let dist = dist2.sqrt();
+    let wi = to.div(dist);
+    let t_max = dist * L::splat(SHADOW_T_SCALE);
+    let side = ns_facing.dot(wi).gt(zero).and(ng_facing.dot(wi).gt(zero));
+    let nl = e1.cross(e2);
+    let cos_front = -nl.dot(wi) / nl.length();
+    let cos_l = light_two_sided.pick(cos_front.abs(), cos_front);
+    let query = sample_here
+        .and(p_select.gt(zero))
+        .and(dist2.gt(zero))
+        .and(side)
+        .and(cos_l.gt(zero));
+
+    // light_contribution, a diffuse surface.
+    let f_pdf = ns_facing.dot(wi).fmax(zero) * L::splat(INV_PI);
+    let f_value = color.scale(f_pdf);
+    let light_weight = mis_weight(light_pdf(g, light_emission, dist2, cos_l), f_pdf);
+    let light_in = f_value
+        .mul(light_emission)
+        .scale(cos_l * area / (dist2 * p_select) * light_weight);
+
+    // emitted.
+    let emitted = front
+        .or(two_sided)
+        .pick3(throughput.mul(emission).scale(emission_weight), V3::zero());
+    let throughput_in = throughput;
+
+    // shade_hit, a diffuse surface not at the last segment (sample_diffuse).
+    let r = rs_x.sqrt();
+    let phi = L::splat(2.0 * PI) * rs_y;
+    let (mut cos_phi, mut sin_phi) = ([0.0f32; LANES], [0.0f32; LANES]);
+    let (phi_lanes, last_bits) = (phi.to_array(), last.bits());
+    for j in 0..LANES {
+        if hit[j] && last_bits >> j & 1 == 0 {
+            let phi = phi_lanes[j];
+            (cos_phi[j], sin_phi[j]) = (phi.cos(), phi.sin());
+        }
+    }
+    let (cos_phi, sin_phi) = (L::from_array(cos_phi), L::from_array(sin_phi));
+    let local = V3 {
+        x: r * cos_phi,
+        y: r * sin_phi,
+        z: (one - rs_x).fmax(zero).sqrt(),
+    };
+    let n = ns_facing;
+    let sign = n.z.ge(zero).pick(one, -one);
+    let ob_a = L::splat(-1.0) / (sign + n.z);
+    let ob_b = n.x * n.y * ob_a;
+    let tangent = V3 {
+        x: one + sign * n.x * n.x * ob_a,
+        y: sign * ob_b,
+        z: -sign * n.x,
+    };
+    let bitangent = V3 {
+        x: ob_b,
+        y: sign + n.y * n.y * ob_a,
+        z: -n.y,
+    };
+    let scattered = tangent.scale(local.x) + bitangent.scale(local.y) + n.scale(local.z);
+    let pdf = scattered.dot(ns_facing).fmax(zero) * L::splat(INV_PI);
+    let cos_g = scattered.dot(ng_facing);
+    let right_side = cos_g.gt(zero);
+    let scattered_throughput = throughput.mul(color);
+    let survives = right_side.and(scattered_throughput.max_element().gt(zero));
+    let next_origin = offset_ray_origin(&surface, dir, right_side.pick3(ng_facing, -ng_facing));
+    let go_on = last.not();
+    let mut throughput = go_on.pick3(scattered_throughput, throughput);
+    let mut alive = survives.and(go_on);
+    let origin = go_on.pick3(next_origin, origin);
+    let dir = go_on.pick3(scattered, dir);
+    let pdf = go_on.pick(pdf, zero);
+    let mis_pdf = sample_here.pick(pdf, zero);
+
+    // russian_roulette.
+    let spin = alive.and(roulette);
+    let q = throughput.max_element().fmin(L::splat(RR_MAX_SURVIVAL));
+    let keep = rr.lt(q);
+    throughput = spin.and(keep).pick3(throughput.div(q), throughput);
+    alive = alive.and(spin.and(keep.not()).not());
+
+    // The shadow rays, lane by lane.
+    let mut open = [false; LANES];
+    let (query_bits, so, sd, t_max) = (
+        query.bits(),
+        shadow_origin.to_arrays(),
+        wi.to_arrays(),
+        t_max.to_array(),
+    );
+    for j in 0..LANES {
+        if query_bits >> j & 1 != 0 {
+            let ray = Ray {
+                origin: Vec3::new(so[0][j], so[1][j], so[2][j]),
+                dir: Vec3::new(sd[0][j], sd[1][j], sd[2][j]),
+            };
+            open[j] = !trace_any::<F>(bvh, &ray, 0.0, t_max[j]);
+        }
+    }
+    let open = M::from_array(open);
+    let arrived = query.and(open).pick3(light_in, V3::zero());
+    let radiance = sample_here.pick3(radiance + throughput_in.mul(arrived), radiance) + emitted;
+
+    // Stored for the lanes with a hit (the others hold no path here: the chunk is done).
+    let keep = hit_mask;
+    paths.origin = keep
+        .pick3(origin, V3::from_arrays(&paths.origin))
+        .to_arrays();
+    paths.dir = keep.pick3(dir, V3::from_arrays(&paths.dir)).to_arrays();
+    paths.throughput = keep
+        .pick3(throughput, V3::from_arrays(&paths.throughput))
+        .to_arrays();
+    paths.radiance = keep
+        .pick3(radiance, V3::from_arrays(&paths.radiance))
+        .to_arrays();
+    paths.mis_pdf = keep.pick(mis_pdf, L::from_array(paths.mis_pdf)).to_array();
+    let alive = alive.bits();
+    for (j, (stored, &h)) in paths.alive.iter_mut().zip(hit).enumerate() {
+        if h {
+            *stored = alive >> j & 1 != 0;
+        }
+    }
+}
