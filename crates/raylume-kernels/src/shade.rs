@@ -46,7 +46,7 @@ use crate::gpu_types::{
 use crate::math::{INV_PI, PI};
 use crate::rng::rand4;
 use crate::sampling::{sample_diffuse, sample_sphere_cap, sphere_cap_pdf};
-use crate::sobol::{SobolPixel, sobol_pixel, sobol2_at, sobol4_at};
+use crate::sobol::{SegmentKeys, SobolPixel, sobol_pixel, sobol2_at, sobol4_at};
 use crate::surface::{
     Globals, SurfaceHit, environment_cell, environment_pdf, environment_radiance, material_at,
     offset_ray_origin, prefetch_texture, sample_environment, surface_at,
@@ -437,13 +437,35 @@ pub fn segment_rands(
     sample: u32,
     depth: u32,
 ) -> (Vec4, Vec4, f32) {
+    segment_rands_by(
+        g,
+        sp,
+        pixel,
+        sample,
+        depth,
+        #[inline(always)]
+        |k, p, s| k.draw(p, s),
+    )
+}
+
+/// [`segment_rands`], the `Sobol` sampler's groups drawn by `draw` ([`SegmentKeys::draw`] or
+/// another form of it, the same numbers: `SegmentKeys::draw_avx2`).
+#[inline(always)]
+pub fn segment_rands_by(
+    g: &Globals,
+    sp: SobolPixel,
+    pixel: u32,
+    sample: u32,
+    depth: u32,
+    draw: impl Fn(&SegmentKeys, SobolPixel, u32) -> (Vec4, Vec4, f32),
+) -> (Vec4, Vec4, f32) {
     let wants_light = g.scene.light_count > 0 && depth < g.scene.max_bounces;
     let wants_roulette = depth >= g.scene.rr_depth;
     match g.sobol_segments.get(depth as usize) {
         // The `Sobol` sampler's three groups at once, their hashes from the render's table
         // (the same numbers: `SegmentKeys::draw`).
         Some(keys) if keys.seed() == sp.seed && g.scene.sampler == SAMPLER_SOBOL => {
-            let (light, scatter, roulette) = keys.draw(sp, sample);
+            let (light, scatter, roulette) = draw(keys, sp, sample);
             (
                 if wants_light { light } else { Vec4::ZERO },
                 scatter,

@@ -174,7 +174,9 @@ pub fn trace_paths<const F: u32>(
     )
 }
 
-/// [`packet::trace_chunk`](super::packet::trace_chunk) at instruction-set level `isa`.
+/// [`packet::trace_chunk`](super::packet::trace_chunk) at instruction-set level `isa`: on
+/// AVX lanes ([`packet::Avx`](super::packet::Avx)) at x86-64-v3 and v4, on SSE lanes at the
+/// build's level (unless the build targets AVX2 itself).
 #[inline(always)]
 pub fn trace_chunk<const F: u32>(
     isa: CpuIsa,
@@ -183,10 +185,21 @@ pub fn trace_chunk<const F: u32>(
     r0: u32,
     slots: &mut [[f32; 3]],
 ) -> (u64, u64) {
+    use super::packet;
+    #[cfg(target_arch = "x86_64")]
+    if isa >= CpuIsa::X86_64V3 || cfg!(target_feature = "avx2") {
+        // AVX lanes only where `with_isa` runs a level with AVX (it asserts the CPU has it),
+        // or the build's own target has it.
+        return with_isa(
+            isa,
+            #[inline(always)]
+            || packet::trace_chunk::<F, packet::Avx>(g, bvh, r0, slots),
+        );
+    }
     with_isa(
         isa,
         #[inline(always)]
-        || super::packet::trace_chunk::<F>(g, bvh, r0, slots),
+        || packet::trace_chunk::<F, packet::Sse>(g, bvh, r0, slots),
     )
 }
 

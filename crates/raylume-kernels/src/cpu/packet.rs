@@ -37,8 +37,8 @@ use crate::gpu_types::{
     LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_TWO_SIDED, RR_MAX_SURVIVAL, SHADOW_T_SCALE, T_MAX,
 };
 use crate::math::{INV_PI, PI};
-use crate::shade::{PathState, escape, sampler_pixel, segment_rands};
-use crate::sobol::{SOBOL_ONE_MINUS_EPSILON, SobolPixel};
+use crate::shade::{PathState, escape, sampler_pixel, segment_rands_by};
+use crate::sobol::{SOBOL_ONE_MINUS_EPSILON, SegmentKeys, SobolPixel};
 use crate::surface::{Globals, OFFSET_BACK_ULPS, OFFSET_HIT_ULPS, OFFSET_T_ULPS, UNIT_ROUNDOFF};
 
 /// Paths traced together.
@@ -50,23 +50,75 @@ pub const fn runs(f: u32) -> bool {
     f == ALWAYS
 }
 
-/// One number per lane: two glam `Vec4`s, whose SSE arithmetic every x86-64 level has.
-#[derive(Clone, Copy, Debug, Default)]
-struct L([Vec4; 2]);
+/// The arithmetic of [`LANES`] numbers at once that the packets run on: [`Sse`] at every
+/// level, [`Avx`] where the CPU has AVX (`cpu::isa`'s x86-64-v3 and v4 copies). Each
+/// operation is the IEEE one of `f32` lane by lane.
+pub trait Lane:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    /// A truth per lane.
+    type M: Mask<Self>;
+    fn splat(x: f32) -> Self;
+    fn from_array(a: [f32; LANES]) -> Self;
+    fn to_array(self) -> [f32; LANES];
+    fn sqrt(self) -> Self;
+    fn abs(self) -> Self;
+    /// `f32::max` (IEEE maxNum: a NaN operand gives the other).
+    fn fmax(self, o: Self) -> Self;
+    /// `f32::min` (IEEE minNum: a NaN operand gives the other).
+    fn fmin(self, o: Self) -> Self;
+    fn lt(self, o: Self) -> Self::M;
+    fn gt(self, o: Self) -> Self::M;
+    fn ge(self, o: Self) -> Self::M;
+    /// [`SegmentKeys::draw`] in this level's instructions (the same numbers).
+    fn draw(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> (Vec4, Vec4, f32);
+}
 
-/// One truth per lane.
-#[derive(Clone, Copy, Debug, Default)]
-struct M([BVec4A; 2]);
+/// A truth per lane of [`Lane`] `L`.
+pub trait Mask<L: Lane>: Copy {
+    fn from_array(a: [bool; LANES]) -> Self;
+    fn and(self, o: Self) -> Self;
+    fn or(self, o: Self) -> Self;
+    fn not(self) -> Self;
+    /// Lane `i`'s truth in bit `i`.
+    fn bits(self) -> u32;
+    /// `a` where true, else `b`.
+    fn pick(self, a: L, b: L) -> L;
 
-impl L {
     #[inline(always)]
-    fn splat(x: f32) -> L {
-        L([Vec4::splat(x); 2])
+    fn pick3(self, a: V3<L>, b: V3<L>) -> V3<L> {
+        V3 {
+            x: self.pick(a.x, b.x),
+            y: self.pick(a.y, b.y),
+            z: self.pick(a.z, b.z),
+        }
+    }
+}
+
+/// [`LANES`] numbers as two glam `Vec4`s, whose SSE arithmetic every x86-64 level has.
+#[derive(Clone, Copy, Debug)]
+pub struct Sse([Vec4; 2]);
+
+/// [`Sse`]'s truths.
+#[derive(Clone, Copy, Debug)]
+pub struct SseMask([BVec4A; 2]);
+
+impl Lane for Sse {
+    type M = SseMask;
+
+    #[inline(always)]
+    fn splat(x: f32) -> Sse {
+        Sse([Vec4::splat(x); 2])
     }
 
     #[inline(always)]
-    fn from_array(a: [f32; LANES]) -> L {
-        L([Vec4::from_slice(&a[..4]), Vec4::from_slice(&a[4..])])
+    fn from_array(a: [f32; LANES]) -> Sse {
+        Sse([Vec4::from_slice(&a[..4]), Vec4::from_slice(&a[4..])])
     }
 
     #[inline(always)]
@@ -78,141 +130,304 @@ impl L {
     }
 
     #[inline(always)]
-    fn zip(self, o: L, f: impl Fn(Vec4, Vec4) -> Vec4) -> L {
-        L([f(self.0[0], o.0[0]), f(self.0[1], o.0[1])])
+    fn sqrt(self) -> Sse {
+        Sse(self.0.map(Vec4::sqrt))
     }
 
     #[inline(always)]
-    fn test(self, o: L, f: impl Fn(Vec4, Vec4) -> BVec4A) -> M {
-        M([f(self.0[0], o.0[0]), f(self.0[1], o.0[1])])
+    fn abs(self) -> Sse {
+        Sse(self.0.map(Vec4::abs))
     }
 
     #[inline(always)]
-    fn sqrt(self) -> L {
-        L(self.0.map(Vec4::sqrt))
-    }
-
-    #[inline(always)]
-    fn abs(self) -> L {
-        L(self.0.map(Vec4::abs))
-    }
-
-    /// `f32::max` (IEEE maxNum: a NaN operand gives the other), lane by lane.
-    #[inline(always)]
-    fn fmax(self, o: L) -> L {
+    fn fmax(self, o: Sse) -> Sse {
         self.zip(o, |a, b| {
             Vec4::select(b.is_nan_mask(), a, Vec4::select(b.cmpgt(a), b, a))
         })
     }
 
-    /// `f32::min` (IEEE minNum: a NaN operand gives the other), lane by lane.
     #[inline(always)]
-    fn fmin(self, o: L) -> L {
+    fn fmin(self, o: Sse) -> Sse {
         self.zip(o, |a, b| {
             Vec4::select(b.is_nan_mask(), a, Vec4::select(b.cmplt(a), b, a))
         })
     }
 
     #[inline(always)]
-    fn lt(self, o: L) -> M {
+    fn lt(self, o: Sse) -> SseMask {
         self.test(o, Vec4::cmplt)
     }
 
     #[inline(always)]
-    fn gt(self, o: L) -> M {
+    fn gt(self, o: Sse) -> SseMask {
         self.test(o, Vec4::cmpgt)
     }
 
     #[inline(always)]
-    fn ge(self, o: L) -> M {
+    fn ge(self, o: Sse) -> SseMask {
         self.test(o, Vec4::cmpge)
+    }
+
+    #[inline(always)]
+    fn draw(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> (Vec4, Vec4, f32) {
+        keys.draw(p, sample)
     }
 }
 
-macro_rules! lane_op {
+impl Sse {
+    #[inline(always)]
+    fn zip(self, o: Sse, f: impl Fn(Vec4, Vec4) -> Vec4) -> Sse {
+        Sse([f(self.0[0], o.0[0]), f(self.0[1], o.0[1])])
+    }
+
+    #[inline(always)]
+    fn test(self, o: Sse, f: impl Fn(Vec4, Vec4) -> BVec4A) -> SseMask {
+        SseMask([f(self.0[0], o.0[0]), f(self.0[1], o.0[1])])
+    }
+}
+
+macro_rules! sse_op {
     ($trait:ident, $f:ident, $op:tt) => {
-        impl $trait for L {
-            type Output = L;
+        impl $trait for Sse {
+            type Output = Sse;
             #[inline(always)]
-            fn $f(self, o: L) -> L {
+            fn $f(self, o: Sse) -> Sse {
                 self.zip(o, |a, b| a $op b)
             }
         }
     };
 }
-lane_op!(Add, add, +);
-lane_op!(Sub, sub, -);
-lane_op!(Mul, mul, *);
-lane_op!(Div, div, /);
+sse_op!(Add, add, +);
+sse_op!(Sub, sub, -);
+sse_op!(Mul, mul, *);
+sse_op!(Div, div, /);
 
-impl Neg for L {
-    type Output = L;
+impl Neg for Sse {
+    type Output = Sse;
     #[inline(always)]
-    fn neg(self) -> L {
-        L(self.0.map(|a| -a))
+    fn neg(self) -> Sse {
+        Sse(self.0.map(|a| -a))
     }
 }
 
-impl M {
+impl Mask<Sse> for SseMask {
     #[inline(always)]
-    fn from_array(a: [bool; LANES]) -> M {
-        M([
+    fn from_array(a: [bool; LANES]) -> SseMask {
+        SseMask([
             BVec4A::new(a[0], a[1], a[2], a[3]),
             BVec4A::new(a[4], a[5], a[6], a[7]),
         ])
     }
 
-    /// Lane `i`'s truth in bit `i`.
+    #[inline(always)]
+    fn and(self, o: SseMask) -> SseMask {
+        SseMask([self.0[0] & o.0[0], self.0[1] & o.0[1]])
+    }
+
+    #[inline(always)]
+    fn or(self, o: SseMask) -> SseMask {
+        SseMask([self.0[0] | o.0[0], self.0[1] | o.0[1]])
+    }
+
+    #[inline(always)]
+    fn not(self) -> SseMask {
+        SseMask([!self.0[0], !self.0[1]])
+    }
+
     #[inline(always)]
     fn bits(self) -> u32 {
         self.0[0].bitmask() | self.0[1].bitmask() << 4
     }
 
     #[inline(always)]
-    fn and(self, o: M) -> M {
-        M([self.0[0] & o.0[0], self.0[1] & o.0[1]])
-    }
-
-    #[inline(always)]
-    fn or(self, o: M) -> M {
-        M([self.0[0] | o.0[0], self.0[1] | o.0[1]])
-    }
-
-    #[inline(always)]
-    fn not(self) -> M {
-        M([!self.0[0], !self.0[1]])
-    }
-
-    /// `a` where true, else `b`.
-    #[inline(always)]
-    fn pick(self, a: L, b: L) -> L {
-        L([
+    fn pick(self, a: Sse, b: Sse) -> Sse {
+        Sse([
             Vec4::select(self.0[0], a.0[0], b.0[0]),
             Vec4::select(self.0[1], a.0[1], b.0[1]),
         ])
     }
+}
 
-    #[inline(always)]
-    fn pick3(self, a: V3, b: V3) -> V3 {
-        V3 {
-            x: self.pick(a.x, b.x),
-            y: self.pick(a.y, b.y),
-            z: self.pick(a.z, b.z),
+#[cfg(target_arch = "x86_64")]
+pub use avx::{Avx, AvxMask};
+
+/// [`LANES`] numbers in one AVX register, for the x86-64-v3 and v4 copies of `cpu::isa`.
+///
+/// The intrinsics are `unsafe` to call where the CPU may lack AVX; these lanes are built only
+/// in [`trace_chunk`]'s instances that `cpu::isa::trace_chunk` runs inside its v3 and v4
+/// copies, which run only on CPUs with those levels (`with_isa` asserts it), or in a build
+/// whose target has AVX2. That is the safety argument of every `unsafe` block here.
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    use std::arch::x86_64::*;
+    use std::ops::{Add, Div, Mul, Neg, Sub};
+
+    use glam::Vec4;
+
+    use super::{LANES, Lane, Mask};
+    use crate::sobol::{SegmentKeys, SobolPixel};
+
+    #[derive(Clone, Copy, Debug)]
+    pub struct Avx(__m256);
+
+    /// [`Avx`]'s truths: all-ones or zero lanes.
+    #[derive(Clone, Copy, Debug)]
+    pub struct AvxMask(__m256);
+
+    macro_rules! avx_op {
+        ($trait:ident, $f:ident, $intrinsic:ident) => {
+            impl $trait for Avx {
+                type Output = Avx;
+                #[inline(always)]
+                fn $f(self, o: Avx) -> Avx {
+                    // SAFETY: see the module's docs.
+                    Avx(unsafe { $intrinsic(self.0, o.0) })
+                }
+            }
+        };
+    }
+    avx_op!(Add, add, _mm256_add_ps);
+    avx_op!(Sub, sub, _mm256_sub_ps);
+    avx_op!(Mul, mul, _mm256_mul_ps);
+    avx_op!(Div, div, _mm256_div_ps);
+
+    impl Neg for Avx {
+        type Output = Avx;
+        #[inline(always)]
+        fn neg(self) -> Avx {
+            // SAFETY: see the module's docs.
+            Avx(unsafe { _mm256_xor_ps(self.0, _mm256_set1_ps(-0.0)) })
+        }
+    }
+
+    impl Avx {
+        #[inline(always)]
+        fn cmp<const P: i32>(self, o: Avx) -> AvxMask {
+            // SAFETY: see the module's docs.
+            AvxMask(unsafe { _mm256_cmp_ps::<P>(self.0, o.0) })
+        }
+    }
+
+    impl Lane for Avx {
+        type M = AvxMask;
+
+        #[inline(always)]
+        fn splat(x: f32) -> Avx {
+            // SAFETY: see the module's docs.
+            Avx(unsafe { _mm256_set1_ps(x) })
+        }
+
+        #[inline(always)]
+        fn from_array(a: [f32; LANES]) -> Avx {
+            // SAFETY: see the module's docs; `a` holds 8 floats.
+            Avx(unsafe { _mm256_loadu_ps(a.as_ptr()) })
+        }
+
+        #[inline(always)]
+        fn to_array(self) -> [f32; LANES] {
+            let mut a = [0.0; LANES];
+            // SAFETY: see the module's docs; `a` holds 8 floats.
+            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) };
+            a
+        }
+
+        #[inline(always)]
+        fn sqrt(self) -> Avx {
+            // SAFETY: see the module's docs.
+            Avx(unsafe { _mm256_sqrt_ps(self.0) })
+        }
+
+        #[inline(always)]
+        fn abs(self) -> Avx {
+            // SAFETY: see the module's docs.
+            Avx(unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0) })
+        }
+
+        #[inline(always)]
+        fn fmax(self, o: Avx) -> Avx {
+            let bigger = o.gt(self).pick(o, self);
+            o.cmp::<_CMP_UNORD_Q>(o).pick(self, bigger)
+        }
+
+        #[inline(always)]
+        fn fmin(self, o: Avx) -> Avx {
+            let smaller = o.lt(self).pick(o, self);
+            o.cmp::<_CMP_UNORD_Q>(o).pick(self, smaller)
+        }
+
+        #[inline(always)]
+        fn lt(self, o: Avx) -> AvxMask {
+            self.cmp::<_CMP_LT_OQ>(o)
+        }
+
+        #[inline(always)]
+        fn gt(self, o: Avx) -> AvxMask {
+            self.cmp::<_CMP_GT_OQ>(o)
+        }
+
+        #[inline(always)]
+        fn ge(self, o: Avx) -> AvxMask {
+            self.cmp::<_CMP_GE_OQ>(o)
+        }
+
+        #[inline(always)]
+        fn draw(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> (Vec4, Vec4, f32) {
+            // SAFETY: see the module's docs (x86-64-v3 has AVX2).
+            unsafe { keys.draw_avx2(p, sample) }
+        }
+    }
+
+    impl Mask<Avx> for AvxMask {
+        #[inline(always)]
+        fn from_array(a: [bool; LANES]) -> AvxMask {
+            let m = a.map(|b| -i32::from(b));
+            // SAFETY: see the module's docs; `m` holds 8 words.
+            AvxMask(unsafe { _mm256_castsi256_ps(_mm256_loadu_si256(m.as_ptr().cast())) })
+        }
+
+        #[inline(always)]
+        fn and(self, o: AvxMask) -> AvxMask {
+            // SAFETY: see the module's docs.
+            AvxMask(unsafe { _mm256_and_ps(self.0, o.0) })
+        }
+
+        #[inline(always)]
+        fn or(self, o: AvxMask) -> AvxMask {
+            // SAFETY: see the module's docs.
+            AvxMask(unsafe { _mm256_or_ps(self.0, o.0) })
+        }
+
+        #[inline(always)]
+        fn not(self) -> AvxMask {
+            // SAFETY: see the module's docs.
+            AvxMask(unsafe { _mm256_xor_ps(self.0, _mm256_castsi256_ps(_mm256_set1_epi32(-1))) })
+        }
+
+        #[inline(always)]
+        fn bits(self) -> u32 {
+            // SAFETY: see the module's docs.
+            unsafe { _mm256_movemask_ps(self.0) as u32 }
+        }
+
+        #[inline(always)]
+        fn pick(self, a: Avx, b: Avx) -> Avx {
+            // SAFETY: see the module's docs.
+            Avx(unsafe { _mm256_blendv_ps(b.0, a.0, self.0) })
         }
     }
 }
 
 /// A `Vec3` per lane, with glam's `Vec3` arithmetic (the same operations in the same order).
-#[derive(Clone, Copy, Debug, Default)]
-struct V3 {
+#[derive(Clone, Copy, Debug)]
+pub struct V3<L> {
     x: L,
     y: L,
     z: L,
 }
 
-impl V3 {
+impl<L: Lane> V3<L> {
     #[inline(always)]
-    fn from_arrays(v: &[[f32; LANES]; 3]) -> V3 {
+    fn from_arrays(v: &[[f32; LANES]; 3]) -> V3<L> {
         V3 {
             x: L::from_array(v[0]),
             y: L::from_array(v[1]),
@@ -226,12 +441,12 @@ impl V3 {
     }
 
     #[inline(always)]
-    fn zero() -> V3 {
-        V3::default()
+    fn zero() -> V3<L> {
+        V3::splat([0.0; 3])
     }
 
     #[inline(always)]
-    fn splat(v: [f32; 3]) -> V3 {
+    fn splat(v: [f32; 3]) -> V3<L> {
         V3 {
             x: L::splat(v[0]),
             y: L::splat(v[1]),
@@ -241,7 +456,7 @@ impl V3 {
 
     /// `Vec3 * f32`.
     #[inline(always)]
-    fn scale(self, s: L) -> V3 {
+    fn scale(self, s: L) -> V3<L> {
         V3 {
             x: self.x * s,
             y: self.y * s,
@@ -251,7 +466,7 @@ impl V3 {
 
     /// `Vec3 / f32`.
     #[inline(always)]
-    fn div(self, s: L) -> V3 {
+    fn div(self, s: L) -> V3<L> {
         V3 {
             x: self.x / s,
             y: self.y / s,
@@ -261,7 +476,7 @@ impl V3 {
 
     /// `Vec3 * Vec3`.
     #[inline(always)]
-    fn mul(self, o: V3) -> V3 {
+    fn mul(self, o: V3<L>) -> V3<L> {
         V3 {
             x: self.x * o.x,
             y: self.y * o.y,
@@ -270,12 +485,12 @@ impl V3 {
     }
 
     #[inline(always)]
-    fn dot(self, o: V3) -> L {
+    fn dot(self, o: V3<L>) -> L {
         (self.x * o.x) + (self.y * o.y) + (self.z * o.z)
     }
 
     #[inline(always)]
-    fn cross(self, o: V3) -> V3 {
+    fn cross(self, o: V3<L>) -> V3<L> {
         V3 {
             x: self.y * o.z - o.y * self.z,
             y: self.z * o.x - o.z * self.x,
@@ -289,7 +504,7 @@ impl V3 {
     }
 
     #[inline(always)]
-    fn abs(self) -> V3 {
+    fn abs(self) -> V3<L> {
         V3 {
             x: self.x.abs(),
             y: self.y.abs(),
@@ -299,7 +514,7 @@ impl V3 {
 
     /// glam's `Vec3::min`: `if a < b { a } else { b }`.
     #[inline(always)]
-    fn min(self, o: V3) -> V3 {
+    fn min(self, o: V3<L>) -> V3<L> {
         V3 {
             x: self.x.lt(o.x).pick(self.x, o.x),
             y: self.y.lt(o.y).pick(self.y, o.y),
@@ -309,7 +524,7 @@ impl V3 {
 
     /// glam's `Vec3::max`: `if a > b { a } else { b }`.
     #[inline(always)]
-    fn max(self, o: V3) -> V3 {
+    fn max(self, o: V3<L>) -> V3<L> {
         V3 {
             x: self.x.gt(o.x).pick(self.x, o.x),
             y: self.y.gt(o.y).pick(self.y, o.y),
@@ -325,10 +540,10 @@ impl V3 {
     }
 }
 
-impl Add for V3 {
-    type Output = V3;
+impl<L: Lane> Add for V3<L> {
+    type Output = V3<L>;
     #[inline(always)]
-    fn add(self, o: V3) -> V3 {
+    fn add(self, o: V3<L>) -> V3<L> {
         V3 {
             x: self.x + o.x,
             y: self.y + o.y,
@@ -337,10 +552,10 @@ impl Add for V3 {
     }
 }
 
-impl Sub for V3 {
-    type Output = V3;
+impl<L: Lane> Sub for V3<L> {
+    type Output = V3<L>;
     #[inline(always)]
-    fn sub(self, o: V3) -> V3 {
+    fn sub(self, o: V3<L>) -> V3<L> {
         V3 {
             x: self.x - o.x,
             y: self.y - o.y,
@@ -349,10 +564,10 @@ impl Sub for V3 {
     }
 }
 
-impl Neg for V3 {
-    type Output = V3;
+impl<L: Lane> Neg for V3<L> {
+    type Output = V3<L>;
     #[inline(always)]
-    fn neg(self) -> V3 {
+    fn neg(self) -> V3<L> {
         V3 {
             x: -self.x,
             y: -self.y,
@@ -415,7 +630,7 @@ struct Found {
 
 /// `mis_weight`: Veach's power heuristic.
 #[inline(always)]
-fn mis_weight(a: L, b: L) -> L {
+fn mis_weight<L: Lane>(a: L, b: L) -> L {
     let (a2, b2) = (a * a, b * b);
     (a2 + b2)
         .gt(L::splat(0.0))
@@ -424,23 +639,23 @@ fn mis_weight(a: L, b: L) -> L {
 
 /// `light_pdf`: the solid-angle pdf of a light's point.
 #[inline(always)]
-fn light_pdf(g: &Globals, emission: V3, dist2: L, cos_l: L) -> L {
+fn light_pdf<L: Lane>(g: &Globals, emission: V3<L>, dist2: L, cos_l: L) -> L {
     emission.dot(V3::splat(LUMINANCE)) * dist2 / (L::splat(g.scene.light_power) * cos_l)
 }
 
 /// The surface of the lanes' hits (`surface_at` for triangles without shading data).
 #[derive(Clone, Copy)]
-struct Surface {
-    position: V3,
+struct Surface<L> {
+    position: V3<L>,
     /// Geometric normal, which is also the shading normal here.
-    ng: V3,
+    ng: V3<L>,
     offset: L,
     back_offset: L,
 }
 
 /// `offset_ray_origin`.
 #[inline(always)]
-fn offset_ray_origin(s: &Surface, dir_in: V3, n: V3) -> V3 {
+fn offset_ray_origin<L: Lane>(s: &Surface<L>, dir_in: V3<L>, n: V3<L>) -> V3<L> {
     let ng = s.ng;
     let back = dir_in
         .dot(n)
@@ -453,7 +668,7 @@ fn offset_ray_origin(s: &Surface, dir_in: V3, n: V3) -> V3 {
 /// [`stages::trace_paths`](super::stages::trace_paths) does; returns the segments traced and
 /// the samples dropped. Only for a variant that [`runs`].
 #[inline(always)]
-pub fn trace_chunk<const F: u32>(
+pub fn trace_chunk<const F: u32, L: Lane>(
     g: &Globals,
     bvh: &GpuBvh,
     r0: u32,
@@ -497,7 +712,15 @@ pub fn trace_chunk<const F: u32>(
                     slot[j] = next;
                     next += 1;
                 }
-                let (rl, rs, rr) = segment_rands(g, sp[j], pixel[j], sample[j], depth[j]);
+                let (rl, rs, rr) = segment_rands_by(
+                    g,
+                    sp[j],
+                    pixel[j],
+                    sample[j],
+                    depth[j],
+                    #[inline(always)]
+                    |k, p, s| L::draw(k, p, s),
+                );
                 (found.light_x[j], found.light_y[j]) = (rl.x, rl.y);
                 (found.scatter_x[j], found.scatter_y[j], found.roulette[j]) = (rs.x, rs.y, rr);
                 let (o, d) = (&paths.origin, &paths.dir);
@@ -522,7 +745,7 @@ pub fn trace_chunk<const F: u32>(
         if !hit.iter().any(|&h| h) {
             return (rays, dropped);
         }
-        shade::<F>(g, bvh, &mut paths, &hit, &found, &depth);
+        shade::<F, L>(g, bvh, &mut paths, &hit, &found, &depth);
         for j in 0..LANES {
             if !hit[j] {
                 continue;
@@ -543,7 +766,7 @@ pub fn trace_chunk<const F: u32>(
 /// emission's weight, the light sample, the scattered direction and the roulette, then the
 /// shadow rays lane by lane, then the radiance.
 #[inline(always)]
-fn shade<const F: u32>(
+fn shade<const F: u32, L: Lane>(
     g: &Globals,
     bvh: &GpuBvh,
     paths: &mut Paths,
@@ -604,12 +827,12 @@ fn shade<const F: u32>(
         L::from_array(found.scatter_y),
     );
     let rr = L::from_array(found.roulette);
-    let hit_mask = M::from_array(*hit);
+    let hit_mask = L::M::from_array(*hit);
     let (two_sided, diffuse, last, roulette) = (
-        M::from_array(two_sided),
-        M::from_array(diffuse),
-        M::from_array(last),
-        M::from_array(roulette),
+        L::M::from_array(two_sided),
+        L::M::from_array(diffuse),
+        L::M::from_array(last),
+        L::M::from_array(roulette),
     );
     let zero = L::splat(0.0);
     let one = L::splat(1.0);
@@ -648,7 +871,7 @@ fn shade<const F: u32>(
     let sample_here = if lit && scene.light_count > 0 {
         diffuse.and(last.not())
     } else {
-        M::default()
+        L::M::from_array([false; LANES])
     }
     .and(hit_mask);
 
@@ -708,7 +931,7 @@ fn shade<const F: u32>(
         L::from_array(fp_select),
         L::from_array(fx),
     );
-    let light_two_sided = M::from_array(light_two_sided);
+    let light_two_sided = L::M::from_array(light_two_sided);
     let shadow_origin = offset_ray_origin(&surface, dir, ng_facing);
     let su = x.sqrt();
     let point = p0 + e1.scale(su * (one - rl_y)) + e2.scale(su * rl_y);
@@ -736,9 +959,10 @@ fn shade<const F: u32>(
         .scale(cos_l * area / (dist2 * p_select) * light_weight);
 
     // emitted.
-    let emitted = front
-        .or(two_sided)
-        .pick3(throughput.mul(emission).scale(emission_weight), V3::zero());
+    let emitted = front.or(two_sided).pick3(
+        throughput.mul(emission).scale(emission_weight),
+        V3::<L>::zero(),
+    );
     let throughput_in = throughput;
 
     // shade_hit, a diffuse surface not at the last segment (sample_diffuse).
@@ -811,8 +1035,8 @@ fn shade<const F: u32>(
             open[j] = !trace_any::<F>(bvh, &ray, 0.0, t_max[j]);
         }
     }
-    let open = M::from_array(open);
-    let arrived = query.and(open).pick3(light_in, V3::zero());
+    let open = L::M::from_array(open);
+    let arrived = query.and(open).pick3(light_in, V3::<L>::zero());
     let radiance = sample_here.pick3(radiance + throughput_in.mul(arrived), radiance) + emitted;
 
     // Stored for the lanes with a hit (the others hold no path here: the chunk is done).
