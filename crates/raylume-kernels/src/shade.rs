@@ -326,6 +326,33 @@ pub fn trace_ray_at<const F: u32>(
     sample: u32,
     depth: u32,
 ) {
+    trace_ray_at_by::<F>(
+        g,
+        bvh,
+        path,
+        pixel,
+        sp,
+        sample,
+        depth,
+        #[inline(always)]
+        |k, p, s| k.draw(p, s),
+    );
+}
+
+/// [`trace_ray_at`] with the `Sobol` sampler's groups drawn by `draw` (as
+/// [`segment_rands_by`]: `cpu::isa`'s AVX2 copies pass `SegmentKeys::draw_avx2`).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub fn trace_ray_at_by<const F: u32>(
+    g: &Globals,
+    bvh: &GpuBvh,
+    path: &mut PathState,
+    pixel: u32,
+    sp: SobolPixel,
+    sample: u32,
+    depth: u32,
+    draw: impl Fn(&SegmentKeys, SobolPixel, u32) -> (Vec4, Vec4, f32),
+) {
     let ray = Ray {
         origin: path.origin,
         dir: path.dir,
@@ -342,7 +369,8 @@ pub fn trace_ray_at<const F: u32>(
     // eight lanes at a time, with `sampler_pixel` once a path in `trace_path`: the Cornell
     // box 10-12 % faster in the default build, 5-10 % built native, the living room 2-5 %;
     // `docs/RESULTS.md`, issue 15).
-    let (rnd_light, rnd_scatter, rnd_roulette) = segment_rands(g, sp, pixel, sample, depth);
+    let (rnd_light, rnd_scatter, rnd_roulette) =
+        segment_rands_by(g, sp, pixel, sample, depth, draw);
     let Some(hit) = trace_closest::<F>(bvh, &ray, 0.0, T_MAX) else {
         escape::<F>(g, path);
         return;

@@ -167,6 +167,25 @@ pub fn trace_paths<const F: u32>(
     bvh: &GpuBvh,
     r: u32,
 ) -> ([f32; 3], bool, u32) {
+    #[cfg(target_arch = "x86_64")]
+    if isa >= CpuIsa::X86_64V3 || cfg!(target_feature = "avx2") {
+        // The Sobol' draws in AVX2 where `with_isa` runs a level with it (asserting the CPU
+        // has it), or the build's own target has it.
+        return with_isa(
+            isa,
+            #[inline(always)]
+            || {
+                stages::trace_paths_by::<F>(
+                    g,
+                    bvh,
+                    r,
+                    #[inline(always)]
+                    // SAFETY: this CPU has AVX2 (above).
+                    |k, p, s| unsafe { k.draw_avx2(p, s) },
+                )
+            },
+        );
+    }
     with_isa(
         isa,
         #[inline(always)]

@@ -1,14 +1,15 @@
 //! The kernels' entry points in Rust, one function per WGSL entry point (same names), each
 //! the body of one GPU thread. [`super::CpuTracer`] runs them with rayon.
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use raylume_bvh::GpuBvh;
 
 use crate::camera::generate_camera_ray;
 use crate::gpu_types::{DIM_CAMERA, PIXEL_TILE_HEIGHT, PIXEL_TILE_WIDTH, RayState, SceneUniforms};
 use crate::math::sample_is_valid;
 use crate::shade::path_rand4;
-use crate::shade::{PathState, sampler_pixel, trace_ray, trace_ray_at};
+use crate::shade::{PathState, sampler_pixel, trace_ray, trace_ray_at_by};
+use crate::sobol::{SegmentKeys, SobolPixel};
 use crate::surface::Globals;
 
 /// (pixel, sample) of ray `r` of the batch; consecutive rays are consecutive pixels.
@@ -109,13 +110,43 @@ pub fn propagate<const F: u32>(
 /// traced.
 #[inline(always)]
 pub fn trace_path<const F: u32>(g: &Globals, bvh: &GpuBvh, pixel: u32, sample: u32) -> (Vec3, u32) {
+    trace_path_by::<F>(
+        g,
+        bvh,
+        pixel,
+        sample,
+        #[inline(always)]
+        |k, p, s| k.draw(p, s),
+    )
+}
+
+/// [`trace_path`] with the `Sobol` sampler's groups drawn by `draw`
+/// ([`crate::shade::trace_ray_at_by`]).
+#[inline(always)]
+pub fn trace_path_by<const F: u32>(
+    g: &Globals,
+    bvh: &GpuBvh,
+    pixel: u32,
+    sample: u32,
+    draw: impl Fn(&SegmentKeys, SobolPixel, u32) -> (Vec4, Vec4, f32),
+) -> (Vec3, u32) {
     let scene = g.scene;
     let mut path = camera_path(scene, pixel, sample);
     let mut traced = 0;
     let mut depth = 0;
     let sp = sampler_pixel(scene, pixel);
     while depth <= scene.max_bounces && path.alive {
-        trace_ray_at::<F>(g, bvh, &mut path, pixel, sp, sample, depth);
+        trace_ray_at_by::<F>(
+            g,
+            bvh,
+            &mut path,
+            pixel,
+            sp,
+            sample,
+            depth,
+            #[inline(always)]
+            |k, p, s| draw(k, p, s),
+        );
         traced += 1;
         depth += 1;
     }
@@ -126,8 +157,26 @@ pub fn trace_path<const F: u32>(g: &Globals, bvh: &GpuBvh, pixel: u32, sample: u
 /// it was dropped, and the rays traced.
 #[inline(always)]
 pub fn trace_paths<const F: u32>(g: &Globals, bvh: &GpuBvh, r: u32) -> ([f32; 3], bool, u32) {
+    trace_paths_by::<F>(
+        g,
+        bvh,
+        r,
+        #[inline(always)]
+        |k, p, s| k.draw(p, s),
+    )
+}
+
+/// [`trace_paths`] with the `Sobol` sampler's groups drawn by `draw`
+/// ([`crate::shade::trace_ray_at_by`]).
+#[inline(always)]
+pub fn trace_paths_by<const F: u32>(
+    g: &Globals,
+    bvh: &GpuBvh,
+    r: u32,
+    draw: impl Fn(&SegmentKeys, SobolPixel, u32) -> (Vec4, Vec4, f32),
+) -> ([f32; 3], bool, u32) {
     let (pixel, sample) = batch_ray(g.scene, r);
-    let (radiance, traced) = trace_path::<F>(g, bvh, pixel, sample);
+    let (radiance, traced) = trace_path_by::<F>(g, bvh, pixel, sample, draw);
     let (value, dropped) = write_sample(radiance);
     (value, dropped, traced)
 }
