@@ -8,7 +8,7 @@
 //! diffuse triangles, emission, next-event estimation, no sky, textures, spheres or other
 //! materials): a chunk of the batch's paths is traced [`LANES`] at a time, each lane taking
 //! the chunk's next path when its own ends. Per segment, the random numbers and the walks run
-//! lane by lane (the scalar functions: [`segment_rands`], the tree's walk; a lane whose path
+//! lane by lane (the scalar functions: [`segment_rands`](crate::shade::segment_rands), the tree's walk; a lane whose path
 //! escapes takes the next one and walks again, so that the shading finds every lane with a
 //! hit), and everything between them (the surface, the emission's weight, next-event
 //! estimation's light sample, the scattered direction, Russian roulette) runs on all lanes at
