@@ -454,34 +454,42 @@ impl<L: Lane> V3<L> {
         }
     }
 
+    /// `f` of each component.
+    #[inline(always)]
+    fn map(self, f: impl Fn(L) -> L) -> V3<L> {
+        V3 {
+            x: f(self.x),
+            y: f(self.y),
+            z: f(self.z),
+        }
+    }
+
+    /// `f` of each pair of components.
+    #[inline(always)]
+    fn zip(self, o: V3<L>, f: impl Fn(L, L) -> L) -> V3<L> {
+        V3 {
+            x: f(self.x, o.x),
+            y: f(self.y, o.y),
+            z: f(self.z, o.z),
+        }
+    }
+
     /// `Vec3 * f32`.
     #[inline(always)]
     fn scale(self, s: L) -> V3<L> {
-        V3 {
-            x: self.x * s,
-            y: self.y * s,
-            z: self.z * s,
-        }
+        self.map(|c| c * s)
     }
 
     /// `Vec3 / f32`.
     #[inline(always)]
     fn div(self, s: L) -> V3<L> {
-        V3 {
-            x: self.x / s,
-            y: self.y / s,
-            z: self.z / s,
-        }
+        self.map(|c| c / s)
     }
 
     /// `Vec3 * Vec3`.
     #[inline(always)]
     fn mul(self, o: V3<L>) -> V3<L> {
-        V3 {
-            x: self.x * o.x,
-            y: self.y * o.y,
-            z: self.z * o.z,
-        }
+        self.zip(o, |a, b| a * b)
     }
 
     #[inline(always)]
@@ -505,31 +513,19 @@ impl<L: Lane> V3<L> {
 
     #[inline(always)]
     fn abs(self) -> V3<L> {
-        V3 {
-            x: self.x.abs(),
-            y: self.y.abs(),
-            z: self.z.abs(),
-        }
+        self.map(L::abs)
     }
 
     /// glam's `Vec3::min`: `if a < b { a } else { b }`.
     #[inline(always)]
     fn min(self, o: V3<L>) -> V3<L> {
-        V3 {
-            x: self.x.lt(o.x).pick(self.x, o.x),
-            y: self.y.lt(o.y).pick(self.y, o.y),
-            z: self.z.lt(o.z).pick(self.z, o.z),
-        }
+        self.zip(o, |a, b| a.lt(b).pick(a, b))
     }
 
     /// glam's `Vec3::max`: `if a > b { a } else { b }`.
     #[inline(always)]
     fn max(self, o: V3<L>) -> V3<L> {
-        V3 {
-            x: self.x.gt(o.x).pick(self.x, o.x),
-            y: self.y.gt(o.y).pick(self.y, o.y),
-            z: self.z.gt(o.z).pick(self.z, o.z),
-        }
+        self.zip(o, |a, b| a.gt(b).pick(a, b))
     }
 
     /// glam's `Vec3::max_element`: `max(max(x, y), z)` with `if a > b { a } else { b }`.
@@ -544,11 +540,7 @@ impl<L: Lane> Add for V3<L> {
     type Output = V3<L>;
     #[inline(always)]
     fn add(self, o: V3<L>) -> V3<L> {
-        V3 {
-            x: self.x + o.x,
-            y: self.y + o.y,
-            z: self.z + o.z,
-        }
+        self.zip(o, |a, b| a + b)
     }
 }
 
@@ -556,11 +548,7 @@ impl<L: Lane> Sub for V3<L> {
     type Output = V3<L>;
     #[inline(always)]
     fn sub(self, o: V3<L>) -> V3<L> {
-        V3 {
-            x: self.x - o.x,
-            y: self.y - o.y,
-            z: self.z - o.z,
-        }
+        self.zip(o, |a, b| a - b)
     }
 }
 
@@ -568,11 +556,7 @@ impl<L: Lane> Neg for V3<L> {
     type Output = V3<L>;
     #[inline(always)]
     fn neg(self) -> V3<L> {
-        V3 {
-            x: -self.x,
-            y: -self.y,
-            z: -self.z,
-        }
+        self.map(|c| -c)
     }
 }
 
