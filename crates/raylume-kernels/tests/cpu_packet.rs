@@ -47,6 +47,27 @@ fn lit_box() -> Scene {
         state ^= state << 5;
         (state >> 8) as f32 / 16_777_216.0
     };
+    // A sliver (its aspect, extent^2 over twice its area, in the thousands) and a triangle
+    // with a zero-length edge (never hit), where the offsets' arithmetic meets its extremes.
+    for positions in [
+        [
+            Vec3::new(-0.9, 0.4, 0.2),
+            Vec3::new(0.9, 0.41, 0.25),
+            Vec3::new(0.0, 0.4052, 0.226),
+        ],
+        [
+            Vec3::new(0.1, 1.0, 0.1),
+            Vec3::new(0.1, 1.0, 0.1),
+            Vec3::new(0.3, 1.2, 0.0),
+        ],
+    ] {
+        scene.triangles.push(raylume_scene::Triangle {
+            positions,
+            normals: None,
+            uvs: None,
+            material: 2,
+        });
+    }
     for _ in 0..24 {
         let c = Vec3::new(next() * 1.6 - 0.8, next() * 1.6 + 0.2, next() * 1.6 - 0.8);
         let mut v = || c + Vec3::new(next() - 0.5, next() - 0.5, next() - 0.5) * 0.5;

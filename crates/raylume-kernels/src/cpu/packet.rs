@@ -141,15 +141,17 @@ impl Lane for Sse {
 
     #[inline(always)]
     fn fmax(self, o: Sse) -> Sse {
+        // x86's lowering of `f32::max`: `a` NaN gives `b`, else `b > a ? b : a` (so `b`
+        // NaN gives `a`).
         self.zip(o, |a, b| {
-            Vec4::select(b.is_nan_mask(), a, Vec4::select(b.cmpgt(a), b, a))
+            Vec4::select(a.is_nan_mask(), b, Vec4::select(b.cmpgt(a), b, a))
         })
     }
 
     #[inline(always)]
     fn fmin(self, o: Sse) -> Sse {
         self.zip(o, |a, b| {
-            Vec4::select(b.is_nan_mask(), a, Vec4::select(b.cmplt(a), b, a))
+            Vec4::select(a.is_nan_mask(), b, Vec4::select(b.cmplt(a), b, a))
         })
     }
 
@@ -346,13 +348,13 @@ mod avx {
         #[inline(always)]
         fn fmax(self, o: Avx) -> Avx {
             let bigger = o.gt(self).pick(o, self);
-            o.cmp::<_CMP_UNORD_Q>(o).pick(self, bigger)
+            self.cmp::<_CMP_UNORD_Q>(self).pick(o, bigger)
         }
 
         #[inline(always)]
         fn fmin(self, o: Avx) -> Avx {
             let smaller = o.lt(self).pick(o, self);
-            o.cmp::<_CMP_UNORD_Q>(o).pick(self, smaller)
+            self.cmp::<_CMP_UNORD_Q>(self).pick(o, smaller)
         }
 
         #[inline(always)]
@@ -1041,5 +1043,59 @@ fn shade<const F: u32, L: Lane>(
         if h {
             *stored = alive >> j & 1 != 0;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `fmax`/`fmin` are `f32::max`/`min` lane by lane where an operand is NaN (the other
+    /// comes back) and wherever the two differ (zeros of both signs, equal to each other,
+    /// are left out: which of them `f32::max` returns is the compiler's choice).
+    fn min_max_follow_f32<L: Lane>() {
+        let values = [
+            f32::NAN,
+            -1.5,
+            0.25,
+            3.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            7.0,
+            -0.5,
+        ];
+        for shift in 0..LANES {
+            let a: [f32; LANES] = values;
+            let b: [f32; LANES] = std::array::from_fn(|i| values[(i + shift) % LANES]);
+            let (max, min) = (
+                L::from_array(a).fmax(L::from_array(b)).to_array(),
+                L::from_array(a).fmin(L::from_array(b)).to_array(),
+            );
+            for i in 0..LANES {
+                let (x, y) = (a[i], b[i]);
+                assert_eq!(max[i].to_bits(), x.max(y).to_bits(), "max({x}, {y})");
+                assert_eq!(min[i].to_bits(), x.min(y).to_bits(), "min({x}, {y})");
+            }
+        }
+    }
+
+    #[test]
+    fn sse_min_max_follow_f32() {
+        min_max_follow_f32::<Sse>();
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx_min_max_follow_f32() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        // The lanes' intrinsics run inside a function compiled for AVX2.
+        #[target_feature(enable = "avx2")]
+        fn with_avx() {
+            min_max_follow_f32::<Avx>();
+        }
+        // SAFETY: AVX2 detected above.
+        unsafe { with_avx() };
     }
 }
