@@ -1,5 +1,6 @@
 //! The tracer on the Cornell box: GPU megakernel, wavefront, the wavefront sorting its rays
-//! before every bounce (through the index, and permuting the states), and the CPU mirror.
+//! before every bounce (through the index, and permuting the states), and the CPU mirror
+//! (with next-event estimation also one path at a time against `cpu::packet`'s eight).
 //!
 //! Sizes: the paper's 1000x1000, 10 bounces, at `RAYLUME_BENCH_SPP` samples per pixel
 //! (default 100) on a hardware GPU; 64x64 at 4 spp on a software adapter (lavapipe) and on
@@ -116,6 +117,23 @@ fn bench(c: &mut Criterion) {
     group.bench_function(format!("cpu_{side}x{side}_4spp"), |b| {
         b.iter(|| cpu.render(&s, &mut |_, _| {}).expect("render"))
     });
+    // Next-event estimation with the Sobol' sampler and roulette (the library's defaults),
+    // eight paths at a time (`cpu::packet`, this scene's default) and one at a time: the
+    // same image, what the packets save.
+    cpu.set_estimator(raylume_kernels::Estimator::Nee);
+    cpu.set_sampler(raylume_kernels::Sampler::Sobol);
+    cpu.set_russian_roulette(Some(5));
+    for (packets, name) in [(true, "packets"), (false, "one_path")] {
+        cpu.set_packets(packets);
+        report(
+            &format!("cpu nee {name}"),
+            &s,
+            &cpu.render(&s, &mut |_, _| {}).expect("render"),
+        );
+        group.bench_function(format!("cpu_nee_{name}_{side}x{side}_4spp"), |b| {
+            b.iter(|| cpu.render(&s, &mut |_, _| {}).expect("render"))
+        });
+    }
     group.finish();
 }
 
