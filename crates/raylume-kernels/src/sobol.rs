@@ -499,6 +499,9 @@ pub struct SegmentKeys {
     scramble_muls: [u32; 8],
     /// The roulette's x seed and its multiplier.
     roulette: [u32; 2],
+    /// The camera group's (`DIM_CAMERA`, drawn at segment 0 only) index key and its x and y
+    /// Owen seeds.
+    camera: [u32; 3],
     /// The seed these were hashed under.
     seed: u32,
 }
@@ -513,13 +516,17 @@ impl SegmentKeys {
     /// The keys of segment `bounce`'s groups `DIM_LIGHT`, `DIM_SCATTER` and `DIM_ROULETTE`
     /// under `seed` (a [`SobolPixel`]'s).
     pub fn new(seed: u32, bounce: u32) -> Self {
-        use crate::gpu_types::{DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE};
+        use crate::gpu_types::{DIM_CAMERA, DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE};
         let group = |dim: u32| {
             let s = sobol_scrambles(seed, bounce * DIMS_PER_BOUNCE + dim);
             (s, sobol_keys(s))
         };
-        let (light, scatter, roulette) =
-            (group(DIM_LIGHT), group(DIM_SCATTER), group(DIM_ROULETTE));
+        let (light, scatter, roulette, camera) = (
+            group(DIM_LIGHT),
+            group(DIM_SCATTER),
+            group(DIM_ROULETTE),
+            group(DIM_CAMERA),
+        );
         let keys = [
             light.1[0],
             light.1[1],
@@ -547,8 +554,22 @@ impl SegmentKeys {
             scrambles,
             scramble_muls: scrambles.map(mul),
             roulette: [roulette.0[0], mul(roulette.0[0])],
+            camera: [camera.1[0], camera.0[0], camera.0[1]],
             seed,
         }
+    }
+
+    /// The camera's two numbers at pixel `p`, `sample` (`p.seed` must be
+    /// [`SegmentKeys::seed`]'s; these keys must be segment 0's): [`sobol2_at`]`(true, ..)` of
+    /// the group `DIM_CAMERA`, bit for bit, without hashing its keys again for every path.
+    #[inline(always)]
+    pub fn draw_camera(&self, p: SobolPixel, sample: u32) -> glam::Vec2 {
+        debug_assert_eq!(p.seed, self.seed);
+        let [key, sx, sy] = self.camera;
+        let m = p.morton | zsobol_sample_bits(sample, p.log2_spp);
+        let a = zsobol_pair_bits(m, p.log2_spp, key, sx, sy, true);
+        let f = |x: u32| rand_f32(x).min(SOBOL_ONE_MINUS_EPSILON);
+        glam::Vec2::new(f(a[0]), f(a[1]))
     }
 
     /// The segment's numbers at pixel `p`, `sample` (`p.seed` must be [`SegmentKeys::seed`]'s):
@@ -1234,7 +1255,7 @@ mod tests {
     /// segments.
     #[test]
     fn segment_keys_draw_the_groups_the_tracer_draws() {
-        use crate::gpu_types::{DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE};
+        use crate::gpu_types::{DIM_CAMERA, DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE};
         for seed in [0u32, 1, 0xdead_beef] {
             for spp in [1u32, 3, 16, 1000, 1 << 20] {
                 for pixel in [
@@ -1267,6 +1288,12 @@ mod tests {
                             );
                             let want = sobol2_at(true, p, sample, group(DIM_ROULETTE)).x;
                             assert_eq!(roulette.to_bits(), want.to_bits(), "{at}");
+                            if bounce == 0 {
+                                let cam = keys.draw_camera(p, sample);
+                                let want = sobol2_at(true, p, sample, group(DIM_CAMERA));
+                                assert_eq!(cam.x.to_bits(), want.x.to_bits(), "{at}");
+                                assert_eq!(cam.y.to_bits(), want.y.to_bits(), "{at}");
+                            }
                         }
                     }
                 }

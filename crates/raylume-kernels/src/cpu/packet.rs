@@ -31,7 +31,7 @@ use glam::{BVec4A, Vec3, Vec4};
 use raylume_bvh::{GpuBvh, Ray};
 use raylume_scene::Feature;
 
-use super::stages::{batch_ray, camera_path, write_sample};
+use super::stages::{batch_ray, camera_path_at, write_sample};
 use super::variant::{ALWAYS, has, trace_any, trace_closest};
 use crate::gpu_types::{
     LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_TWO_SIDED, RR_MAX_SURVIVAL, SHADOW_T_SCALE, T_MAX,
@@ -692,9 +692,9 @@ pub fn trace_chunk<const F: u32, L: Lane>(
                         break;
                     }
                     let (p, s) = batch_ray(scene, r0 + next as u32);
-                    paths.set(j, &camera_path(scene, p, s));
-                    (pixel[j], sample[j], depth[j]) = (p, s, 0);
                     sp[j] = sampler_pixel(scene, p);
+                    paths.set(j, &camera_path_at(g, sp[j], p, s));
+                    (pixel[j], sample[j], depth[j]) = (p, s, 0);
                     slot[j] = next;
                     next += 1;
                 }

@@ -5,10 +5,12 @@ use glam::{Vec2, Vec3, Vec4};
 use raylume_bvh::GpuBvh;
 
 use crate::camera::generate_camera_ray;
-use crate::gpu_types::{DIM_CAMERA, PIXEL_TILE_HEIGHT, PIXEL_TILE_WIDTH, RayState, SceneUniforms};
+use crate::gpu_types::{
+    DIM_CAMERA, PIXEL_TILE_HEIGHT, PIXEL_TILE_WIDTH, RayState, SAMPLER_SOBOL, SceneUniforms,
+};
 use crate::math::sample_is_valid;
-use crate::shade::path_rand4;
 use crate::shade::{PathState, sampler_pixel, trace_ray, trace_ray_at_by};
+use crate::shade::{path_rand4, path_rand4_at};
 use crate::sobol::{SegmentKeys, SobolPixel};
 use crate::surface::Globals;
 
@@ -54,6 +56,25 @@ pub fn tiled_ray(scene: &SceneUniforms, r: u32) -> (u32, u32) {
 #[inline]
 pub fn sample_slot(scene: &SceneUniforms, pixel: u32, sample: u32) -> u32 {
     (sample - scene.sample_begin) * scene.pixel_count + (pixel - scene.pixel_begin)
+}
+
+/// [`camera_path`] with the pixel's [`sampler_pixel`] `sp` given: under the `Sobol` sampler
+/// its two numbers from the render's table of segment 0's hashes
+/// ([`SegmentKeys::draw_camera`]; the same numbers).
+#[inline(always)]
+pub fn camera_path_at(g: &Globals, sp: SobolPixel, pixel: u32, sample: u32) -> PathState {
+    let scene = g.scene;
+    let j = match g.sobol_segments.first() {
+        Some(keys) if keys.seed() == sp.seed && scene.sampler == SAMPLER_SOBOL => {
+            keys.draw_camera(sp, sample)
+        }
+        _ => {
+            let j = path_rand4_at(scene, sp, pixel, sample, 0, DIM_CAMERA);
+            Vec2::new(j.x, j.y)
+        }
+    };
+    let dir = generate_camera_ray(scene, pixel, j);
+    PathState::new(Vec3::from(scene.camera_origin), dir)
 }
 
 /// The camera path of a pixel sample.
@@ -131,10 +152,10 @@ pub fn trace_path_by<const F: u32>(
     draw: impl Fn(&SegmentKeys, SobolPixel, u32) -> (Vec4, Vec4, f32),
 ) -> (Vec3, u32) {
     let scene = g.scene;
-    let mut path = camera_path(scene, pixel, sample);
+    let sp = sampler_pixel(scene, pixel);
+    let mut path = camera_path_at(g, sp, pixel, sample);
     let mut traced = 0;
     let mut depth = 0;
-    let sp = sampler_pixel(scene, pixel);
     while depth <= scene.max_bounces && path.alive {
         trace_ray_at_by::<F>(
             g,
