@@ -12,9 +12,12 @@
 //! escapes takes the next one and walks again, so that the shading finds every lane with a
 //! hit), and everything between them (the surface, the emission's weight, next-event
 //! estimation's light sample, the scattered direction, Russian roulette) runs on all lanes at
-//! once, as pairs of glam `Vec4`s (SSE, which every x86-64 level has); the paths are held a
-//! field's lanes side by side (`Paths`). Bitterli's Cornell box: ~6 % fewer instructions,
-//! 6-10 % less time than one path at a time (`docs/RESULTS.md`, issue 15).
+//! once, on a [`Lane`] type: one AVX register in `cpu::isa`'s x86-64-v3 and v4 copies
+//! ([`Avx`]), two glam `Vec4`s (SSE, which every x86-64 level has) at the build's level
+//! ([`Sse`]); the paths are held a field's lanes side by side (`Paths`), and the AVX copies
+//! draw the sampler's numbers with `SegmentKeys::draw_avx2`. Bitterli's Cornell box on the
+//! AMD EPYC dev VM: 400x400, 24 spp, 1.70 -> 1.46 s (median) against one path at a time
+//! with the scalar draw (`docs/RESULTS.md`, issue 15).
 //!
 //! **The same image bit for bit** as [`stages::trace_paths`](super::stages::trace_paths):
 //! every lane computes what [`trace_ray_at`](crate::shade::trace_ray_at) computes for its
