@@ -311,39 +311,18 @@ pub fn trace_ray<const F: u32>(
         sampler_pixel(g.scene, pixel),
         sample,
         depth,
-    );
-}
-
-/// [`trace_ray`] with the pixel's [`sampler_pixel`] given (the CPU's path loop computes it
-/// once a path, not once a segment).
-#[inline(always)]
-pub fn trace_ray_at<const F: u32>(
-    g: &Globals,
-    bvh: &GpuBvh,
-    path: &mut PathState,
-    pixel: u32,
-    sp: SobolPixel,
-    sample: u32,
-    depth: u32,
-) {
-    trace_ray_at_by::<F>(
-        g,
-        bvh,
-        path,
-        pixel,
-        sp,
-        sample,
-        depth,
         #[inline(always)]
         |k, p, s| k.draw(p, s),
     );
 }
 
-/// [`trace_ray_at`] with the `Sobol` sampler's groups drawn by `draw` (as
-/// [`segment_rands_by`]: `cpu::isa`'s AVX2 copies pass `SegmentKeys::draw_avx2`).
+/// [`trace_ray`] with the pixel's [`sampler_pixel`] given (the CPU's path loop computes it
+/// once a path, not once a segment) and the `Sobol` sampler's groups drawn by `draw`
+/// ([`SegmentKeys::draw`], or `SegmentKeys::draw_avx2` in `cpu::isa`'s AVX2 copies: the same
+/// numbers).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub fn trace_ray_at_by<const F: u32>(
+pub fn trace_ray_at<const F: u32>(
     g: &Globals,
     bvh: &GpuBvh,
     path: &mut PathState,
@@ -369,8 +348,7 @@ pub fn trace_ray_at_by<const F: u32>(
     // eight lanes at a time, with `sampler_pixel` once a path in `trace_path`: the Cornell
     // box 10-12 % faster in the default build, 5-10 % built native, the living room 2-5 %;
     // `docs/RESULTS.md`, issue 15).
-    let (rnd_light, rnd_scatter, rnd_roulette) =
-        segment_rands_by(g, sp, pixel, sample, depth, draw);
+    let (rnd_light, rnd_scatter, rnd_roulette) = segment_rands(g, sp, pixel, sample, depth, draw);
     let Some(hit) = trace_closest::<F>(bvh, &ray, 0.0, T_MAX) else {
         escape::<F>(g, path);
         return;
@@ -456,30 +434,11 @@ pub fn trace_ray_at_by<const F: u32>(
 
 /// The random numbers of a path's segment `depth`: the light's four (zero where no light can
 /// be sampled: a plain render, or the last segment), the scattered direction's four, and the
-/// roulette's (zero before `rr_depth`), as [`trace_ray_at`] draws them.
+/// roulette's (zero before `rr_depth`), as [`trace_ray_at`] draws them; the `Sobol`
+/// sampler's groups drawn by `draw` ([`SegmentKeys::draw`] or another form of it, the same
+/// numbers: `SegmentKeys::draw_avx2`).
 #[inline(always)]
 pub fn segment_rands(
-    g: &Globals,
-    sp: SobolPixel,
-    pixel: u32,
-    sample: u32,
-    depth: u32,
-) -> (Vec4, Vec4, f32) {
-    segment_rands_by(
-        g,
-        sp,
-        pixel,
-        sample,
-        depth,
-        #[inline(always)]
-        |k, p, s| k.draw(p, s),
-    )
-}
-
-/// [`segment_rands`], the `Sobol` sampler's groups drawn by `draw` ([`SegmentKeys::draw`] or
-/// another form of it, the same numbers: `SegmentKeys::draw_avx2`).
-#[inline(always)]
-pub fn segment_rands_by(
     g: &Globals,
     sp: SobolPixel,
     pixel: u32,

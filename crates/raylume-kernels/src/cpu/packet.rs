@@ -8,7 +8,7 @@
 //! diffuse triangles, emission, next-event estimation, no sky, textures, spheres or other
 //! materials): a chunk of the batch's paths is traced [`LANES`] at a time, each lane taking
 //! the chunk's next path when its own ends. Per segment, the random numbers and the walks run
-//! lane by lane (the scalar functions: [`segment_rands`](crate::shade::segment_rands), the tree's walk; a lane whose path
+//! lane by lane (the scalar functions: [`segment_rands`], the tree's walk; a lane whose path
 //! escapes takes the next one and walks again, so that the shading finds every lane with a
 //! hit), and everything between them (the surface, the emission's weight, next-event
 //! estimation's light sample, the scattered direction, Russian roulette) runs on all lanes at
@@ -40,7 +40,7 @@ use crate::gpu_types::{
     LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_TWO_SIDED, RR_MAX_SURVIVAL, SHADOW_T_SCALE, T_MAX,
 };
 use crate::math::{INV_PI, PI};
-use crate::shade::{PathState, escape, sampler_pixel, segment_rands_by};
+use crate::shade::{PathState, escape, sampler_pixel, segment_rands};
 use crate::sobol::{SOBOL_ONE_MINUS_EPSILON, SegmentKeys, SobolPixel};
 use crate::surface::{Globals, OFFSET_BACK_ULPS, OFFSET_HIT_ULPS, OFFSET_T_ULPS, UNIT_ROUNDOFF};
 
@@ -701,7 +701,7 @@ pub fn trace_chunk<const F: u32, L: Lane>(
                     slot[j] = next;
                     next += 1;
                 }
-                let (rl, rs, rr) = segment_rands_by(
+                let (rl, rs, rr) = segment_rands(
                     g,
                     sp[j],
                     pixel[j],

@@ -9,7 +9,7 @@ use crate::gpu_types::{
     DIM_CAMERA, PIXEL_TILE_HEIGHT, PIXEL_TILE_WIDTH, RayState, SAMPLER_SOBOL, SceneUniforms,
 };
 use crate::math::sample_is_valid;
-use crate::shade::{PathState, sampler_pixel, trace_ray, trace_ray_at_by};
+use crate::shade::{PathState, sampler_pixel, trace_ray, trace_ray_at};
 use crate::shade::{path_rand4, path_rand4_at};
 use crate::sobol::{SegmentKeys, SobolPixel};
 use crate::surface::Globals;
@@ -142,7 +142,7 @@ pub fn trace_path<const F: u32>(g: &Globals, bvh: &GpuBvh, pixel: u32, sample: u
 }
 
 /// [`trace_path`] with the `Sobol` sampler's groups drawn by `draw`
-/// ([`crate::shade::trace_ray_at_by`]).
+/// ([`crate::shade::trace_ray_at`]).
 #[inline(always)]
 pub fn trace_path_by<const F: u32>(
     g: &Globals,
@@ -157,7 +157,7 @@ pub fn trace_path_by<const F: u32>(
     let mut traced = 0;
     let mut depth = 0;
     while depth <= scene.max_bounces && path.alive {
-        trace_ray_at_by::<F>(
+        trace_ray_at::<F>(
             g,
             bvh,
             &mut path,
@@ -188,7 +188,7 @@ pub fn trace_paths<const F: u32>(g: &Globals, bvh: &GpuBvh, r: u32) -> ([f32; 3]
 }
 
 /// [`trace_paths`] with the `Sobol` sampler's groups drawn by `draw`
-/// ([`crate::shade::trace_ray_at_by`]).
+/// ([`crate::shade::trace_ray_at`]).
 #[inline(always)]
 pub fn trace_paths_by<const F: u32>(
     g: &Globals,
