@@ -56,6 +56,8 @@ mod quality;
 mod stats;
 mod validate;
 mod wide;
+#[cfg(target_arch = "x86_64")]
+mod wide_avx2;
 mod wide_convert;
 
 pub mod gpu_types;

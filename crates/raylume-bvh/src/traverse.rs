@@ -261,4 +261,62 @@ impl GpuBvh {
             BvhLayout::Wide => self.wide_walk::<SPHERES>(ray, t_min, t_max, any_hit),
         }
     }
+
+    /// [`GpuBvh::trace_closest_for`] with a wide tree's node and triangle tests eight lanes at
+    /// a time in AVX registers (the crate's `wide_avx2` module); the same hit, bit for bit (a binary
+    /// tree walks as there). Fast where inlined into a function compiled with AVX2 (e.g.
+    /// raylume-kernels' x86-64-v3/v4 copies of its CPU path).
+    ///
+    /// # Safety
+    /// The CPU must have AVX2 (`is_x86_feature_detected!("avx2")`).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub unsafe fn trace_closest_avx2<const SPHERES: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<Hit> {
+        // SAFETY: the caller's CPU has AVX2.
+        let hit = unsafe { self.walk_avx2::<SPHERES>(ray, t_min, t_max, false) };
+        (hit.prim != INVALID_INDEX).then_some(hit)
+    }
+
+    /// [`GpuBvh::trace_any_for`] as [`GpuBvh::trace_closest_avx2`] walks: the same answer.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub unsafe fn trace_any_avx2<const SPHERES: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> bool {
+        // SAFETY: the caller's CPU has AVX2.
+        unsafe { self.walk_avx2::<SPHERES>(ray, t_min, t_max, true) }.prim != INVALID_INDEX
+    }
+
+    /// [`GpuBvh::walk`] with the wide layout's AVX2 tests.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn walk_avx2<const SPHERES: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        any_hit: bool,
+    ) -> Hit {
+        match self.layout {
+            BvhLayout::Binary => {
+                binary_walk::<SPHERES>(&self.nodes, &self.primitives, ray, t_min, t_max, any_hit)
+            }
+            // SAFETY: the caller's CPU has AVX2.
+            BvhLayout::Wide => unsafe { self.wide_walk_avx2::<SPHERES>(ray, t_min, t_max, any_hit) },
+        }
+    }
 }

@@ -553,7 +553,7 @@ const BOX_STACK_SIZE: usize = 7 * WIDE_STACK_SIZE;
 /// hits are the same (tested against [`wide_walk`] over every test tree: visiting the
 /// children in another order fails those tests, on ties).
 #[inline(always)]
-fn walk_boxes<const SPHERES: bool>(
+fn walk_boxes<const SPHERES: bool, const AVX2: bool>(
     boxes: &[WideBoxes],
     blocks: &[TriangleBlock],
     primitives: &[Primitive],
@@ -571,7 +571,11 @@ fn walk_boxes<const SPHERES: bool>(
         u: 0.0,
         v: 0.0,
     };
-    let leaves = Leaves::Blocks(blocks, primitives);
+    let leaves = if AVX2 {
+        Leaves::BlocksAvx2(blocks, primitives)
+    } else {
+        Leaves::Blocks(blocks, primitives)
+    };
     // (child node, its box's t_near bits): the low and high words. Uninitialised (no 1.8 KB
     // to zero for every ray); only entries below `sp` are read, each written before.
     let mut stack = [MaybeUninit::<u64>::uninit(); BOX_STACK_SIZE];
@@ -579,7 +583,17 @@ fn walk_boxes<const SPHERES: bool>(
     let mut node = 0u32;
     loop {
         let b = &boxes[node as usize];
-        let (mask, prims, near) = wide_boxes_hits(b, &wr, t_min, hit.t);
+        let (mask, prims, near) = if AVX2 {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `AVX2` only from the `_avx2` methods, whose callers' CPUs have it.
+            unsafe {
+                crate::wide_avx2::wide_boxes_hits(b, &wr, t_min, hit.t)
+            }
+            #[cfg(not(target_arch = "x86_64"))]
+            unreachable!("AVX2 walks on x86-64 only")
+        } else {
+            wide_boxes_hits(b, &wr, t_min, hit.t)
+        };
         if test_leaves::<SPHERES>(
             leaves,
             b.prim_base,
@@ -637,6 +651,9 @@ enum Leaves<'a> {
     Records(&'a [Primitive]),
     /// From the nodes' blocks ([`leaf_block4`]): the CPU walk's; the records for spheres.
     Blocks(&'a [TriangleBlock], &'a [Primitive]),
+    /// As `Blocks`, two blocks at a time in AVX registers (`wide_avx2::leaf_blocks8`): only
+    /// on a CPU with AVX2 (the `_avx2` walks).
+    BlocksAvx2(&'a [TriangleBlock], &'a [Primitive]),
 }
 
 /// The primitives `prims` (offsets from `base`) of a node's hit leaves against the ray, in
@@ -661,16 +678,26 @@ fn test_leaves<const SPHERES: bool>(
     hit: &mut Hit,
 ) -> bool {
     let primitives = match leaves {
-        Leaves::Records(p) | Leaves::Blocks(_, p) => p,
+        Leaves::Records(p) | Leaves::Blocks(_, p) | Leaves::BlocksAvx2(_, p) => p,
     };
     let mut prims = prims;
     while prims != 0 {
-        if !SPHERES && (matches!(leaves, Leaves::Blocks(..)) || prims.count_ones() > 1) {
+        if !SPHERES && (!matches!(leaves, Leaves::Records(..)) || prims.count_ones() > 1) {
             let found = match leaves {
                 Leaves::Records(p) => leaf_group4(p, base, &mut prims, sheared, t_min, hit),
                 Leaves::Blocks(b, _) => {
                     leaf_block4(b, base, block_base, &mut prims, sheared, t_min, hit)
                 }
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: `BlocksAvx2` only from the `_avx2` walks, whose callers' CPUs have
+                // AVX2; `prims` is non-zero (the loop's condition).
+                Leaves::BlocksAvx2(b, _) => unsafe {
+                    crate::wide_avx2::leaf_blocks8(
+                        b, base, block_base, &mut prims, sheared, t_min, hit,
+                    )
+                },
+                #[cfg(not(target_arch = "x86_64"))]
+                Leaves::BlocksAvx2(..) => unreachable!("AVX2 walks on x86-64 only"),
             };
             if found && any_hit {
                 return true;
@@ -775,7 +802,9 @@ fn leaf_block4(
     if t_best < hit.t {
         let j = first_leading_bit(t.cmpeq(Vec4::splat(t_best)).bitmask()) as usize;
         *hit = Hit {
-            t: t_best,
+            // The lane's own t (equal to `t_best`; the same bits, ±0 included, as the AVX2
+            // form's, which takes the lane's).
+            t: t.to_array()[j],
             prim: first + j as u32,
             u: u.to_array()[j],
             v: v.to_array()[j],
@@ -836,7 +865,26 @@ impl GpuBvh {
     ) -> Hit {
         let (boxes, blocks) = self.cpu_walk_arrays();
         debug_assert_eq!(self.wide_nodes.len(), boxes.len());
-        walk_boxes::<SPHERES>(boxes, blocks, &self.primitives, ray, t_min, t_max, any_hit)
+        walk_boxes::<SPHERES, false>(boxes, blocks, &self.primitives, ray, t_min, t_max, any_hit)
+    }
+
+    /// [`GpuBvh::wide_walk`] with its node and triangle tests eight lanes at a time in AVX
+    /// registers (the crate's `wide_avx2` module): the same hits bit for bit.
+    ///
+    /// # Safety
+    /// The CPU must have AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    pub(crate) unsafe fn wide_walk_avx2<const SPHERES: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        any_hit: bool,
+    ) -> Hit {
+        let (boxes, blocks) = self.cpu_walk_arrays();
+        debug_assert_eq!(self.wide_nodes.len(), boxes.len());
+        walk_boxes::<SPHERES, true>(boxes, blocks, &self.primitives, ray, t_min, t_max, any_hit)
     }
 }
 

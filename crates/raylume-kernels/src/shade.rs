@@ -36,7 +36,7 @@ use crate::bsdf::{
     eval_rough_dielectric, eval_rough_plastic, sample_conductor, sample_plastic,
     sample_rough_dielectric, sample_rough_plastic,
 };
-use crate::cpu::variant::{has, trace_any, trace_closest};
+use crate::cpu::variant::{BuildForms, Forms, has};
 use crate::gpu_types::{
     DIM_CAMERA, DIM_LIGHT, DIM_ROULETTE, DIM_SCATTER, DIMS_PER_BOUNCE, GpuMaterial,
     LIGHT_ENVIRONMENT, LIGHT_SPHERE, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_GLASS, MATERIAL_METAL,
@@ -46,7 +46,7 @@ use crate::gpu_types::{
 use crate::math::{INV_PI, PI};
 use crate::rng::rand4;
 use crate::sampling::{sample_diffuse, sample_sphere_cap, sphere_cap_pdf};
-use crate::sobol::{SegmentKeys, SobolPixel, sobol_pixel, sobol2_at, sobol4_at};
+use crate::sobol::{SobolPixel, sobol_pixel, sobol2_at, sobol4_at};
 use crate::surface::{
     Globals, SurfaceHit, environment_cell, environment_pdf, environment_radiance, material_at,
     offset_ray_origin, prefetch_texture, sample_environment, surface_at,
@@ -303,7 +303,7 @@ pub fn trace_ray<const F: u32>(
     sample: u32,
     depth: u32,
 ) {
-    trace_ray_at::<F>(
+    trace_ray_at::<F, BuildForms>(
         g,
         bvh,
         path,
@@ -311,18 +311,15 @@ pub fn trace_ray<const F: u32>(
         sampler_pixel(g.scene, pixel),
         sample,
         depth,
-        #[inline(always)]
-        |k, p, s| k.draw(p, s),
     );
 }
 
 /// [`trace_ray`] with the pixel's [`sampler_pixel`] given (the CPU's path loop computes it
-/// once a path, not once a segment) and the `Sobol` sampler's groups drawn by `draw`
-/// ([`SegmentKeys::draw`], or `SegmentKeys::draw_avx2` in `cpu::isa`'s AVX2 copies: the same
-/// numbers).
+/// once a path, not once a segment), the `Sobol` sampler's groups drawn and the walks taken
+/// in the forms `K` ([`BuildForms`], or the AVX2 ones in `cpu::isa`'s AVX2 copies: the same
+/// numbers and hits).
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-pub fn trace_ray_at<const F: u32>(
+pub fn trace_ray_at<const F: u32, K: Forms>(
     g: &Globals,
     bvh: &GpuBvh,
     path: &mut PathState,
@@ -330,7 +327,6 @@ pub fn trace_ray_at<const F: u32>(
     sp: SobolPixel,
     sample: u32,
     depth: u32,
-    draw: impl Fn(&SegmentKeys, SobolPixel, u32) -> (Vec4, Vec4, f32),
 ) {
     let ray = Ray {
         origin: path.origin,
@@ -348,8 +344,8 @@ pub fn trace_ray_at<const F: u32>(
     // eight lanes at a time, with `sampler_pixel` once a path in `trace_path`: the Cornell
     // box 10-12 % faster in the default build, 5-10 % built native, the living room 2-5 %;
     // `docs/RESULTS.md`, issue 15).
-    let (rnd_light, rnd_scatter, rnd_roulette) = segment_rands(g, sp, pixel, sample, depth, draw);
-    let Some(hit) = trace_closest::<F>(bvh, &ray, 0.0, T_MAX) else {
+    let (rnd_light, rnd_scatter, rnd_roulette) = segment_rands::<K>(g, sp, pixel, sample, depth);
+    let Some(hit) = K::trace_closest::<F>(bvh, &ray, 0.0, T_MAX) else {
         escape::<F>(g, path);
         return;
     };
@@ -408,7 +404,7 @@ pub fn trace_ray_at<const F: u32>(
     } else {
         None
     };
-    let early = has(F, Feature::Textures) && shadowed::<F>(bvh, &query);
+    let early = has(F, Feature::Textures) && shadowed::<F, K>(bvh, &query);
     let mat = material_at::<F>(g, &surface);
     let throughput_in = path.throughput;
     let light_in = match &query {
@@ -425,7 +421,7 @@ pub fn trace_ray_at<const F: u32>(
         let occluded = if has(F, Feature::Textures) {
             early
         } else {
-            shadowed::<F>(bvh, &query)
+            shadowed::<F, K>(bvh, &query)
         };
         path.radiance += throughput_in * if occluded { Vec3::ZERO } else { light_in };
     }
@@ -435,16 +431,15 @@ pub fn trace_ray_at<const F: u32>(
 /// The random numbers of a path's segment `depth`: the light's four (zero where no light can
 /// be sampled: a plain render, or the last segment), the scattered direction's four, and the
 /// roulette's (zero before `rr_depth`), as [`trace_ray_at`] draws them; the `Sobol`
-/// sampler's groups drawn by `draw` ([`SegmentKeys::draw`] or another form of it, the same
-/// numbers: `SegmentKeys::draw_avx2`).
+/// sampler's groups drawn by `K::draw` ([`SegmentKeys::draw`](crate::sobol::SegmentKeys::draw) or another form of it, the
+/// same numbers: `SegmentKeys::draw_avx2`).
 #[inline(always)]
-pub fn segment_rands(
+pub fn segment_rands<K: Forms>(
     g: &Globals,
     sp: SobolPixel,
     pixel: u32,
     sample: u32,
     depth: u32,
-    draw: impl Fn(&SegmentKeys, SobolPixel, u32) -> (Vec4, Vec4, f32),
 ) -> (Vec4, Vec4, f32) {
     let wants_light = g.scene.light_count > 0 && depth < g.scene.max_bounces;
     let wants_roulette = depth >= g.scene.rr_depth;
@@ -452,7 +447,7 @@ pub fn segment_rands(
         // The `Sobol` sampler's three groups at once, their hashes from the render's table
         // (the same numbers: `SegmentKeys::draw`).
         Some(keys) if keys.seed() == sp.seed && g.scene.sampler == SAMPLER_SOBOL => {
-            let (light, scatter, roulette) = draw(keys, sp, sample);
+            let (light, scatter, roulette) = K::draw(keys, sp, sample);
             (
                 if wants_light { light } else { Vec4::ZERO },
                 scatter,
@@ -498,8 +493,11 @@ pub fn escape<const F: u32>(g: &Globals, path: &mut PathState) {
 /// A function, not a closure in [`trace_ray_at`]: one the compiler left out of line would run
 /// at the build's instruction level, not the one `cpu::isa` compiled the path for.
 #[inline(always)]
-fn shadowed<const F: u32>(bvh: &GpuBvh, query: &Option<LightQuery>) -> bool {
-    query.is_some_and(|q| trace_any::<F>(bvh, &q.ray, 0.0, q.t_max))
+fn shadowed<const F: u32, K: Forms>(bvh: &GpuBvh, query: &Option<LightQuery>) -> bool {
+    match query {
+        Some(q) => K::trace_any::<F>(bvh, &q.ray, 0.0, q.t_max),
+        None => false,
+    }
 }
 
 /// Russian roulette: the path goes on with probability `q = min(max throughput,

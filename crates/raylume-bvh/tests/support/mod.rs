@@ -504,9 +504,8 @@ pub fn check_against_brute_force(
         .zip(reference)
         .enumerate()
         .filter_map(|(i, (q, want))| {
-            let got = bvh
-                .trace_closest(&q.ray, q.t_min, q.t_max)
-                .map(|h| scene_hit(bvh, &h));
+            let got_hit = bvh.trace_closest(&q.ray, q.t_min, q.t_max);
+            let got = got_hit.map(|h| scene_hit(bvh, &h));
             let any = bvh.trace_any(&q.ray, q.t_min, q.t_max);
             let closest_ok = match (got, want) {
                 (None, None) => true,
@@ -530,6 +529,23 @@ pub fn check_against_brute_force(
                 || (bits(bvh.trace_closest_for::<false>(&q.ray, q.t_min, q.t_max))
                     == bits(bvh.trace_closest(&q.ray, q.t_min, q.t_max))
                     && bvh.trace_any_for::<false>(&q.ray, q.t_min, q.t_max) == any);
+            // The walks with AVX2 node and triangle tests (where this CPU has AVX2): the
+            // same hits bit for bit, the triangles-only one where there are no spheres.
+            #[cfg(target_arch = "x86_64")]
+            let avx2_ok = !std::arch::is_x86_feature_detected!("avx2") || {
+                let (o, t0, t1) = (&q.ray, q.t_min, q.t_max);
+                // SAFETY: this CPU has AVX2 (detected above).
+                unsafe {
+                    bits(bvh.trace_closest_avx2::<true>(o, t0, t1)) == bits(got_hit)
+                        && bvh.trace_any_avx2::<true>(o, t0, t1) == any
+                        && (!f.spheres.is_empty()
+                            || (bits(bvh.trace_closest_avx2::<false>(o, t0, t1))
+                                == bits(got_hit)
+                                && bvh.trace_any_avx2::<false>(o, t0, t1) == any))
+                }
+            };
+            #[cfg(not(target_arch = "x86_64"))]
+            let avx2_ok = true;
             // A wide tree: the CPU's walk (float boxes) finds what the WGSL's mirror
             // (quantised boxes) finds: the same scene primitive at the same t, u, v, bit for
             // bit (a pre-split triangle's copies may stand in for each other), and the same
@@ -554,11 +570,11 @@ pub fn check_against_brute_force(
                 same(mirror) == cpu.and_then(same)
                     && wide_traverse::trace_any(n, p, &q.ray, q.t_min, q.t_max) == any
             };
-            (!(closest_ok && any_ok && triangles_ok && mirror_ok)).then(|| {
+            (!(closest_ok && any_ok && triangles_ok && mirror_ok && avx2_ok)).then(|| {
                 format!(
                     "{} query {i} {q:?}: bvh {got:?} any {any}, brute force {want:?}, \
                      triangles-only walk the same: {triangles_ok}, the quantised walk the \
-                     same: {mirror_ok}",
+                     same: {mirror_ok}, the AVX2 walks the same: {avx2_ok}",
                     f.name
                 )
             })

@@ -176,16 +176,8 @@ pub fn trace_paths<const F: u32>(
         return with_isa(
             isa,
             #[inline(always)]
-            || {
-                stages::trace_paths_by::<F>(
-                    g,
-                    bvh,
-                    r,
-                    #[inline(always)]
-                    // SAFETY: this CPU has AVX2 (above).
-                    |k, p, s| unsafe { k.draw_avx2(p, s) },
-                )
-            },
+            // The AVX2 forms only here, where the CPU has AVX2 (above).
+            || stages::trace_paths_by::<F, super::variant::Avx2Forms>(g, bvh, r),
         );
     }
     with_isa(
@@ -196,7 +188,7 @@ pub fn trace_paths<const F: u32>(
 }
 
 /// [`packet::trace_chunk`](super::packet::trace_chunk) at instruction-set level `isa`: on
-/// AVX lanes ([`packet::Avx`](super::packet::Avx)) at x86-64-v3 and v4, on SSE lanes at the
+/// AVX lanes (the crate's `packet::Avx`) at x86-64-v3 and v4, on SSE lanes at the
 /// build's level (unless the build targets AVX2 itself).
 #[inline(always)]
 pub fn trace_chunk<const F: u32>(

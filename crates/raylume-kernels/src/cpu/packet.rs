@@ -13,7 +13,7 @@
 //! hit), and everything between them (the surface, the emission's weight, next-event
 //! estimation's light sample, the scattered direction, Russian roulette) runs on all lanes at
 //! once, on a [`Lane`] type: one AVX register in `cpu::isa`'s x86-64-v3 and v4 copies
-//! ([`Avx`]), two glam `Vec4`s (SSE, which every x86-64 level has) at the build's level
+//! (`Avx`, crate-private), two glam `Vec4`s (SSE, which every x86-64 level has) at the build's level
 //! ([`Sse`]); the paths are held a field's lanes side by side (`Paths`), and the AVX copies
 //! draw the sampler's numbers with `SegmentKeys::draw_avx2`. Bitterli's Cornell box on the
 //! AMD EPYC dev VM: 400x400, 24 spp, 1.70 -> 1.46 s (median) against one path at a time
@@ -35,13 +35,13 @@ use raylume_bvh::{GpuBvh, Ray};
 use raylume_scene::Feature;
 
 use super::stages::{batch_ray, camera_path_at, write_sample};
-use super::variant::{ALWAYS, has, trace_any, trace_closest};
+use super::variant::{ALWAYS, Forms, has};
 use crate::gpu_types::{
     LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_TWO_SIDED, RR_MAX_SURVIVAL, SHADOW_T_SCALE, T_MAX,
 };
 use crate::math::{INV_PI, PI};
 use crate::shade::{PathState, escape, sampler_pixel, segment_rands};
-use crate::sobol::{SOBOL_ONE_MINUS_EPSILON, SegmentKeys, SobolPixel};
+use crate::sobol::{SOBOL_ONE_MINUS_EPSILON, SobolPixel};
 use crate::surface::{Globals, OFFSET_BACK_ULPS, OFFSET_HIT_ULPS, OFFSET_T_ULPS, UNIT_ROUNDOFF};
 
 /// Paths traced together.
@@ -54,7 +54,7 @@ pub const fn runs(f: u32) -> bool {
 }
 
 /// The arithmetic of [`LANES`] numbers at once that the packets run on: [`Sse`] at every
-/// level, [`Avx`] where the CPU has AVX (`cpu::isa`'s x86-64-v3 and v4 copies). Each
+/// level, `Avx` (crate-private) where the CPU has AVX (`cpu::isa`'s x86-64-v3 and v4 copies). Each
 /// operation is the IEEE one of `f32` lane by lane.
 pub trait Lane:
     Copy
@@ -78,8 +78,8 @@ pub trait Lane:
     fn lt(self, o: Self) -> Self::M;
     fn gt(self, o: Self) -> Self::M;
     fn ge(self, o: Self) -> Self::M;
-    /// [`SegmentKeys::draw`] in this level's instructions (the same numbers).
-    fn draw(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> (Vec4, Vec4, f32);
+    /// The sampler's draw and the walks in this level's instructions (the same numbers).
+    type Forms: Forms;
 }
 
 /// A truth per lane of [`Lane`] `L`.
@@ -112,6 +112,7 @@ pub struct Sse([Vec4; 2]);
 pub struct SseMask([BVec4A; 2]);
 
 impl Lane for Sse {
+    type Forms = super::variant::BuildForms;
     type M = SseMask;
 
     #[inline(always)]
@@ -171,11 +172,6 @@ impl Lane for Sse {
     #[inline(always)]
     fn ge(self, o: Sse) -> SseMask {
         self.test(o, Vec4::cmpge)
-    }
-
-    #[inline(always)]
-    fn draw(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> (Vec4, Vec4, f32) {
-        keys.draw(p, sample)
     }
 }
 
@@ -254,7 +250,7 @@ impl Mask<Sse> for SseMask {
 }
 
 #[cfg(target_arch = "x86_64")]
-pub use avx::{Avx, AvxMask};
+pub(crate) use avx::Avx;
 
 /// [`LANES`] numbers in one AVX register, for the x86-64-v3 and v4 copies of `cpu::isa`.
 ///
@@ -267,17 +263,14 @@ mod avx {
     use std::arch::x86_64::*;
     use std::ops::{Add, Div, Mul, Neg, Sub};
 
-    use glam::Vec4;
-
     use super::{LANES, Lane, Mask};
-    use crate::sobol::{SegmentKeys, SobolPixel};
 
     #[derive(Clone, Copy, Debug)]
-    pub struct Avx(__m256);
+    pub(crate) struct Avx(__m256);
 
     /// [`Avx`]'s truths: all-ones or zero lanes.
     #[derive(Clone, Copy, Debug)]
-    pub struct AvxMask(__m256);
+    pub(crate) struct AvxMask(__m256);
 
     macro_rules! avx_op {
         ($trait:ident, $f:ident, $intrinsic:ident) => {
@@ -314,6 +307,7 @@ mod avx {
     }
 
     impl Lane for Avx {
+        type Forms = crate::cpu::variant::Avx2Forms;
         type M = AvxMask;
 
         #[inline(always)]
@@ -375,11 +369,6 @@ mod avx {
             self.cmp::<_CMP_GE_OQ>(o)
         }
 
-        #[inline(always)]
-        fn draw(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> (Vec4, Vec4, f32) {
-            // SAFETY: see the module's docs (x86-64-v3 has AVX2).
-            unsafe { keys.draw_avx2(p, sample) }
-        }
     }
 
     impl Mask<Avx> for AvxMask {
@@ -701,15 +690,8 @@ pub fn trace_chunk<const F: u32, L: Lane>(
                     slot[j] = next;
                     next += 1;
                 }
-                let (rl, rs, rr) = segment_rands(
-                    g,
-                    sp[j],
-                    pixel[j],
-                    sample[j],
-                    depth[j],
-                    #[inline(always)]
-                    |k, p, s| L::draw(k, p, s),
-                );
+                let (rl, rs, rr) =
+                    segment_rands::<L::Forms>(g, sp[j], pixel[j], sample[j], depth[j]);
                 (found.light_x[j], found.light_y[j]) = (rl.x, rl.y);
                 (found.scatter_x[j], found.scatter_y[j], found.roulette[j]) = (rs.x, rs.y, rr);
                 let (o, d) = (&paths.origin, &paths.dir);
@@ -718,7 +700,7 @@ pub fn trace_chunk<const F: u32, L: Lane>(
                     dir: Vec3::new(d[0][j], d[1][j], d[2][j]),
                 };
                 rays += 1;
-                if let Some(h) = trace_closest::<F>(bvh, &ray, 0.0, T_MAX) {
+                if let Some(h) = L::Forms::trace_closest::<F>(bvh, &ray, 0.0, T_MAX) {
                     (found.prim[j], found.t[j], found.u[j], found.v[j]) = (h.prim, h.t, h.u, h.v);
                     hit[j] = true;
                     break;
@@ -1021,7 +1003,7 @@ fn shade<const F: u32, L: Lane>(
                 origin: Vec3::new(so[0][j], so[1][j], so[2][j]),
                 dir: Vec3::new(sd[0][j], sd[1][j], sd[2][j]),
             };
-            open[j] = !trace_any::<F>(bvh, &ray, 0.0, t_max[j]);
+            open[j] = !L::Forms::trace_any::<F>(bvh, &ray, 0.0, t_max[j]);
         }
     }
     let open = L::M::from_array(open);

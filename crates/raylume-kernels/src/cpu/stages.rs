@@ -1,9 +1,10 @@
 //! The kernels' entry points in Rust, one function per WGSL entry point (same names), each
 //! the body of one GPU thread. [`super::CpuTracer`] runs them with rayon.
 
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Vec2, Vec3};
 use raylume_bvh::GpuBvh;
 
+use super::variant::{BuildForms, Forms};
 use crate::camera::generate_camera_ray;
 use crate::gpu_types::{
     DIM_CAMERA, PIXEL_TILE_HEIGHT, PIXEL_TILE_WIDTH, RayState, SAMPLER_SOBOL, SceneUniforms,
@@ -11,7 +12,7 @@ use crate::gpu_types::{
 use crate::math::sample_is_valid;
 use crate::shade::{PathState, sampler_pixel, trace_ray, trace_ray_at};
 use crate::shade::{path_rand4, path_rand4_at};
-use crate::sobol::{SegmentKeys, SobolPixel};
+use crate::sobol::SobolPixel;
 use crate::surface::Globals;
 
 /// (pixel, sample) of ray `r` of the batch; consecutive rays are consecutive pixels.
@@ -60,7 +61,7 @@ pub fn sample_slot(scene: &SceneUniforms, pixel: u32, sample: u32) -> u32 {
 
 /// [`camera_path`] with the pixel's [`sampler_pixel`] `sp` given: under the `Sobol` sampler
 /// its two numbers from the render's table of segment 0's hashes
-/// ([`SegmentKeys::draw_camera`]; the same numbers).
+/// ([`SegmentKeys::draw_camera`](crate::sobol::SegmentKeys::draw_camera); the same numbers).
 #[inline(always)]
 pub fn camera_path_at(g: &Globals, sp: SobolPixel, pixel: u32, sample: u32) -> PathState {
     let scene = g.scene;
@@ -131,25 +132,17 @@ pub fn propagate<const F: u32>(
 /// traced.
 #[inline(always)]
 pub fn trace_path<const F: u32>(g: &Globals, bvh: &GpuBvh, pixel: u32, sample: u32) -> (Vec3, u32) {
-    trace_path_by::<F>(
-        g,
-        bvh,
-        pixel,
-        sample,
-        #[inline(always)]
-        |k, p, s| k.draw(p, s),
-    )
+    trace_path_by::<F, BuildForms>(g, bvh, pixel, sample)
 }
 
-/// [`trace_path`] with the `Sobol` sampler's groups drawn by `draw`
+/// [`trace_path`] with the forms `K` of the sampler's draw and the walks
 /// ([`crate::shade::trace_ray_at`]).
 #[inline(always)]
-pub fn trace_path_by<const F: u32>(
+pub fn trace_path_by<const F: u32, K: Forms>(
     g: &Globals,
     bvh: &GpuBvh,
     pixel: u32,
     sample: u32,
-    draw: impl Fn(&SegmentKeys, SobolPixel, u32) -> (Vec4, Vec4, f32),
 ) -> (Vec3, u32) {
     let scene = g.scene;
     let sp = sampler_pixel(scene, pixel);
@@ -157,17 +150,7 @@ pub fn trace_path_by<const F: u32>(
     let mut traced = 0;
     let mut depth = 0;
     while depth <= scene.max_bounces && path.alive {
-        trace_ray_at::<F>(
-            g,
-            bvh,
-            &mut path,
-            pixel,
-            sp,
-            sample,
-            depth,
-            #[inline(always)]
-            |k, p, s| draw(k, p, s),
-        );
+        trace_ray_at::<F, K>(g, bvh, &mut path, pixel, sp, sample, depth);
         traced += 1;
         depth += 1;
     }
@@ -178,26 +161,19 @@ pub fn trace_path_by<const F: u32>(
 /// it was dropped, and the rays traced.
 #[inline(always)]
 pub fn trace_paths<const F: u32>(g: &Globals, bvh: &GpuBvh, r: u32) -> ([f32; 3], bool, u32) {
-    trace_paths_by::<F>(
-        g,
-        bvh,
-        r,
-        #[inline(always)]
-        |k, p, s| k.draw(p, s),
-    )
+    trace_paths_by::<F, BuildForms>(g, bvh, r)
 }
 
-/// [`trace_paths`] with the `Sobol` sampler's groups drawn by `draw`
+/// [`trace_paths`] with the forms `K` of the sampler's draw and the walks
 /// ([`crate::shade::trace_ray_at`]).
 #[inline(always)]
-pub fn trace_paths_by<const F: u32>(
+pub fn trace_paths_by<const F: u32, K: Forms>(
     g: &Globals,
     bvh: &GpuBvh,
     r: u32,
-    draw: impl Fn(&SegmentKeys, SobolPixel, u32) -> (Vec4, Vec4, f32),
 ) -> ([f32; 3], bool, u32) {
     let (pixel, sample) = batch_ray(g.scene, r);
-    let (radiance, traced) = trace_path_by::<F>(g, bvh, pixel, sample, draw);
+    let (radiance, traced) = trace_path_by::<F, K>(g, bvh, pixel, sample);
     let (value, dropped) = write_sample(radiance);
     (value, dropped, traced)
 }

@@ -14,10 +14,12 @@
 //! machine the Cornell box (diffuse and emission only) traced 5 % faster with every other
 //! group's branches removed by hand (docs/RESULTS.md).
 
+use glam::Vec4;
 use raylume_bvh::{GpuBvh, Hit, Ray};
 use raylume_scene::{Feature, Features};
 
 use crate::Specialisation;
+use crate::sobol::{SegmentKeys, SobolPixel};
 
 /// Whether the feature set `f` (a variant's bits) holds `feature`: the Rust side of a WGSL
 /// `HAS_*` constant.
@@ -45,6 +47,77 @@ pub fn trace_any<const F: u32>(bvh: &GpuBvh, ray: &Ray, t_min: f32, t_max: f32) 
         bvh.trace_any_for::<true>(ray, t_min, t_max)
     } else {
         bvh.trace_any_for::<false>(ray, t_min, t_max)
+    }
+}
+
+/// What the CPU path computes in more than one form, one per instruction-set level (the
+/// same numbers and hits in each): the `Sobol` sampler's segment draw and the tree's walks.
+/// The per-bounce functions take it as a type (`K`), so that `cpu::isa`'s AVX2 copies of the
+/// path inline the AVX2 forms and the others the build's: [`BuildForms`] everywhere,
+/// `Avx2Forms` (crate-private: it runs AVX2 instructions) in those copies.
+pub trait Forms {
+    /// The `Sobol` sampler's three groups of a segment ([`SegmentKeys::draw`]).
+    #[inline(always)]
+    fn draw(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> (Vec4, Vec4, f32) {
+        keys.draw(p, sample)
+    }
+
+    /// The closest hit of `ray` in variant `F` ([`trace_closest`]).
+    #[inline(always)]
+    fn trace_closest<const F: u32>(bvh: &GpuBvh, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        trace_closest::<F>(bvh, ray, t_min, t_max)
+    }
+
+    /// Whether `ray` hits anything in variant `F` ([`trace_any`]).
+    #[inline(always)]
+    fn trace_any<const F: u32>(bvh: &GpuBvh, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        trace_any::<F>(bvh, ray, t_min, t_max)
+    }
+}
+
+/// The forms every level runs: the build's instructions.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BuildForms;
+
+impl Forms for BuildForms {}
+
+/// The AVX2 forms: `SegmentKeys::draw_avx2` and the wide walk's eight-lane node and
+/// triangle tests (`GpuBvh::trace_closest_avx2`). Only `cpu::isa` names it, in the copies it
+/// runs where the CPU has AVX2 (its methods are safe to call there only).
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Avx2Forms;
+
+#[cfg(target_arch = "x86_64")]
+impl Forms for Avx2Forms {
+    #[inline(always)]
+    fn draw(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> (Vec4, Vec4, f32) {
+        // SAFETY: used only where the CPU has AVX2 (`cpu::isa` checks it).
+        unsafe { keys.draw_avx2(p, sample) }
+    }
+
+    #[inline(always)]
+    fn trace_closest<const F: u32>(bvh: &GpuBvh, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        // SAFETY: as `draw`.
+        unsafe {
+            if has(F, Feature::Spheres) {
+                bvh.trace_closest_avx2::<true>(ray, t_min, t_max)
+            } else {
+                bvh.trace_closest_avx2::<false>(ray, t_min, t_max)
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn trace_any<const F: u32>(bvh: &GpuBvh, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        // SAFETY: as `draw`.
+        unsafe {
+            if has(F, Feature::Spheres) {
+                bvh.trace_any_avx2::<true>(ray, t_min, t_max)
+            } else {
+                bvh.trace_any_avx2::<false>(ray, t_min, t_max)
+            }
+        }
     }
 }
 
