@@ -315,36 +315,84 @@ fn gpu_rate(
     (best, hits)
 }
 
-/// Best-of-`repeat` seconds and hit count of `queries` on the CPU (every core), each walk at
-/// level `isa` (`with_isa`, as the renders' paths).
+/// Best-of-`repeat` seconds and hit count of `queries` on the CPU (every core), each walk as
+/// the renders' paths take it: at level `isa` (`with_isa`), with the wide walk's AVX2 node
+/// and triangle tests at x86-64-v3/v4 (`GpuBvh::trace_closest_avx2`), and the
+/// triangles-only walk (`SPHERES` false: four or eight triangles a test) where the tree has
+/// no spheres.
 fn cpu_rate(bvh: &GpuBvh, queries: &[Query], any: bool, repeat: u32, isa: CpuIsa) -> (f64, u32) {
+    let spheres = bvh
+        .primitives
+        .iter()
+        .any(|p| p.kind() == raylume_bvh::PRIM_SPHERE);
+    if spheres {
+        cpu_rate_for::<true>(bvh, queries, any, repeat, isa)
+    } else {
+        cpu_rate_for::<false>(bvh, queries, any, repeat, isa)
+    }
+}
+
+/// [`cpu_rate`] with the walk's sphere test compiled in or not.
+fn cpu_rate_for<const SPHERES: bool>(
+    bvh: &GpuBvh,
+    queries: &[Query],
+    any: bool,
+    repeat: u32,
+    isa: CpuIsa,
+) -> (f64, u32) {
+    let avx2 = cfg!(target_arch = "x86_64") && isa >= CpuIsa::X86_64V3;
     let mut best = f64::INFINITY;
     let mut hits = 0;
     for _ in 0..repeat {
         let t = Instant::now();
+        // Each chunk of rays walked inside one `with_isa` call, as a render's paths are
+        // (entering the level's copy once a ray cost a third of the Cornell box's rate).
         hits = queries
-            .par_iter()
-            .filter(|q| {
-                let ray = Ray {
-                    origin: Vec3::from(q.origin),
-                    dir: Vec3::from(q.dir),
-                };
+            .par_chunks(1024)
+            .map(|chunk| {
                 with_isa(
                     isa,
                     #[inline(always)]
                     || {
-                        if any {
-                            bvh.trace_any(&ray, q.t_min, q.t_max)
-                        } else {
-                            bvh.trace_closest(&ray, q.t_min, q.t_max).is_some()
+                        let mut n = 0u32;
+                        for q in chunk {
+                            let ray = Ray {
+                                origin: Vec3::from(q.origin),
+                                dir: Vec3::from(q.dir),
+                            };
+                            n += u32::from(cpu_walk::<SPHERES>(bvh, &ray, q, any, avx2));
                         }
+                        n
                     },
                 )
             })
-            .count() as u32;
+            .sum();
         best = best.min(t.elapsed().as_secs_f64());
     }
     (best, hits)
+}
+
+/// Whether `ray` hits (any hit, or a closest one) with the wide walk's AVX2 tests where
+/// `avx2` (only inside `with_isa`'s x86-64-v3/v4 copies), else the build's.
+#[inline(always)]
+fn cpu_walk<const SPHERES: bool>(bvh: &GpuBvh, ray: &Ray, q: &Query, any: bool, avx2: bool) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `with_isa` runs x86-64-v3 or v4 only on a CPU that has it (it asserts so),
+        // and both have AVX2.
+        return unsafe {
+            if any {
+                bvh.trace_any_avx2::<SPHERES>(ray, q.t_min, q.t_max)
+            } else {
+                bvh.trace_closest_avx2::<SPHERES>(ray, q.t_min, q.t_max).is_some()
+            }
+        };
+    }
+    if any {
+        bvh.trace_any_for::<SPHERES>(ray, q.t_min, q.t_max)
+    } else {
+        bvh.trace_closest_for::<SPHERES>(ray, q.t_min, q.t_max).is_some()
+    }
 }
 
 fn main() {

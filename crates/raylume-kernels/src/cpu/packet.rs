@@ -84,7 +84,17 @@ pub trait Lane:
 
 /// A truth per lane of [`Lane`] `L`.
 pub trait Mask<L: Lane>: Copy {
-    fn from_array(a: [bool; LANES]) -> Self;
+    /// Lane `i` true where `a[i]` is.
+    #[inline(always)]
+    fn from_array(a: [bool; LANES]) -> Self {
+        let mut bits = 0;
+        for (j, &b) in a.iter().enumerate() {
+            bits |= u32::from(b) << j;
+        }
+        Self::from_bits(bits)
+    }
+    /// Lane `i` true where bit `i` of `bits` is set.
+    fn from_bits(bits: u32) -> Self;
     fn and(self, o: Self) -> Self;
     fn or(self, o: Self) -> Self;
     fn not(self) -> Self;
@@ -217,6 +227,15 @@ impl Mask<Sse> for SseMask {
         SseMask([
             BVec4A::new(a[0], a[1], a[2], a[3]),
             BVec4A::new(a[4], a[5], a[6], a[7]),
+        ])
+    }
+
+    #[inline(always)]
+    fn from_bits(bits: u32) -> SseMask {
+        let b = |j: u32| bits >> j & 1 != 0;
+        SseMask([
+            BVec4A::new(b(0), b(1), b(2), b(3)),
+            BVec4A::new(b(4), b(5), b(6), b(7)),
         ])
     }
 
@@ -373,10 +392,13 @@ mod avx {
 
     impl Mask<Avx> for AvxMask {
         #[inline(always)]
-        fn from_array(a: [bool; LANES]) -> AvxMask {
-            let m = a.map(|b| -i32::from(b));
-            // SAFETY: see the module's docs; `m` holds 8 words.
-            AvxMask(unsafe { _mm256_castsi256_ps(_mm256_loadu_si256(m.as_ptr().cast())) })
+        fn from_bits(bits: u32) -> AvxMask {
+            // SAFETY: see the module's docs (AVX2).
+            unsafe {
+                let lane_bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+                let set = _mm256_and_si256(_mm256_set1_epi32(bits as i32), lane_bit);
+                AvxMask(_mm256_castsi256_ps(_mm256_cmpeq_epi32(set, lane_bit)))
+            }
         }
 
         #[inline(always)]
