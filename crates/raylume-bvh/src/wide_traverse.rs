@@ -65,7 +65,7 @@ use glam::{UVec2, UVec4, Vec3, Vec4};
 
 use crate::intersect::{
     Ray, ShearedRay, T_MISS, TriangleBlock, intersect_primitive, intersect_triangle_block,
-    intersect_triangles4, shear_ray,
+    intersect_triangles4, shear_ray, shear_ray_inv,
 };
 use crate::traverse::{Hit, T_MAX_LIMIT};
 use crate::{GpuBvh, INVALID_INDEX, Primitive, WIDE_STACK_SIZE, WideNode};
@@ -90,6 +90,16 @@ pub struct WideRay {
     /// The ray's octant, inverted, in every byte: bit 2 x, bit 1 y, bit 0 z, set for a
     /// non-negative component (obvhs' `ray_get_octant_inv4`).
     pub oct_inv4: u32,
+}
+
+/// [`wide_ray`] and [`shear_ray`] of `ray` (the same values bit for bit) from one
+/// four-lane division for the three `1 / dir` both need: the CPU walk's setup (three
+/// scalar divisions and a fourth for the shear, on x86-64 each several cycles of the divider,
+/// twice a path segment).
+#[inline(always)]
+pub(crate) fn walk_rays(ray: &Ray) -> (WideRay, ShearedRay) {
+    let inv = (Vec4::ONE / ray.dir.extend(1.0)).truncate();
+    (wide_ray_inv(ray, inv), shear_ray_inv(ray, inv))
 }
 
 /// The four bytes of `w`, low first (WGSL's `unpack4xU8`).
@@ -126,7 +136,13 @@ fn word(bytes: &[u8], i: usize) -> u32 {
 
 #[inline(always)]
 pub fn wide_ray(ray: &Ray) -> WideRay {
-    let inv = (Vec3::ONE / ray.dir).clamp(
+    wide_ray_inv(ray, Vec3::ONE / ray.dir)
+}
+
+/// [`wide_ray`] given `inv = 1 / ray.dir` (unclamped).
+#[inline(always)]
+fn wide_ray_inv(ray: &Ray, inv: Vec3) -> WideRay {
+    let inv = inv.clamp(
         Vec3::splat(-WIDE_INV_DIR_LIMIT),
         Vec3::splat(WIDE_INV_DIR_LIMIT),
     );
@@ -562,8 +578,7 @@ fn walk_boxes<const SPHERES: bool, const AVX2: bool>(
     t_max: f32,
     any_hit: bool,
 ) -> Hit {
-    let wr = wide_ray(ray);
-    let sheared: ShearedRay = shear_ray(ray);
+    let (wr, sheared) = walk_rays(ray);
     let oct = wr.oct_inv4 & 7;
     let mut hit = Hit {
         t: t_max.min(T_MAX_LIMIT),
@@ -976,6 +991,37 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// The walk's one-division setup is `wide_ray` and `shear_ray` bit for bit, on random
+    /// directions and on the edge cases: zero components of either sign, components so
+    /// small that `1 / dir` is clamped or infinite, ties for the largest axis.
+    #[test]
+    fn walk_rays_is_wide_ray_and_shear_ray() {
+        let mut state = 7u64;
+        let mut rnd = || crate::test_rand(&mut state) * 2.0 - 1.0;
+        let mut dirs: Vec<Vec3> = (0..20_000).map(|_| Vec3::new(rnd(), rnd(), rnd())).collect();
+        let odd = [0.0, -0.0, 1e-30, -1e-30, f32::MIN_POSITIVE, 1e-45, 1.0, -1.0, 0.5, 3e38];
+        for &x in &odd {
+            for &y in &odd {
+                for &z in &odd {
+                    dirs.push(Vec3::new(x, y, z));
+                }
+            }
+        }
+        for dir in dirs {
+            let ray = Ray {
+                origin: Vec3::new(0.25, -3.0, 1e3),
+                dir,
+            };
+            let (w, s) = walk_rays(&ray);
+            let (w0, s0) = (wide_ray(&ray), shear_ray(&ray));
+            let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+            assert_eq!(bits(w.inv_dir), bits(w0.inv_dir), "{dir:?}");
+            assert_eq!((w.origin, w.oct_inv4), (w0.origin, w0.oct_inv4), "{dir:?}");
+            assert_eq!(bits(s.shear), bits(s0.shear), "{dir:?}");
+            assert_eq!((s.kx, s.ky, s.kz, s.origin), (s0.kx, s0.ky, s0.kz, s0.origin));
         }
     }
 
