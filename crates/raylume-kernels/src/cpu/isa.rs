@@ -13,9 +13,12 @@
 //! build's `call_v4` copies should call nothing but libm's `sincosf` through the PLT;
 //! at bf09b4f `sample_environment` had dropped out of line, and was marked).
 //! [`CpuIsa::best`] is the highest level the running CPU has; the tracer runs that one unless
-//! told otherwise ([`crate::CpuTracer::set_isa`]). The x86-64-v3 and v4 copies also draw the
-//! `Sobol` sampler's segments with `SegmentKeys::draw_avx2` (the same numbers, in AVX2
-//! intrinsics), and [`trace_chunk`] runs [`super::packet`]'s paths on AVX lanes there.
+//! told otherwise ([`crate::CpuTracer::set_isa`]). The x86-64-v3 and v4 copies also take
+//! the AVX2 forms of [`Forms`](super::variant::Forms): the `Sobol` sampler's segments drawn
+//! with `SegmentKeys::draw_avx2` (the same numbers, in AVX2 intrinsics), and the wide walk
+//! with a node's eight boxes in one AVX register and two triangle blocks at once
+//! (`GpuBvh::trace_closest_avx2`, the same hits); [`trace_chunk`] runs [`super::packet`]'s
+//! paths on AVX lanes there.
 //!
 //! **The same image bit for bit** at every level: Rust never fuses `a * b + c` on its own
 //! (only `mul_add`, which is exactly rounded on every level: an instruction or libm's `fmaf`),

@@ -15,9 +15,11 @@
 //! once, on a [`Lane`] type: one AVX register in `cpu::isa`'s x86-64-v3 and v4 copies
 //! (`Avx`, crate-private), two glam `Vec4`s (SSE, which every x86-64 level has) at the build's level
 //! ([`Sse`]); the paths are held a field's lanes side by side (`Paths`), and the AVX copies
-//! draw the sampler's numbers with `SegmentKeys::draw_avx2`. Bitterli's Cornell box on the
+//! draw the sampler's numbers and walk the tree in the AVX2 forms ([`Lane::Forms`]:
+//! `SegmentKeys::draw_avx2`, `GpuBvh::trace_closest_avx2`). Bitterli's Cornell box on the
 //! AMD EPYC dev VM: 400x400, 24 spp, 1.70 -> 1.46 s (median) against one path at a time
-//! with the scalar draw (`docs/RESULTS.md`, issue 15).
+//! with the scalar draw, then 1.445 -> 1.365 s with the AVX2 walks (`docs/RESULTS.md`,
+//! issue 15).
 //!
 //! **The same image bit for bit** as [`stages::trace_paths`](super::stages::trace_paths):
 //! every lane computes what [`trace_ray_at`](crate::shade::trace_ray_at) computes for its
