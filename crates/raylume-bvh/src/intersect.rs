@@ -272,9 +272,11 @@ pub fn intersect_triangles4(
 }
 
 /// Four triangles' vertices, interleaved for the CPU's wide walk (a node's leaves' triangles,
-/// [`triangle_blocks`](crate::wide_traverse::triangle_blocks)): `v[3 * vertex + axis]` holds
+/// [`triangle_blocks`](crate::wide_traverse::triangle_blocks)): `v[3 * axis + vertex]` holds
 /// coordinate `axis` of vertex `vertex` (a, b, c) of the four lanes, one load each, 144
 /// bytes in one place (nine columns of the primitive array would take nine cache lines).
+/// Axis-major, so that a ray's three axes `kx`, `ky`, `kz` are three offsets for the nine
+/// loads (each `3 * k + vertex`), not nine.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[repr(C)]
 pub struct TriangleBlock {
@@ -286,7 +288,7 @@ impl TriangleBlock {
     pub fn set_lane(&mut self, lane: usize, p: &Primitive) {
         for (vertex, v) in [&p.a, &p.b, &p.c].into_iter().enumerate() {
             for (axis, &x) in v[..3].iter().enumerate() {
-                self.v[3 * vertex + axis][lane] = x;
+                self.v[3 * axis + vertex][lane] = x;
             }
         }
     }
@@ -301,7 +303,7 @@ pub fn intersect_triangle_block(
     t_min: f32,
     t_max: f32,
 ) -> [Vec4; 3] {
-    triangles4_core(r, |vertex, k| block.v[3 * vertex + k], t_min, t_max)
+    triangles4_core(r, |vertex, k| block.v[3 * k + vertex], t_min, t_max)
 }
 
 /// The arithmetic of [`intersect_triangles4`], lane by lane that of [`intersect_triangle`];

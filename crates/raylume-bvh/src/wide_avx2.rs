@@ -168,23 +168,33 @@ unsafe fn triangle_blocks8(
     t_min: f32,
     t_max: f32,
 ) -> [__m256; 3] {
-    let (kx, ky, kz) = (r.kx as usize, r.ky as usize, r.kz as usize);
+    // Each axis' byte offset of its three rows in a block (`v[3 * k + vertex]`), `k` held
+    // below 3 (a `ShearedRay` from `shear_ray` has it so), so that the nine loads below are
+    // a base, one of three offsets and a constant, with no bounds check to keep them apart.
+    let row = |k: u32| 48 * k.min(2) as usize;
+    let (kx, ky, kz) = (row(r.kx), row(r.ky), row(r.kz));
     let o = r.origin.to_array();
-    // SAFETY: the caller's CPU has AVX2.
+    let (ox, oy, oz) = (o[r.kx.min(2) as usize], o[r.ky.min(2) as usize], o[r.kz.min(2) as usize]);
+    // SAFETY: the caller's CPU has AVX2; each load reads 16 bytes at `offset + 16 * vertex`
+    // (at most 96 + 32) of a 144-byte block.
     unsafe {
-        // Coordinate `k` of `vertex`, minus the origin's: hi's lanes above lo's.
+        // Coordinate row `offset` of `vertex`, minus the origin's: hi's lanes above lo's.
         #[inline(always)]
-        unsafe fn rel(lo: &TriangleBlock, hi: &TriangleBlock, vertex: usize, k: usize, o: f32) -> __m256 {
-            // SAFETY: AVX (the caller's).
+        unsafe fn rel(
+            lo: &TriangleBlock,
+            hi: &TriangleBlock,
+            vertex: usize,
+            offset: usize,
+            o: f32,
+        ) -> __m256 {
+            // SAFETY: AVX (the caller's); `offset + 16 * vertex + 16 <= 144` (the caller's).
             unsafe {
-                let c = _mm256_set_m128(
-                    __m128::from(hi.v[3 * vertex + k]),
-                    __m128::from(lo.v[3 * vertex + k]),
-                );
-                _mm256_sub_ps(c, _mm256_set1_ps(o))
+                let at = |b: &TriangleBlock| {
+                    _mm_loadu_ps(b.v.as_ptr().cast::<u8>().add(offset + 16 * vertex).cast())
+                };
+                _mm256_sub_ps(_mm256_set_m128(at(hi), at(lo)), _mm256_set1_ps(o))
             }
         }
-        let (ox, oy, oz) = (o[kx], o[ky], o[kz]);
         let (a_x, a_y, a_z) = (
             rel(lo, hi, 0, kx, ox),
             rel(lo, hi, 0, ky, oy),
