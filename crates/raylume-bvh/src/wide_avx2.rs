@@ -74,20 +74,18 @@ pub(crate) unsafe fn wide_boxes_hits(
 }
 
 /// The distances at which the ray meets axis `k`'s near and far planes of the eight slots:
-/// `(plane - origin) * (1 / dir)`, the near plane the lower where `1 / dir` is positive.
+/// `(plane - origin) * (1 / dir)` of the lower and the upper plane, the nearer the smaller
+/// of the two (the four-lane form picks the row by the sign of `1 / dir` instead; both
+/// give the same bits: `nearer_plane_by_the_sign_is_the_min_of_both_bit_for_bit`). Rows at
+/// fixed offsets: no per-ray row index to compute, keep or reload in the walk's loop.
 #[inline(always)]
 unsafe fn axis_distances(rows: &[[f32; 8]; 6], o: f32, inv: f32, k: usize) -> (__m256, __m256) {
-    let n = if inv.is_sign_negative() { 3 + k } else { k };
-    let f = (n + 3) % 6;
     // SAFETY: AVX (the caller's); each row is eight f32s.
     unsafe {
         let (o, i) = (_mm256_set1_ps(o), _mm256_set1_ps(inv));
-        let near = _mm256_loadu_ps(rows[n].as_ptr());
-        let far = _mm256_loadu_ps(rows[f].as_ptr());
-        (
-            _mm256_mul_ps(_mm256_sub_ps(near, o), i),
-            _mm256_mul_ps(_mm256_sub_ps(far, o), i),
-        )
+        let lo = _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(rows[k].as_ptr()), o), i);
+        let hi = _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(rows[3 + k].as_ptr()), o), i);
+        (_mm256_min_ps(lo, hi), _mm256_max_ps(lo, hi))
     }
 }
 

@@ -1080,9 +1080,21 @@ mod tests {
             });
             let t_max = 0.1 + 2.0 * r();
             for b in bvh.wide_boxes() {
-                let (mask, _, near) = wide_boxes_hits(b, &wr, 0.0, t_max);
+                let (mask, prims, near) = wide_boxes_hits(b, &wr, 0.0, t_max);
                 let (want, want_near) = both_planes(b, &wr, 0.0, t_max);
                 assert_eq!(mask, want);
+                // The AVX2 form (min and max of both planes, eight slots at once), where this
+                // CPU has AVX2: the same slots, primitives and entry distances.
+                #[cfg(target_arch = "x86_64")]
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: this CPU has AVX2 (just detected).
+                    let (m8, p8, n8) =
+                        unsafe { crate::wide_avx2::wide_boxes_hits(b, &wr, 0.0, t_max) };
+                    assert_eq!((m8, p8), (mask, prims));
+                    for (a, c) in n8.iter().zip(&near) {
+                        assert!(a.cmpeq(*c).all(), "{a:?} {c:?}");
+                    }
+                }
                 let got: Vec<u32> = near
                     .iter()
                     .flat_map(|v| v.to_array())
