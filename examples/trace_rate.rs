@@ -375,7 +375,13 @@ fn cpu_rate_for<const SPHERES: bool>(
 /// Whether `ray` hits (any hit, or a closest one) with the wide walk's AVX2 tests where
 /// `avx2` (only inside `with_isa`'s x86-64-v3/v4 copies), else the build's.
 #[inline(always)]
-fn cpu_walk<const SPHERES: bool>(bvh: &GpuBvh, ray: &Ray, q: &Query, any: bool, avx2: bool) -> bool {
+fn cpu_walk<const SPHERES: bool>(
+    bvh: &GpuBvh,
+    ray: &Ray,
+    q: &Query,
+    any: bool,
+    avx2: bool,
+) -> bool {
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         // SAFETY: `with_isa` runs x86-64-v3 or v4 only on a CPU that has it (it asserts so),
@@ -384,14 +390,16 @@ fn cpu_walk<const SPHERES: bool>(bvh: &GpuBvh, ray: &Ray, q: &Query, any: bool, 
             if any {
                 bvh.trace_any_avx2::<SPHERES>(ray, q.t_min, q.t_max)
             } else {
-                bvh.trace_closest_avx2::<SPHERES>(ray, q.t_min, q.t_max).is_some()
+                bvh.trace_closest_avx2::<SPHERES>(ray, q.t_min, q.t_max)
+                    .is_some()
             }
         };
     }
     if any {
         bvh.trace_any_for::<SPHERES>(ray, q.t_min, q.t_max)
     } else {
-        bvh.trace_closest_for::<SPHERES>(ray, q.t_min, q.t_max).is_some()
+        bvh.trace_closest_for::<SPHERES>(ray, q.t_min, q.t_max)
+            .is_some()
     }
 }
 

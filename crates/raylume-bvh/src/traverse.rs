@@ -316,7 +316,9 @@ impl GpuBvh {
                 binary_walk::<SPHERES>(&self.nodes, &self.primitives, ray, t_min, t_max, any_hit)
             }
             // SAFETY: the caller's CPU has AVX2.
-            BvhLayout::Wide => unsafe { self.wide_walk_avx2::<SPHERES>(ray, t_min, t_max, any_hit) },
+            BvhLayout::Wide => unsafe {
+                self.wide_walk_avx2::<SPHERES>(ray, t_min, t_max, any_hit)
+            },
         }
     }
 }

@@ -135,8 +135,8 @@ pub(crate) unsafe fn leaf_blocks8(
         let m = _mm256_min_ps(m, _mm256_permute_ps::<0b10_11_00_01>(m));
         if _mm256_cvtss_f32(m) < hit.t {
             // The highest lane holding it: block a's before block b's, each highest first.
-            let j = 31 - (_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(t, m)) as u32)
-                .leading_zeros();
+            let j =
+                31 - (_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(t, m)) as u32).leading_zeros();
             let (mut ts, mut us, mut vs) = ([0f32; 8], [0f32; 8], [0f32; 8]);
             _mm256_storeu_ps(ts.as_mut_ptr(), t);
             _mm256_storeu_ps(us.as_mut_ptr(), u);
@@ -172,7 +172,11 @@ unsafe fn triangle_blocks8(
     let row = |k: u32| 48 * k.min(2) as usize;
     let (kx, ky, kz) = (row(r.kx), row(r.ky), row(r.kz));
     let o = r.origin.to_array();
-    let (ox, oy, oz) = (o[r.kx.min(2) as usize], o[r.ky.min(2) as usize], o[r.kz.min(2) as usize]);
+    let (ox, oy, oz) = (
+        o[r.kx.min(2) as usize],
+        o[r.ky.min(2) as usize],
+        o[r.kz.min(2) as usize],
+    );
     // SAFETY: the caller's CPU has AVX2; each load reads 16 bytes at `offset + 16 * vertex`
     // (at most 96 + 32) of a 144-byte block.
     unsafe {

@@ -1001,8 +1001,21 @@ mod tests {
     fn walk_rays_is_wide_ray_and_shear_ray() {
         let mut state = 7u64;
         let mut rnd = || crate::test_rand(&mut state) * 2.0 - 1.0;
-        let mut dirs: Vec<Vec3> = (0..20_000).map(|_| Vec3::new(rnd(), rnd(), rnd())).collect();
-        let odd = [0.0, -0.0, 1e-30, -1e-30, f32::MIN_POSITIVE, 1e-45, 1.0, -1.0, 0.5, 3e38];
+        let mut dirs: Vec<Vec3> = (0..20_000)
+            .map(|_| Vec3::new(rnd(), rnd(), rnd()))
+            .collect();
+        let odd = [
+            0.0,
+            -0.0,
+            1e-30,
+            -1e-30,
+            f32::MIN_POSITIVE,
+            1e-45,
+            1.0,
+            -1.0,
+            0.5,
+            3e38,
+        ];
         for &x in &odd {
             for &y in &odd {
                 for &z in &odd {
@@ -1021,7 +1034,10 @@ mod tests {
             assert_eq!(bits(w.inv_dir), bits(w0.inv_dir), "{dir:?}");
             assert_eq!((w.origin, w.oct_inv4), (w0.origin, w0.oct_inv4), "{dir:?}");
             assert_eq!(bits(s.shear), bits(s0.shear), "{dir:?}");
-            assert_eq!((s.kx, s.ky, s.kz, s.origin), (s0.kx, s0.ky, s0.kz, s0.origin));
+            assert_eq!(
+                (s.kx, s.ky, s.kz, s.origin),
+                (s0.kx, s0.ky, s0.kz, s0.origin)
+            );
         }
     }
 

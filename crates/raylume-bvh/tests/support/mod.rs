@@ -539,8 +539,7 @@ pub fn check_against_brute_force(
                     bits(bvh.trace_closest_avx2::<true>(o, t0, t1)) == bits(got_hit)
                         && bvh.trace_any_avx2::<true>(o, t0, t1) == any
                         && (!f.spheres.is_empty()
-                            || (bits(bvh.trace_closest_avx2::<false>(o, t0, t1))
-                                == bits(got_hit)
+                            || (bits(bvh.trace_closest_avx2::<false>(o, t0, t1)) == bits(got_hit)
                                 && bvh.trace_any_avx2::<false>(o, t0, t1) == any))
                 }
             };

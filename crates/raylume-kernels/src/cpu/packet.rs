@@ -389,7 +389,6 @@ mod avx {
         fn ge(self, o: Avx) -> AvxMask {
             self.cmp::<_CMP_GE_OQ>(o)
         }
-
     }
 
     impl Mask<Avx> for AvxMask {
