@@ -7,7 +7,8 @@
 //! and [`intersect`](crate::intersect) compute, the same IEEE operations in the same order
 //! (`vmaxps`/`vminps`/`vcmpps` with the predicates of glam's SSE methods, no fused
 //! multiply-adds), so the walk visits the same nodes and finds the same hits bit for bit
-//! (`tests/build.rs` and `tests/proptest.rs` compare the two over every test tree).
+//! (the crate's brute-force tests, `tests/support`'s `check_against_brute_force`, compare
+//! the two walks over every test tree, and a unit test the node tests over every node).
 //!
 //! Everything here is `#[inline(always)]` and `unsafe`: it must run on a CPU with AVX2, and
 //! it is fast only where it is inlined into a function compiled with AVX2 enabled
@@ -23,8 +24,9 @@ use crate::traverse::Hit;
 use crate::wide_traverse::{WIDE_T_FAR_SCALE, WideBoxes, WideRay};
 
 /// [`wide_boxes_hits`](crate::wide_traverse::wide_boxes_hits) with the node's eight slots in
-/// one AVX register: the hit slots' bits, their leaves' primitives ORed, and every slot's
-/// entry distance (lanes 0..4, 4..8), the same values bit for bit.
+/// one AVX register: the hit slots' bits and their leaves' primitives ORed, the same, and
+/// every slot's entry distance (lanes 0..4, 4..8), the same value (a zero's sign may
+/// differ, which no comparison sees).
 ///
 /// # Safety
 /// The CPU must have AVX2.
@@ -41,7 +43,7 @@ pub(crate) unsafe fn wide_boxes_hits(
         let o = r.origin.to_array();
         let inv = r.inv_dir.to_array();
         let rows = &boxes.planes;
-        // As the four-lane form: per axis the plane the ray meets first by the sign of 1 / dir.
+        // Per axis both planes' distances, the nearer the smaller (`axis_distances`).
         let (nx, fx) = axis_distances(rows, o[0], inv[0], 0);
         let (ny, fy) = axis_distances(rows, o[1], inv[1], 1);
         let (nz, fz) = axis_distances(rows, o[2], inv[2], 2);
