@@ -431,8 +431,8 @@ pub fn trace_ray_at<const F: u32, K: Forms>(
 /// The random numbers of a path's segment `depth`: the light's four (zero where no light can
 /// be sampled: a plain render, or the last segment), the scattered direction's four, and the
 /// roulette's (zero before `rr_depth`), as [`trace_ray_at`] draws them; the `Sobol`
-/// sampler's groups drawn by `K::draw` ([`SegmentKeys::draw`](crate::sobol::SegmentKeys::draw) or another form of it, the
-/// same numbers: `SegmentKeys::draw_avx2`).
+/// sampler's groups drawn by `K::draw` ([`SegmentKeys::draw`](crate::sobol::SegmentKeys::draw)
+/// or another form of it, the same numbers: `SegmentKeys::draw_avx2`).
 #[inline(always)]
 pub fn segment_rands<K: Forms>(
     g: &Globals,

@@ -13,11 +13,11 @@
 //! hit), and everything between them (the surface, the emission's weight, next-event
 //! estimation's light sample, the scattered direction, Russian roulette) runs on all lanes at
 //! once, on a [`Lane`] type: one AVX register in `cpu::isa`'s x86-64-v3 and v4 copies
-//! (`Avx`, crate-private), two glam `Vec4`s (SSE, which every x86-64 level has) at the build's level
-//! ([`Sse`]); the paths are held a field's lanes side by side (`Paths`), and the AVX copies
-//! draw the sampler's numbers and walk the tree in the AVX2 forms ([`Lane::Forms`]:
-//! `SegmentKeys::draw_avx2`, `GpuBvh::trace_closest_avx2`). Bitterli's Cornell box on the
-//! AMD EPYC dev VM: 400x400, 24 spp, 1.70 -> 1.46 s (median) against one path at a time
+//! (`Avx`, crate-private), two glam `Vec4`s (SSE, which every x86-64 level has) at the
+//! build's level ([`Sse`]); the paths are held a field's lanes side by side (`Paths`), and
+//! the AVX copies draw the sampler's numbers and walk the tree in the AVX2 forms
+//! ([`Lane::Forms`]: `SegmentKeys::draw_avx2`, `GpuBvh::trace_closest_avx2`). Bitterli's
+//! Cornell box on the AMD EPYC dev VM: 400x400, 24 spp, 1.70 -> 1.46 s (median) against one path at a time
 //! with the scalar draw, then 1.445 -> 1.365 s with the AVX2 walks (`docs/RESULTS.md`,
 //! issue 15).
 //!
@@ -56,8 +56,8 @@ pub const fn runs(f: u32) -> bool {
 }
 
 /// The arithmetic of [`LANES`] numbers at once that the packets run on: [`Sse`] at every
-/// level, `Avx` (crate-private) where the CPU has AVX (`cpu::isa`'s x86-64-v3 and v4 copies). Each
-/// operation is the IEEE one of `f32` lane by lane.
+/// level, `Avx` (crate-private) where the CPU has AVX (`cpu::isa`'s x86-64-v3 and v4
+/// copies). Each operation is the IEEE one of `f32` lane by lane.
 pub trait Lane:
     Copy
     + Add<Output = Self>
