@@ -241,24 +241,39 @@ impl GpuBvh {
         t_min: f32,
         t_max: f32,
     ) -> Option<Hit> {
-        let hit = self.walk::<SPHERES>(ray, t_min, t_max, false);
+        // SAFETY: without AVX2 the walk runs on any CPU.
+        let hit = unsafe { self.walk::<SPHERES, false>(ray, t_min, t_max, false) };
         (hit.prim != INVALID_INDEX).then_some(hit)
     }
 
     /// [`GpuBvh::trace_any`] with the sphere test compiled in only when `SPHERES`.
     #[inline(always)]
     pub fn trace_any_for<const SPHERES: bool>(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        self.walk::<SPHERES>(ray, t_min, t_max, true).prim != INVALID_INDEX
+        // SAFETY: without AVX2 the walk runs on any CPU.
+        unsafe { self.walk::<SPHERES, false>(ray, t_min, t_max, true) }.prim != INVALID_INDEX
     }
 
-    /// The walk of the tree's layout ([`binary_walk`] or the wide one).
+    /// The walk of the tree's layout ([`binary_walk`] or the wide one, `GpuBvh::wide_walk`),
+    /// with `AVX2` the wide one's node and triangle tests in AVX registers.
+    ///
+    /// # Safety
+    /// With `AVX2`, the CPU must have AVX2 (without, none).
     #[inline(always)]
-    fn walk<const SPHERES: bool>(&self, ray: &Ray, t_min: f32, t_max: f32, any_hit: bool) -> Hit {
+    unsafe fn walk<const SPHERES: bool, const AVX2: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        any_hit: bool,
+    ) -> Hit {
         match self.layout {
             BvhLayout::Binary => {
                 binary_walk::<SPHERES>(&self.nodes, &self.primitives, ray, t_min, t_max, any_hit)
             }
-            BvhLayout::Wide => self.wide_walk::<SPHERES>(ray, t_min, t_max, any_hit),
+            // SAFETY: the caller's CPU has AVX2 where `AVX2` is set.
+            BvhLayout::Wide => unsafe {
+                self.wide_walk::<SPHERES, AVX2>(ray, t_min, t_max, any_hit)
+            },
         }
     }
 
@@ -278,7 +293,7 @@ impl GpuBvh {
         t_max: f32,
     ) -> Option<Hit> {
         // SAFETY: the caller's CPU has AVX2.
-        let hit = unsafe { self.walk_avx2::<SPHERES>(ray, t_min, t_max, false) };
+        let hit = unsafe { self.walk::<SPHERES, true>(ray, t_min, t_max, false) };
         (hit.prim != INVALID_INDEX).then_some(hit)
     }
 
@@ -295,30 +310,6 @@ impl GpuBvh {
         t_max: f32,
     ) -> bool {
         // SAFETY: the caller's CPU has AVX2.
-        unsafe { self.walk_avx2::<SPHERES>(ray, t_min, t_max, true) }.prim != INVALID_INDEX
-    }
-
-    /// [`GpuBvh::walk`] with the wide layout's AVX2 tests.
-    ///
-    /// # Safety
-    /// The CPU must have AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    unsafe fn walk_avx2<const SPHERES: bool>(
-        &self,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        any_hit: bool,
-    ) -> Hit {
-        match self.layout {
-            BvhLayout::Binary => {
-                binary_walk::<SPHERES>(&self.nodes, &self.primitives, ray, t_min, t_max, any_hit)
-            }
-            // SAFETY: the caller's CPU has AVX2.
-            BvhLayout::Wide => unsafe {
-                self.wide_walk_avx2::<SPHERES>(ray, t_min, t_max, any_hit)
-            },
-        }
+        unsafe { self.walk::<SPHERES, true>(ray, t_min, t_max, true) }.prim != INVALID_INDEX
     }
 }

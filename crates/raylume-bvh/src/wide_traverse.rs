@@ -870,27 +870,13 @@ impl GpuBvh {
     /// the CPU's way: nodes tested by their float boxes ([`intersect_wide_boxes`]) and,
     /// without `SPHERES`, triangles read four at a time from the nodes' blocks
     /// ([`intersect_triangle_block`]), both from [`GpuBvh::cpu_arrays`].
-    #[inline(always)]
-    pub(crate) fn wide_walk<const SPHERES: bool>(
-        &self,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        any_hit: bool,
-    ) -> Hit {
-        let (boxes, blocks) = self.cpu_walk_arrays();
-        debug_assert_eq!(self.wide_nodes.len(), boxes.len());
-        walk_boxes::<SPHERES, false>(boxes, blocks, &self.primitives, ray, t_min, t_max, any_hit)
-    }
-
-    /// [`GpuBvh::wide_walk`] with its node and triangle tests eight lanes at a time in AVX
-    /// registers (the crate's `wide_avx2` module): the same hits bit for bit.
+    /// With `AVX2`, the node and triangle tests eight lanes at a time in AVX registers (the
+    /// crate's `wide_avx2` module): the same hits bit for bit.
     ///
     /// # Safety
-    /// The CPU must have AVX2.
-    #[cfg(target_arch = "x86_64")]
+    /// With `AVX2`, the CPU must have AVX2 (without, none).
     #[inline(always)]
-    pub(crate) unsafe fn wide_walk_avx2<const SPHERES: bool>(
+    pub(crate) unsafe fn wide_walk<const SPHERES: bool, const AVX2: bool>(
         &self,
         ray: &Ray,
         t_min: f32,
@@ -899,7 +885,7 @@ impl GpuBvh {
     ) -> Hit {
         let (boxes, blocks) = self.cpu_walk_arrays();
         debug_assert_eq!(self.wide_nodes.len(), boxes.len());
-        walk_boxes::<SPHERES, true>(boxes, blocks, &self.primitives, ray, t_min, t_max, any_hit)
+        walk_boxes::<SPHERES, AVX2>(boxes, blocks, &self.primitives, ray, t_min, t_max, any_hit)
     }
 }
 
