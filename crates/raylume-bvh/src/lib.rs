@@ -80,7 +80,7 @@ pub use intersect::{
 pub use quality::{BvhQuality, PRESET_BUILD_SECONDS, PRESET_TRACE_FACTOR};
 pub use stats::{BvhStats, Fallback, SAH_NODE_COST, SAH_PRIMITIVE_COST};
 pub use traverse::{Hit, T_MAX_LIMIT, trace_any, trace_closest};
-pub use wide_traverse::{WIDE_INV_DIR_LIMIT, WIDE_QUANT_PAD, WIDE_T_FAR_SCALE};
+pub use wide_traverse::{WIDE_ANY_OCT_FLIP, WIDE_INV_DIR_LIMIT, WIDE_QUANT_PAD, WIDE_T_FAR_SCALE};
 
 /// The WGSL of [`traverse`]: the structs [`BvhNode`], [`Primitive`], `Hit`, `Ray`, the
 /// constants (`INVALID_INDEX`, `MAX_STACK_DEPTH`, `PRIM_TRIANGLE`, `PRIM_SPHERE`, `T_MISS`,

@@ -78,6 +78,15 @@ pub const WIDE_QUANT_PAD: f32 = 1.0 / 64.0;
 /// (`1 + 2^-18`; see the module docs). WGSL: `WIDE_T_FAR_SCALE`.
 pub const WIDE_T_FAR_SCALE: f32 = 1.0 + 1.0 / 262_144.0;
 
+/// XORed into an any-hit walk's [`WideRay::oct_inv4`]: a shadow ray enters a node's children
+/// in the opposite order to a closest-hit walk's, the farthest octant first. Whether anything
+/// lies on the ray does not depend on the order; how soon a walk finds a blocker does: the
+/// living room's rays from its surfaces into random directions (`trace_rate`'s diffuse set,
+/// 967,000 rays, mostly blocked) ran 29 % faster so on the CPU (14.1-14.7 -> 18.6-19.0 Mrays/s,
+/// 2 threads; the other six flips of the octant fell between; the Cornell box's, rarely
+/// blocked, within noise). WGSL: `WIDE_ANY_OCT_FLIP`.
+pub const WIDE_ANY_OCT_FLIP: u32 = 0x0707_0707;
+
 /// `|1 / dir|` is clamped to this (`2^80`; see the module docs). WGSL: `WIDE_INV_DIR_LIMIT`.
 pub const WIDE_INV_DIR_LIMIT: f32 = f32::from_bits((127 + 80) << 23);
 
@@ -488,7 +497,10 @@ pub fn wide_walk<const SPHERES: bool>(
     t_max: f32,
     any_hit: bool,
 ) -> Hit {
-    let wr = wide_ray(ray);
+    let mut wr = wide_ray(ray);
+    if any_hit {
+        wr.oct_inv4 ^= WIDE_ANY_OCT_FLIP;
+    }
     let sheared: ShearedRay = shear_ray(ray);
     let mut hit = Hit {
         t: t_max.min(T_MAX_LIMIT),
@@ -579,7 +591,7 @@ fn walk_boxes<const SPHERES: bool, const AVX2: bool>(
     any_hit: bool,
 ) -> Hit {
     let (wr, sheared) = walk_rays(ray);
-    let oct = wr.oct_inv4 & 7;
+    let oct = (wr.oct_inv4 ^ if any_hit { WIDE_ANY_OCT_FLIP } else { 0 }) & 7;
     let mut hit = Hit {
         t: t_max.min(T_MAX_LIMIT),
         prim: INVALID_INDEX,

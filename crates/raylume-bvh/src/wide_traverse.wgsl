@@ -17,6 +17,9 @@ const WIDE_T_FAR_SCALE: f32 = 0x1.00004p+0f;
 // |1 / dir| is clamped to 2^80, so that the box test's products stay finite for zero
 // direction components (wide_traverse.rs says why this loses no hit).
 const WIDE_INV_DIR_LIMIT: f32 = 0x1p+80f;
+// XORed into an any-hit walk's oct_inv4: its children entered farthest octant first
+// (WIDE_ANY_OCT_FLIP in Rust, whose docs say why).
+const WIDE_ANY_OCT_FLIP: u32 = 0x07070707u;
 
 // A ray prepared for intersect_wide_node. A value type, not a buffer layout.
 struct WideRay {
@@ -104,7 +107,10 @@ fn wide_child_index(group: vec2<u32>, bit: u32, oct_inv4: u32) -> u32 {
 // t_min < t < t_max, or with any_hit the first one found; a miss has prim == INVALID_INDEX
 // and t == min(t_max, T_MAX_LIMIT). Callers pass any_hit as a constant.
 fn wide_walk(ray: Ray, t_min: f32, t_max: f32, any_hit: bool) -> Hit {
-    let wr = wide_ray(ray);
+    var wr = wide_ray(ray);
+    if any_hit {
+        wr.oct_inv4 ^= WIDE_ANY_OCT_FLIP;
+    }
     let sheared = shear_ray(ray);
     var hit = Hit(min(t_max, T_MAX_LIMIT), INVALID_INDEX, 0.0, 0.0);
     var stack: array<vec2<u32>, WIDE_STACK_SIZE>;

@@ -7,8 +7,8 @@ use std::mem::{offset_of, size_of};
 
 use raylume_bvh::{
     AABB_T_FAR_SCALE, BvhNode, Hit, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE, PRIM_TRIANGLE,
-    Primitive, T_MAX_LIMIT, T_MISS, TRAVERSE_WGSL, WIDE_INV_DIR_LIMIT, WIDE_QUANT_PAD,
-    WIDE_STACK_SIZE, WIDE_T_FAR_SCALE, WIDE_TRAVERSE_WGSL, WideNode,
+    Primitive, T_MAX_LIMIT, T_MISS, TRAVERSE_WGSL, WIDE_ANY_OCT_FLIP, WIDE_INV_DIR_LIMIT,
+    WIDE_QUANT_PAD, WIDE_STACK_SIZE, WIDE_T_FAR_SCALE, WIDE_TRAVERSE_WGSL, WideNode,
 };
 use raylume_gpu::wgpu::naga;
 
@@ -119,6 +119,10 @@ fn wide_traverse_wgsl_validates_inside_a_kernel() {
     assert_eq!(
         value("WIDE_INV_DIR_LIMIT"),
         naga::Literal::F32(WIDE_INV_DIR_LIMIT)
+    );
+    assert_eq!(
+        value("WIDE_ANY_OCT_FLIP"),
+        naga::Literal::U32(WIDE_ANY_OCT_FLIP)
     );
     assert_eq!(value("T_MAX_LIMIT"), naga::Literal::F32(T_MAX_LIMIT));
 }

@@ -184,6 +184,8 @@ fn trace_shadows(
             let w1 = nee_records[nee_word(1u, slot)];
             let ray = Ray(bitcast<vec3<f32>>(w0.xyz), bitcast<vec3<f32>>(w1.xyz));
             wr = wide_ray(ray);
+            // wide_walk's any-hit order.
+            wr.oct_inv4 ^= WIDE_ANY_OCT_FLIP;
             sheared = shear_ray(ray);
             // wide_walk's bound: a hit counts below it.
             t_max = min(bitcast<f32>(w0.w), T_MAX_LIMIT);
