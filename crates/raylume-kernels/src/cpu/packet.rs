@@ -82,6 +82,25 @@ pub trait Lane:
     fn ge(self, o: Self) -> Self::M;
     /// The sampler's draw and the walks in this level's instructions (the same numbers).
     type Forms: Forms;
+
+    /// Eight four-word records' words side by side: result `k`'s lane `j` is `rows[j][k]`
+    /// (a record's x, y, z and w: the gathers of the lanes' triangles, materials and lights).
+    #[inline(always)]
+    fn transpose(rows: [&[f32; 4]; LANES]) -> [Self; 4] {
+        let mut a = [[0.0; LANES]; 4];
+        for (j, row) in rows.iter().enumerate() {
+            for k in 0..4 {
+                a[k][j] = row[k];
+            }
+        }
+        a.map(Self::from_array)
+    }
+}
+
+/// Words `4 * i..4 * i + 4` of `record` (a GPU record of four-word groups) as four `f32`s.
+#[inline(always)]
+fn quad<T: bytemuck::Pod>(record: &T, i: usize) -> &[f32; 4] {
+    bytemuck::from_bytes(&bytemuck::bytes_of(record)[16 * i..16 * i + 16])
 }
 
 /// A truth per lane of [`Lane`] `L`.
@@ -388,6 +407,39 @@ mod avx {
         #[inline(always)]
         fn ge(self, o: Avx) -> AvxMask {
             self.cmp::<_CMP_GE_OQ>(o)
+        }
+
+        #[inline(always)]
+        fn transpose(rows: [&[f32; 4]; LANES]) -> [Avx; 4] {
+            // SAFETY: see the module's docs; each row is four floats, read unaligned.
+            unsafe {
+                // Rows j and j + 4 in the two halves, then the 4x4 transpose of each half.
+                // (No closures or array maps here: they may be compiled out of line,
+                // without AVX, with every intrinsic a call.)
+                macro_rules! pair {
+                    ($j:expr) => {
+                        _mm256_insertf128_ps::<1>(
+                            _mm256_castps128_ps256(_mm_loadu_ps(rows[$j].as_ptr())),
+                            _mm_loadu_ps(rows[$j + 4].as_ptr()),
+                        )
+                    };
+                }
+                let r = [pair!(0), pair!(1), pair!(2), pair!(3)];
+                let (t0, t1) = (
+                    _mm256_unpacklo_ps(r[0], r[1]),
+                    _mm256_unpackhi_ps(r[0], r[1]),
+                );
+                let (t2, t3) = (
+                    _mm256_unpacklo_ps(r[2], r[3]),
+                    _mm256_unpackhi_ps(r[2], r[3]),
+                );
+                [
+                    Avx(_mm256_shuffle_ps::<0b01_00_01_00>(t0, t2)),
+                    Avx(_mm256_shuffle_ps::<0b11_10_11_10>(t0, t2)),
+                    Avx(_mm256_shuffle_ps::<0b01_00_01_00>(t1, t3)),
+                    Avx(_mm256_shuffle_ps::<0b11_10_11_10>(t1, t3)),
+                ]
+            }
         }
     }
 
@@ -770,45 +822,39 @@ fn shade<const F: u32, L: Lane>(
 ) {
     let scene = g.scene;
     // Gathered: the hit's triangle and material (a lane without a hit reads the first hit
-    // lane's triangle, and its results are not stored).
+    // lane's triangle, and its results are not stored), four-word groups of eight records
+    // transposed into lanes (`Lane::transpose`); the flags as bits.
     let first = (0..LANES).find(|&j| hit[j]).unwrap_or(0);
-    let mut f = [[[0.0f32; LANES]; 3]; 5];
-    let [fa, fb, fc, fcolor, femission] = &mut f;
-    let (mut two_sided, mut diffuse, mut last, mut roulette) = (
-        [false; LANES],
-        [false; LANES],
-        [false; LANES],
-        [false; LANES],
-    );
+    let prims: [usize; LANES] =
+        std::array::from_fn(|j| found.prim[if hit[j] { j } else { first }] as usize);
+    let tris = prims.map(|i| &g.primitives[i]);
+    let mats = prims.map(|i| &g.materials[g.prim_materials[i] as usize]);
+    let (mut two_sided, mut hit_bits, mut last, mut roulette) = (0u32, 0u32, 0u32, 0u32);
     for j in 0..LANES {
-        let prim = found.prim[if hit[j] { j } else { first }] as usize;
-        let p = &g.primitives[prim];
-        let m = &g.materials[g.prim_materials[prim] as usize];
-        for k in 0..3 {
-            fa[k][j] = p.a[k];
-            fb[k][j] = p.b[k];
-            fc[k][j] = p.c[k];
-            fcolor[k][j] = m.color[k];
-            femission[k][j] = m.emission[k];
-        }
-        two_sided[j] = m.flags & MATERIAL_TWO_SIDED != 0;
-        diffuse[j] = m.kind == MATERIAL_DIFFUSE;
-        last[j] = depth[j] >= scene.max_bounces;
-        roulette[j] = depth[j] >= scene.rr_depth;
+        let bit = |b: bool| u32::from(b) << j;
+        two_sided |= bit(mats[j].flags & MATERIAL_TWO_SIDED != 0);
+        hit_bits |= bit(hit[j]);
+        last |= bit(depth[j] >= scene.max_bounces);
+        roulette |= bit(depth[j] >= scene.rr_depth);
     }
     debug_assert!(
-        (0..LANES).all(|j| !hit[j] || diffuse[j]),
+        (0..LANES).all(|j| !hit[j] || mats[j].kind == MATERIAL_DIFFUSE),
         "a variant of diffuse surfaces"
     );
+    let xyz = |rows: [&[f32; 4]; LANES]| {
+        let [x, y, z, _] = L::transpose(rows);
+        V3 { x, y, z }
+    };
     let (a, b, c) = (
-        V3::from_arrays(fa),
-        V3::from_arrays(fb),
-        V3::from_arrays(fc),
+        xyz(tris.map(|p| &p.a)),
+        xyz(tris.map(|p| &p.b)),
+        xyz(tris.map(|p| &p.c)),
     );
     let (origin, dir) = (V3::from_arrays(&paths.origin), V3::from_arrays(&paths.dir));
     let throughput = V3::from_arrays(&paths.throughput);
     let radiance = V3::from_arrays(&paths.radiance);
-    let (color, emission) = (V3::from_arrays(fcolor), V3::from_arrays(femission));
+    // GpuMaterial's words 0..4: color, kind; 4..8: emission, alpha.
+    let (color, emission) = (xyz(mats.map(|m| quad(m, 0))), xyz(mats.map(|m| quad(m, 1))));
     let (t, u, v) = (
         L::from_array(found.t),
         L::from_array(found.u),
@@ -821,12 +867,11 @@ fn shade<const F: u32, L: Lane>(
         L::from_array(found.scatter_y),
     );
     let rr = L::from_array(found.roulette);
-    let hit_mask = L::M::from_array(*hit);
-    let (two_sided, diffuse, last, roulette) = (
-        L::M::from_array(two_sided),
-        L::M::from_array(diffuse),
-        L::M::from_array(last),
-        L::M::from_array(roulette),
+    let hit_mask = L::M::from_bits(hit_bits);
+    let (two_sided, last, roulette) = (
+        L::M::from_bits(two_sided),
+        L::M::from_bits(last),
+        L::M::from_bits(roulette),
     );
     let zero = L::splat(0.0);
     let one = L::splat(1.0);
@@ -863,7 +908,8 @@ fn shade<const F: u32, L: Lane>(
         one
     };
     let sample_here = if lit && scene.light_count > 0 {
-        diffuse.and(last.not())
+        // Every hit lane's surface is diffuse (the variant's).
+        last.not()
     } else {
         L::M::from_array([false; LANES])
     }
@@ -873,10 +919,11 @@ fn shade<const F: u32, L: Lane>(
     let front = dir.dot(ng).lt(zero);
     let ng_facing = front.pick3(ng, -ng);
     let ns_facing = ng_facing;
-    let mut lf = [[[0.0f32; LANES]; 3]; 4];
-    let [fp0, fe1, fe2, flight_emission] = &mut lf;
-    let (mut farea, mut fp_select, mut fx) = ([0.0f32; LANES], [0.0f32; LANES], [0.0f32; LANES]);
-    let mut light_two_sided = [false; LANES];
+    // The lanes' lights (a lane that samples none reads light 0, or zeros in a scene
+    // without lights; its results are unused: its `p_select` is 0, so `query` is false).
+    let (mut light_index, mut fp_select, mut fx) =
+        ([0usize; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+    let mut light_two_sided = 0u32;
     let sample_bits = sample_here.bits();
     for j in 0..LANES {
         if sample_bits >> j & 1 == 0 {
@@ -905,27 +952,21 @@ fn shade<const F: u32, L: Lane>(
         } else {
             0.0
         };
-        for k in 0..3 {
-            fp0[k][j] = light.p0[k];
-            fe1[k][j] = light.e1[k];
-            fe2[k][j] = light.e2[k];
-            flight_emission[k][j] = light.emission[k];
-        }
-        farea[j] = light.area;
-        light_two_sided[j] = light.two_sided != 0;
+        light_index[j] = lo as usize;
+        light_two_sided |= u32::from(light.two_sided != 0) << j;
     }
+    let none = <crate::gpu_types::GpuLight as bytemuck::Zeroable>::zeroed();
+    let lights = light_index.map(|i| g.lights.get(i).unwrap_or(&none));
+    // GpuLight's words: p0, cdf; e1, area; e2, two_sided; emission, kind.
     let (p0, e1, e2) = (
-        V3::from_arrays(fp0),
-        V3::from_arrays(fe1),
-        V3::from_arrays(fe2),
+        xyz(lights.map(|l| quad(l, 0))),
+        xyz(lights.map(|l| quad(l, 1))),
+        xyz(lights.map(|l| quad(l, 2))),
     );
-    let light_emission = V3::from_arrays(flight_emission);
-    let (area, p_select, x) = (
-        L::from_array(farea),
-        L::from_array(fp_select),
-        L::from_array(fx),
-    );
-    let light_two_sided = L::M::from_array(light_two_sided);
+    let area = L::transpose(lights.map(|l| quad(l, 1)))[3];
+    let light_emission = xyz(lights.map(|l| quad(l, 3)));
+    let (p_select, x) = (L::from_array(fp_select), L::from_array(fx));
+    let light_two_sided = L::M::from_bits(light_two_sided);
     let shadow_origin = offset_ray_origin(&surface, dir, ng_facing);
     let su = x.sqrt();
     let point = p0 + e1.scale(su * (one - rl_y)) + e2.scale(su * rl_y);
@@ -1085,6 +1126,39 @@ mod tests {
                 assert_eq!(min[i].to_bits(), x.min(y).to_bits(), "min({x}, {y})");
             }
         }
+    }
+
+    /// `transpose`'s lane `j` of result `k` is word `k` of row `j`.
+    fn transpose_puts_row_j_in_lane_j<L: Lane>() {
+        let rows: [[f32; 4]; LANES] =
+            std::array::from_fn(|j| std::array::from_fn(|k| (10 * j + k) as f32));
+        let t = L::transpose(std::array::from_fn(|j| &rows[j]));
+        for (k, lanes) in t.iter().enumerate() {
+            assert_eq!(
+                lanes.to_array(),
+                std::array::from_fn(|j| rows[j][k]),
+                "word {k}"
+            );
+        }
+    }
+
+    #[test]
+    fn sse_transpose_puts_row_j_in_lane_j() {
+        transpose_puts_row_j_in_lane_j::<Sse>();
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx_transpose_puts_row_j_in_lane_j() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        #[target_feature(enable = "avx2")]
+        fn with_avx() {
+            transpose_puts_row_j_in_lane_j::<Avx>();
+        }
+        // SAFETY: AVX2 detected above.
+        unsafe { with_avx() };
     }
 
     #[test]
