@@ -42,7 +42,7 @@ use crate::gpu_types::{
     LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_TWO_SIDED, RR_MAX_SURVIVAL, SHADOW_T_SCALE, T_MAX,
 };
 use crate::math::{INV_PI, PI};
-use crate::shade::{PathState, escape, sampler_pixel, segment_rands};
+use crate::shade::{PathState, cdf_before, escape, sampler_pixel, segment_rands};
 use crate::sobol::{SOBOL_ONE_MINUS_EPSILON, SobolPixel};
 use crate::surface::{Globals, OFFSET_BACK_ULPS, OFFSET_HIT_ULPS, OFFSET_T_ULPS, UNIT_ROUNDOFF};
 
@@ -940,11 +940,7 @@ fn shade<const F: u32, L: Lane>(
             }
         }
         let light = &g.lights[lo as usize];
-        let before = if lo > 0 {
-            g.lights[lo as usize - 1].cdf
-        } else {
-            0.0
-        };
+        let before = cdf_before(g, lo);
         let ps = light.cdf - before;
         fp_select[j] = ps;
         fx[j] = if ps > 0.0 {
@@ -1054,23 +1050,26 @@ fn shade<const F: u32, L: Lane>(
     alive = alive.and(spin.and(keep.not()).not());
 
     // The shadow rays, lane by lane.
-    let mut open = [false; LANES];
+    let mut open = 0u32;
     let (query_bits, so, sd, t_max) = (
         query.bits(),
         shadow_origin.to_arrays(),
         wi.to_arrays(),
         t_max.to_array(),
     );
-    for j in 0..LANES {
-        if query_bits >> j & 1 != 0 {
-            let ray = Ray {
-                origin: Vec3::new(so[0][j], so[1][j], so[2][j]),
-                dir: Vec3::new(sd[0][j], sd[1][j], sd[2][j]),
-            };
-            open[j] = !L::Forms::trace_any::<F>(bvh, &ray, 0.0, t_max[j]);
-        }
+    // Over the set bits (whether a lane has a shadow ray, e.g. a light behind its surface,
+    // is a coin toss: one mispredicted branch a lane where the loop tested each).
+    let mut bits = query_bits;
+    while bits != 0 {
+        let j = bits.trailing_zeros() as usize;
+        bits &= bits - 1;
+        let ray = Ray {
+            origin: Vec3::new(so[0][j], so[1][j], so[2][j]),
+            dir: Vec3::new(sd[0][j], sd[1][j], sd[2][j]),
+        };
+        open |= u32::from(!L::Forms::trace_any::<F>(bvh, &ray, 0.0, t_max[j])) << j;
     }
-    let open = L::M::from_array(open);
+    let open = L::M::from_bits(open);
     let arrived = query.and(open).pick3(light_in, V3::<L>::zero());
     let radiance = sample_here.pick3(radiance + throughput_in.mul(arrived), radiance) + emitted;
 
