@@ -77,7 +77,7 @@
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Vec2, Vec3};
 
-use crate::math::{INV_PI, PI, normalize, reflect};
+use crate::math::{INV_PI, PI, normalize, reflect, sin_cos_turns};
 use crate::sampling::{
     fresnel_dielectric, orthonormal_basis, sample_ggx_vndf, sample_glass, to_local, to_world,
 };
@@ -205,8 +205,8 @@ pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
 #[inline]
 pub fn sample_cosine_local(u: Vec2) -> Vec3 {
     let r = u.x.sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u.x).max(0.0).sqrt())
+    let (sin_phi, cos_phi) = sin_cos_turns(u.y);
+    Vec3::new(r * cos_phi, r * sin_phi, (1.0 - u.x).max(0.0).sqrt())
 }
 
 // ---- conductor / roughconductor ----

@@ -88,8 +88,8 @@ fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
 
 fn sample_cosine_local(u: vec2<f32>) -> vec3<f32> {
     let r = sqrt(u.x);
-    let phi = 2.0 * PI * u.y;
-    return vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(1.0 - u.x, 0.0)));
+    let sc = sin_cos_turns(u.y);
+    return vec3<f32>(r * sc.y, r * sc.x, sqrt(max(1.0 - u.x, 0.0)));
 }
 
 // ---- conductor / roughconductor ----

@@ -79,6 +79,48 @@ pub fn atan2_poly(y: f32, x: f32) -> f32 {
     if y < 0.0 { -r } else { r }
 }
 
+/// `1.5 * 2^23`: `(x + SIN_COS_ROUND) - SIN_COS_ROUND` is `x` rounded to the nearest integer
+/// (ties to even) for `|x| < 2^22`, by two additions.
+pub const SIN_COS_ROUND: f32 = 12_582_912.0;
+
+/// `(sin 2πt, cos 2πt)` for `|t| < 2^20` turns, without a branch: `4t` (exact) less its
+/// nearest integer `q` (exact) is the quarter turn's fraction `r` in `[-1/2, 1/2]`, the angle
+/// `a = r π/2` (one rounding) is given to Cephes' `sinf`/`cosf` minimax polynomials on
+/// `[-π/4, π/4]` (each within about an ulp), and the quadrant `q mod 4` swaps and negates them.
+/// The path's angles are all `2π u` of a random `u`: libm's `sinf`/`cosf` branched on the
+/// angle's range (~13 % of Bitterli's Cornell box's mispredicted branches under cachegrind)
+/// and ran one value at a time; this is the same arithmetic in `cpu::packet`'s lanes (its
+/// `sin_cos_turns`), so eight paths take their angles at once, the same bits.
+#[inline]
+#[allow(clippy::excessive_precision)]
+pub fn sin_cos_turns(t: f32) -> (f32, f32) {
+    let x = 4.0 * t;
+    let q = (x + SIN_COS_ROUND) - SIN_COS_ROUND;
+    let a = (x - q) * std::f32::consts::FRAC_PI_2;
+    let z = a * a;
+    let s = ((SIN_COS_S3 * z + SIN_COS_S2) * z + SIN_COS_S1) * z * a + a;
+    let c = ((SIN_COS_C3 * z + SIN_COS_C2) * z + SIN_COS_C1) * z * z - 0.5 * z + 1.0;
+    let m = q as i32 & 3;
+    // A quarter turn: (sin, cos) -> (cos, -sin); a half turn: both negated.
+    let (s, c) = std::hint::select_unpredictable(m & 1 != 0, (c, -s), (s, c));
+    std::hint::select_unpredictable(m & 2 != 0, (-s, -c), (s, c))
+}
+
+/// Cephes' `sinf` coefficients (`x + x z (S1 + z (S2 + z S3))`, `z = x²`).
+#[allow(clippy::excessive_precision)]
+pub const SIN_COS_S1: f32 = -1.6666654611e-1;
+#[allow(clippy::excessive_precision)]
+pub const SIN_COS_S2: f32 = 8.3321608736e-3;
+#[allow(clippy::excessive_precision)]
+pub const SIN_COS_S3: f32 = -1.9515295891e-4;
+/// Cephes' `cosf` coefficients (`1 - z/2 + z² (C1 + z (C2 + z C3))`).
+#[allow(clippy::excessive_precision)]
+pub const SIN_COS_C1: f32 = 4.166664568298827e-2;
+#[allow(clippy::excessive_precision)]
+pub const SIN_COS_C2: f32 = -1.388731625493765e-3;
+#[allow(clippy::excessive_precision)]
+pub const SIN_COS_C3: f32 = 2.443315711809948e-5;
+
 /// `acos(x)` for `x` in `[-1, 1]` (clamped) through [`atan2_poly`].
 #[inline]
 pub fn acos_poly(x: f32) -> f32 {
@@ -102,6 +144,66 @@ mod tests {
     fn ulp(x: f32) -> f64 {
         let a = x.abs();
         f64::from(f32::from_bits(a.to_bits() + 1) - a)
+    }
+
+    /// `sin_cos_turns(t)` against `f64`'s `sin`/`cos` of `2πt` (`t` exact), over a dense sweep
+    /// of `[-1.5, 1.5]` (the environment map's angles reach -1.5 turns) and the quarter
+    /// turns' neighbours: within 1.5e-7 absolute (the angle's own rounding, `a = r π/2`, is
+    /// up to half an ulp of π/4, 3e-8, and each polynomial about an ulp of its result).
+    #[test]
+    fn sin_cos_turns_matches_f64() {
+        let mut worst = 0.0f64;
+        let quarters = (-6..=6).flat_map(|k| {
+            let q = k as f32 * 0.25;
+            (0..64u32).flat_map(move |d| {
+                [
+                    f32::from_bits(q.to_bits() + d),
+                    f32::from_bits(q.to_bits().wrapping_sub(d)),
+                ]
+            })
+        });
+        for t in (0..=3_000_000)
+            .map(|i| i as f32 / 1_000_000.0 - 1.5)
+            .chain(quarters)
+        {
+            if !(t.abs() <= 1.5) {
+                continue;
+            }
+            let (s, c) = sin_cos_turns(t);
+            let angle = std::f64::consts::TAU * f64::from(t);
+            let (es, ec) = (
+                (f64::from(s) - angle.sin()).abs(),
+                (f64::from(c) - angle.cos()).abs(),
+            );
+            worst = worst.max(es).max(ec);
+            assert!(
+                es <= 1.5e-7 && ec <= 1.5e-7,
+                "t {t}: sin {s} cos {c} off by {es:e} / {ec:e}"
+            );
+            assert!(s.abs() <= 1.0 && c.abs() <= 1.0, "t {t}: {s} {c}");
+        }
+        assert!(worst > 1e-8, "the sweep compared something ({worst:e})");
+    }
+
+    /// The WGSL's `sin_cos_turns` coefficients are the Rust constants, the same `f32`s.
+    #[test]
+    fn wgsl_sin_cos_coefficients_are_the_rust_ones() {
+        for (name, value) in [
+            ("SIN_COS_S1", SIN_COS_S1),
+            ("SIN_COS_S2", SIN_COS_S2),
+            ("SIN_COS_S3", SIN_COS_S3),
+            ("SIN_COS_C1", SIN_COS_C1),
+            ("SIN_COS_C2", SIN_COS_C2),
+            ("SIN_COS_C3", SIN_COS_C3),
+        ] {
+            let prefix = format!("const {name}: f32 = ");
+            let line = MATH_WGSL
+                .lines()
+                .find(|l| l.starts_with(&prefix))
+                .unwrap_or_else(|| panic!("the WGSL declares {name}"));
+            let literal = line.trim_end_matches(';').rsplit(' ').next().unwrap();
+            assert_eq!(literal.parse::<f32>().unwrap(), value, "{name}");
+        }
     }
 
     /// Against `f64` references, within what the documentation and the rounding allow:

@@ -20,6 +20,30 @@ fn sample_is_valid(v: vec3<f32>) -> bool {
     return is_finite3(v) && max(v.x, max(v.y, v.z)) <= MAX_SAMPLE_RADIANCE;
 }
 
+// (sin 2πt, cos 2πt) for |t| < 2^20 turns (math.rs's sin_cos_turns): 4t less its nearest
+// integer q (both exact) is the quarter turn's fraction, a = r π/2 goes to Cephes' sinf/cosf
+// polynomials on [-π/4, π/4], and q mod 4 swaps and negates them: the CPU mirror's values to
+// rounding (Vulkan lets a driver's sin and cos be 2^-11 off), without its branches.
+const SIN_COS_S1: f32 = -1.6666654611e-1;
+const SIN_COS_S2: f32 = 8.3321608736e-3;
+const SIN_COS_S3: f32 = -1.9515295891e-4;
+const SIN_COS_C1: f32 = 4.166664568298827e-2;
+const SIN_COS_C2: f32 = -1.388731625493765e-3;
+const SIN_COS_C3: f32 = 2.443315711809948e-5;
+
+fn sin_cos_turns(t: f32) -> vec2<f32> {
+    let x = 4.0 * t;
+    // WGSL's round is to the nearest, ties to even, as the mirror's two additions.
+    let q = round(x);
+    let a = (x - q) * (0.5 * PI);
+    let z = a * a;
+    let s = ((SIN_COS_S3 * z + SIN_COS_S2) * z + SIN_COS_S1) * z * a + a;
+    let c = ((SIN_COS_C3 * z + SIN_COS_C2) * z + SIN_COS_C1) * z * z - 0.5 * z + 1.0;
+    let m = i32(q) & 3;
+    var sc = select(vec2<f32>(s, c), vec2<f32>(c, -s), (m & 1) != 0);
+    return select(sc, -sc, (m & 2) != 0);
+}
+
 // atan2 from a degree-15 odd minimax polynomial on [0, 1] (Hastings; error < 4e-8 rad) with
 // octant reduction: only + - * / and compares, so every device agrees with the Rust mirror to
 // rounding (Vulkan lets a driver's atan be 4096 ULP off). Coefficients: exact f32 values.

@@ -17,7 +17,7 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::math::{PI, normalize, reflect};
+use crate::math::{PI, normalize, reflect, sin_cos_turns};
 
 /// Two unit vectors `(t, b)` completing the unit normal `n` to a right-handed basis.
 #[inline]
@@ -47,8 +47,8 @@ pub fn to_local(v: Vec3, t: Vec3, b: Vec3, n: Vec3) -> Vec3 {
 #[inline]
 pub fn sample_diffuse(n: Vec3, u: Vec2) -> Vec3 {
     let r = u.x.sqrt();
-    let phi = 2.0 * PI * u.y;
-    let local = Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u.x).max(0.0).sqrt());
+    let (sin_phi, cos_phi) = sin_cos_turns(u.y);
+    let local = Vec3::new(r * cos_phi, r * sin_phi, (1.0 - u.x).max(0.0).sqrt());
     let (t, b) = orthonormal_basis(n);
     to_world(local, t, b, n)
 }
@@ -93,11 +93,11 @@ pub fn sample_sphere_cap(center: Vec3, r: f32, p: Vec3, u: Vec2) -> Option<Vec3>
     let cos_alpha =
         sin2_theta / sin_max + cos_theta * (1.0 - sin2_theta / sin2_max).max(0.0).sqrt();
     let sin_alpha = (1.0 - cos_alpha * cos_alpha).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
+    let (sin_phi, cos_phi) = sin_cos_turns(u.y);
     let w = to_c / d2.sqrt();
     let (t, b) = orthonormal_basis(w);
     let n = -to_world(
-        Vec3::new(sin_alpha * phi.cos(), sin_alpha * phi.sin(), cos_alpha),
+        Vec3::new(sin_alpha * cos_phi, sin_alpha * sin_phi, cos_alpha),
         t,
         b,
         w,
@@ -128,9 +128,9 @@ pub fn sample_ggx_vndf(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {
     };
     let t2 = vh.cross(t1);
     let r = u.x.sqrt();
-    let phi = 2.0 * PI * u.y;
-    let p1 = r * phi.cos();
-    let p2_disk = r * phi.sin();
+    let (sin_phi, cos_phi) = sin_cos_turns(u.y);
+    let p1 = r * cos_phi;
+    let p2_disk = r * sin_phi;
     let s = 0.5 * (1.0 + vh.z);
     let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * p2_disk;
     let nh = t1 * p1 + t2 * p2 + vh * (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();

@@ -27,8 +27,8 @@ fn to_local(v: vec3<f32>, t: vec3<f32>, b: vec3<f32>, n: vec3<f32>) -> vec3<f32>
 
 fn sample_diffuse(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
     let r = sqrt(u.x);
-    let phi = 2.0 * PI * u.y;
-    let local = vec3<f32>(r * cos(phi), r * sin(phi), sqrt(max(1.0 - u.x, 0.0)));
+    let sc = sin_cos_turns(u.y);
+    let local = vec3<f32>(r * sc.y, r * sc.x, sqrt(max(1.0 - u.x, 0.0)));
     let basis = orthonormal_basis(n);
     return to_world(local, basis.t, basis.b, n);
 }
@@ -75,10 +75,10 @@ fn sample_sphere_cap(center: vec3<f32>, r: f32, p: vec3<f32>, u: vec2<f32>) -> C
     let sin2_theta = one_minus_cos * (2.0 - one_minus_cos);
     let cos_alpha = sin2_theta / sin_max + cos_theta * sqrt(max(1.0 - sin2_theta / sin2_max, 0.0));
     let sin_alpha = sqrt(max(1.0 - cos_alpha * cos_alpha, 0.0));
-    let phi = 2.0 * PI * u.y;
+    let sc = sin_cos_turns(u.y);
     let w = to_c / sqrt(d2);
     let basis = orthonormal_basis(w);
-    let n = -to_world(vec3<f32>(sin_alpha * cos(phi), sin_alpha * sin(phi), cos_alpha), basis.t, basis.b, w);
+    let n = -to_world(vec3<f32>(sin_alpha * sc.y, sin_alpha * sc.x, cos_alpha), basis.t, basis.b, w);
     return CapSample(center + n * r, true);
 }
 //#endif
@@ -98,9 +98,9 @@ fn sample_ggx_vndf(wo: vec3<f32>, alpha: f32, u: vec2<f32>) -> vec3<f32> {
     }
     let t2 = cross(vh, t1);
     let r = sqrt(u.x);
-    let phi = 2.0 * PI * u.y;
-    let p1 = r * cos(phi);
-    let p2_disk = r * sin(phi);
+    let sc = sin_cos_turns(u.y);
+    let p1 = r * sc.y;
+    let p2_disk = r * sc.x;
     let s = 0.5 * (1.0 + vh.z);
     let p2 = (1.0 - s) * sqrt(max(1.0 - p1 * p1, 0.0)) + s * p2_disk;
     let nh = t1 * p1 + t2 * p2 + vh * sqrt(max(1.0 - p1 * p1 - p2 * p2, 0.0));

@@ -31,7 +31,7 @@ use crate::gpu_types::{
     SHADING_HAS_NORMALS, SHADING_HAS_UVS, SRGB8_TABLE, SceneUniforms, TEXELS_LINEAR, TEXELS_SRGB8,
     TextureHeader, TriangleShading,
 };
-use crate::math::{INV_PI, PI, normalize};
+use crate::math::{INV_PI, PI, normalize, sin_cos_turns};
 
 /// The Rust mirror of the shader's global bindings: what the plain functions read.
 #[derive(Clone, Copy)]
@@ -403,8 +403,8 @@ pub fn sample_environment<const F: u32>(g: &Globals, u: Vec2, cell: u32) -> (Vec
     if !(sky && s.environment_cdf_width != 0) {
         let z = 1.0 - 2.0 * u.x;
         let r = (1.0 - z * z).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        return (Vec3::new(r * phi.cos(), z, r * phi.sin()), 0.25 * INV_PI);
+        let (sin_phi, cos_phi) = sin_cos_turns(u.y);
+        return (Vec3::new(r * cos_phi, z, r * sin_phi), 0.25 * INV_PI);
     }
     let (w, h) = (s.environment_cdf_width, s.environment_cdf_height);
     let base = environment_cdf_base(g, cell);
@@ -417,10 +417,10 @@ pub fn sample_environment<const F: u32>(g: &Globals, u: Vec2, cell: u32) -> (Vec
     let fu = ((u.y - col_before) / p_col).clamp(0.0, 1.0);
     let v = (y as f32 + fv) / h as f32;
     let tex_u = (x as f32 + fu) / w as f32;
-    let theta = v * PI;
-    let phi = (tex_u - s.environment_rotation - 0.5) * (2.0 * PI);
-    let sin_theta = theta.sin();
-    let dir = Vec3::new(sin_theta * phi.sin(), theta.cos(), -sin_theta * phi.cos());
+    // theta = v π (half a turn), phi = (tex_u - rotation - 1/2) turns.
+    let (sin_theta, cos_theta) = sin_cos_turns(0.5 * v);
+    let (sin_phi, cos_phi) = sin_cos_turns(tex_u - s.environment_rotation - 0.5);
+    let dir = Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi);
     if !(sin_theta > 0.0 && p_row > 0.0 && p_col > 0.0) {
         return (dir, 0.0);
     }

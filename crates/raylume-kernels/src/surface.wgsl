@@ -241,8 +241,8 @@ fn sample_environment(u: vec2<f32>, cell: u32) -> EnvironmentSample {
     if (!((HAS_CONSTANT_ENVIRONMENT || HAS_ENVIRONMENT_MAP) && scene.environment_cdf_width != 0u)) {
         let z = 1.0 - 2.0 * u.x;
         let r = sqrt(max(1.0 - z * z, 0.0));
-        let phi = 2.0 * PI * u.y;
-        return EnvironmentSample(vec3<f32>(r * cos(phi), z, r * sin(phi)), 0.25 * INV_PI);
+        let sc = sin_cos_turns(u.y);
+        return EnvironmentSample(vec3<f32>(r * sc.y, z, r * sc.x), 0.25 * INV_PI);
     }
 //#if constant_environment|environment_map
     let w = scene.environment_cdf_width;
@@ -257,10 +257,11 @@ fn sample_environment(u: vec2<f32>, cell: u32) -> EnvironmentSample {
     let fu = clamp((u.y - col.y) / col.x, 0.0, 1.0);
     let v = (f32(y) + fv) / f32(h);
     let tex_u = (f32(x) + fu) / f32(w);
-    let theta = v * PI;
-    let phi = (tex_u - scene.environment_rotation - 0.5) * (2.0 * PI);
-    let sin_theta = sin(theta);
-    let dir = vec3<f32>(sin_theta * sin(phi), cos(theta), -sin_theta * cos(phi));
+    // theta = v π (half a turn), phi = (tex_u - rotation - 1/2) turns.
+    let theta = sin_cos_turns(0.5 * v);
+    let phi = sin_cos_turns(tex_u - scene.environment_rotation - 0.5);
+    let sin_theta = theta.x;
+    let dir = vec3<f32>(sin_theta * phi.x, theta.y, -sin_theta * phi.y);
     if (!(sin_theta > 0.0 && row.x > 0.0 && col.x > 0.0)) {
         return EnvironmentSample(dir, 0.0);
     }

@@ -41,7 +41,9 @@ use super::variant::{ALWAYS, Forms, has};
 use crate::gpu_types::{
     LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_TWO_SIDED, RR_MAX_SURVIVAL, SHADOW_T_SCALE, T_MAX,
 };
-use crate::math::{INV_PI, PI};
+use crate::math::{
+    INV_PI, SIN_COS_C1, SIN_COS_C2, SIN_COS_C3, SIN_COS_ROUND, SIN_COS_S1, SIN_COS_S2, SIN_COS_S3,
+};
 use crate::shade::{PathState, cdf_before, escape, sampler_pixel, segment_rands};
 use crate::sobol::{SOBOL_ONE_MINUS_EPSILON, SobolPixel};
 use crate::surface::{Globals, OFFSET_BACK_ULPS, OFFSET_HIT_ULPS, OFFSET_T_ULPS, UNIT_ROUNDOFF};
@@ -681,6 +683,32 @@ struct Found {
     roulette: [f32; LANES],
 }
 
+/// `math::sin_cos_turns` lane by lane, the same operations: the quadrant `q mod 4` by float
+/// arithmetic (`q - 4 round((q - 3/2) / 4)`, exact for these small integers) where the scalar
+/// form converts to an integer, and picked the same values.
+#[inline(always)]
+fn sin_cos_turns<L: Lane>(t: L) -> (L, L) {
+    let round = |x: L| (x + L::splat(SIN_COS_ROUND)) - L::splat(SIN_COS_ROUND);
+    let x = L::splat(4.0) * t;
+    let q = round(x);
+    let a = (x - q) * L::splat(std::f32::consts::FRAC_PI_2);
+    let z = a * a;
+    let s =
+        ((L::splat(SIN_COS_S3) * z + L::splat(SIN_COS_S2)) * z + L::splat(SIN_COS_S1)) * z * a + a;
+    let c = ((L::splat(SIN_COS_C3) * z + L::splat(SIN_COS_C2)) * z + L::splat(SIN_COS_C1)) * z * z
+        - L::splat(0.5) * z
+        + L::splat(1.0);
+    let m = q - L::splat(4.0) * round((q - L::splat(1.5)) * L::splat(0.25));
+    // m is 0, 1, 2 or 3: odd for 1 and 3, high for 2 and 3.
+    let odd = m
+        .ge(L::splat(0.5))
+        .and(m.lt(L::splat(1.5)))
+        .or(m.ge(L::splat(2.5)));
+    let high = m.ge(L::splat(1.5));
+    let (s, c) = (odd.pick(c, s), odd.pick(-s, c));
+    (high.pick(-s, s), high.pick(-c, c))
+}
+
 /// `mis_weight`: Veach's power heuristic.
 #[inline(always)]
 fn mis_weight<L: Lane>(a: L, b: L) -> L {
@@ -998,16 +1026,7 @@ fn shade<const F: u32, L: Lane>(
 
     // shade_hit, a diffuse surface not at the last segment (sample_diffuse).
     let r = rs_x.sqrt();
-    let phi = L::splat(2.0 * PI) * rs_y;
-    let (mut cos_phi, mut sin_phi) = ([0.0f32; LANES], [0.0f32; LANES]);
-    let (phi_lanes, last_bits) = (phi.to_array(), last.bits());
-    for j in 0..LANES {
-        if hit[j] && last_bits >> j & 1 == 0 {
-            let phi = phi_lanes[j];
-            (cos_phi[j], sin_phi[j]) = (phi.cos(), phi.sin());
-        }
-    }
-    let (cos_phi, sin_phi) = (L::from_array(cos_phi), L::from_array(sin_phi));
+    let (sin_phi, cos_phi) = sin_cos_turns(rs_y);
     let local = V3 {
         x: r * cos_phi,
         y: r * sin_phi,
