@@ -495,11 +495,11 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
         );
     }
 
-    if let Some(path) = &args.stats {
-        if let Err(e) = std::fs::write(path, render.stats.to_json()) {
-            let _ = std::fs::remove_file(&args.output);
-            return Err(format!("cannot write stats file {}: {e}", path.display()));
-        }
+    if let Some(path) = &args.stats
+        && let Err(e) = std::fs::write(path, render.stats.to_json())
+    {
+        let _ = std::fs::remove_file(&args.output);
+        return Err(format!("cannot write stats file {}: {e}", path.display()));
     }
     if args.next_event_stage && !render.stats.schedule.contains("next_event") {
         eprintln!(

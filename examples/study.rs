@@ -599,14 +599,13 @@ fn render_point(
 
 fn scene_name(path: &Path) -> String {
     let stem = path.file_stem().and_then(|s| s.to_str()).unwrap_or("scene");
-    if stem == "scene" {
-        if let Some(dir) = path
+    if stem == "scene"
+        && let Some(dir) = path
             .canonicalize()
             .ok()
             .and_then(|p| p.parent().and_then(|d| d.file_name()).map(|d| d.to_owned()))
-        {
-            return dir.to_string_lossy().into_owned();
-        }
+    {
+        return dir.to_string_lossy().into_owned();
     }
     stem.to_string()
 }
@@ -1384,19 +1383,19 @@ fn plot(args: &PlotArgs) -> Result<(), String> {
         }
         // Equal-error time against Mitsuba's lines at 256 spp (issue 20's criterion).
         for m in &mitsuba {
-            if let Some(p) = m.points.iter().find(|p| p.spp == 256) {
-                if let Some((t, x)) = time_at(&baseline.points, p.rel_mse) {
-                    let _ = writeln!(
-                        table,
-                        "\nraylume's baseline reaches {}'s 256-spp error ({:.3e}, {:.4} s) in \
+            if let Some(p) = m.points.iter().find(|p| p.spp == 256)
+                && let Some((t, x)) = time_at(&baseline.points, p.rel_mse)
+            {
+                let _ = writeln!(
+                    table,
+                    "\nraylume's baseline reaches {}'s 256-spp error ({:.3e}, {:.4} s) in \
                          {t:.4} s{}: {:.2}x Mitsuba's time.",
-                        m.setting,
-                        p.rel_mse,
-                        p.seconds,
-                        if x { " (extrapolated)" } else { "" },
-                        t / p.seconds
-                    );
-                }
+                    m.setting,
+                    p.rel_mse,
+                    p.seconds,
+                    if x { " (extrapolated)" } else { "" },
+                    t / p.seconds
+                );
             }
         }
         // Mitsuba against the other reference, and the two references against each other.

@@ -90,12 +90,12 @@ impl GpuBvh {
                 if !(b.min.is_finite() && b.max.is_finite() && b.min.cmple(b.max).all()) {
                     return Err(format!("{here}: invalid box {b:?}"));
                 }
-                if let Some(pb) = parent_box {
-                    if !contains(&pb, &b) {
-                        return Err(format!(
-                            "{here}: box {b:?} pokes out of the parent's box {pb:?}"
-                        ));
-                    }
+                if let Some(pb) = parent_box
+                    && !contains(&pb, &b)
+                {
+                    return Err(format!(
+                        "{here}: box {b:?} pokes out of the parent's box {pb:?}"
+                    ));
                 }
                 if count > 0 {
                     let end = index as usize + count as usize;

@@ -166,7 +166,7 @@ mod tests {
             .map(|i| i as f32 / 1_000_000.0 - 1.5)
             .chain(quarters)
         {
-            if !(t.abs() <= 1.5) {
+            if t.abs() > 1.5 {
                 continue;
             }
             let (s, c) = sin_cos_turns(t);

@@ -85,11 +85,11 @@ impl SceneBuilder {
     /// Triangles pushed from now on come from `label`.
     pub fn begin_source(&mut self, label: &str) {
         let start = self.scene.triangles.len();
-        if let Some(last) = self.sources.last_mut() {
-            if last.start == start {
-                last.label = label.to_string();
-                return;
-            }
+        if let Some(last) = self.sources.last_mut()
+            && last.start == start
+        {
+            last.label = label.to_string();
+            return;
         }
         self.sources.push(Source {
             start,
@@ -373,16 +373,16 @@ pub(crate) fn read_description(
     referenced_by: Option<&str>,
 ) -> Result<Vec<u8>, SceneError> {
     let limit = crate::limits::MAX_DESCRIPTION_BYTES;
-    if let Ok(meta) = std::fs::metadata(path) {
-        if meta.len() > limit {
-            return Err(SceneError::TooLarge {
-                file: path.display().to_string(),
-                at: Location::None,
-                what: "the file size in bytes".into(),
-                count: meta.len(),
-                limit,
-            });
-        }
+    if let Ok(meta) = std::fs::metadata(path)
+        && meta.len() > limit
+    {
+        return Err(SceneError::TooLarge {
+            file: path.display().to_string(),
+            at: Location::None,
+            what: "the file size in bytes".into(),
+            count: meta.len(),
+            limit,
+        });
     }
     read_file(path, referenced_by)
 }

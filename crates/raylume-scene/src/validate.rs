@@ -89,15 +89,15 @@ pub(crate) fn check_triangle_finite(
     if !t.positions.iter().all(|p| finite3(*p)) {
         return Err(bad("a vertex position"));
     }
-    if let Some(n) = &t.normals {
-        if !n.iter().all(|v| finite3(*v)) {
-            return Err(bad("a vertex normal"));
-        }
+    if let Some(n) = &t.normals
+        && !n.iter().all(|v| finite3(*v))
+    {
+        return Err(bad("a vertex normal"));
     }
-    if let Some(uv) = &t.uvs {
-        if !uv.iter().all(|v| v.is_finite()) {
-            return Err(bad("a texture coordinate"));
-        }
+    if let Some(uv) = &t.uvs
+        && !uv.iter().all(|v| v.is_finite())
+    {
+        return Err(bad("a texture coordinate"));
     }
     Ok(())
 }
@@ -375,16 +375,16 @@ pub(crate) fn validate_with(s: &Scene, prov: &Provenance) -> Result<(), SceneErr
             });
         }
         positive(file, &at, "ior", m.ior as f64)?;
-        if let Some(t) = m.albedo_texture {
-            if t as usize >= s.textures.len() {
-                return Err(SceneError::IndexOutOfRange {
-                    file: file.into(),
-                    at,
-                    what: "texture".into(),
-                    index: t as u64,
-                    len: s.textures.len() as u64,
-                });
-            }
+        if let Some(t) = m.albedo_texture
+            && t as usize >= s.textures.len()
+        {
+            return Err(SceneError::IndexOutOfRange {
+                file: file.into(),
+                at,
+                what: "texture".into(),
+                index: t as u64,
+                len: s.textures.len() as u64,
+            });
         }
     }
 
@@ -400,14 +400,14 @@ pub(crate) fn validate_with(s: &Scene, prov: &Provenance) -> Result<(), SceneErr
                 len: s.materials.len() as u64,
             });
         }
-        if let Some(ns) = &t.normals {
-            if ns.iter().any(|n| (n.length() - 1.0).abs() > 1e-3) {
-                return Err(SceneError::InvalidValue {
-                    file: file.into(),
-                    at: prov.triangle(i),
-                    message: "shading normals must have unit length".into(),
-                });
-            }
+        if let Some(ns) = &t.normals
+            && ns.iter().any(|n| (n.length() - 1.0).abs() > 1e-3)
+        {
+            return Err(SceneError::InvalidValue {
+                file: file.into(),
+                at: prov.triangle(i),
+                message: "shading normals must have unit length".into(),
+            });
         }
         if is_degenerate(t) {
             return Err(SceneError::InvalidValue {

@@ -231,16 +231,17 @@ impl Tracer {
         }
         stats.post_passes = Vec::new();
         let t_post = Instant::now();
-        if !part && self.bloom {
-            if let Some(b) = scene.post.bloom {
-                let params = raylume_post::BloomParams {
-                    threshold: b.threshold,
-                    radius: b.radius,
-                    strength: b.strength,
-                };
-                raylume_post::bloom_cpu(&mut pixels, r.width, r.height, params)?;
-                stats.post_passes = raylume_post::BLOOM_STAGES.to_vec();
-            }
+        if !part
+            && self.bloom
+            && let Some(b) = scene.post.bloom
+        {
+            let params = raylume_post::BloomParams {
+                threshold: b.threshold,
+                radius: b.radius,
+                strength: b.strength,
+            };
+            raylume_post::bloom_cpu(&mut pixels, r.width, r.height, params)?;
+            stats.post_passes = raylume_post::BLOOM_STAGES.to_vec();
         }
         stats.backend = "gpus".into();
         stats.backend_reason = format!("requested: {} devices", n);

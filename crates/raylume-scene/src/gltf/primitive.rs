@@ -159,17 +159,17 @@ impl Loader<'_> {
             None => false,
         };
         let index_acc = prim.indices();
-        if let Some(a) = &index_acc {
-            if !check_accessor(
+        if let Some(a) = &index_acc
+            && !check_accessor(
                 a,
                 &self.buffers,
                 &[DataType::U8, DataType::U16, DataType::U32],
                 Dimensions::Scalar,
                 &file,
                 at,
-            )? {
-                return Ok(());
-            }
+            )?
+        {
+            return Ok(());
         }
         let buffers = &self.buffers;
         let reader = prim.reader(|buf| buffers.get(buf.index()).map(Vec::as_slice));

@@ -464,31 +464,31 @@ pub(crate) fn parse(text: &str, base_dir: &Path, file: &str) -> Result<Scene, Sc
         ));
     }
 
-    if let Some(post) = &doc.post {
-        if let Some(bl) = &post.bloom {
-            let bt = bl.get_ref();
-            let threshold = cx.finite1(&bt.threshold, "threshold")?;
-            let strength = cx.finite1(&bt.strength, "strength")?;
-            for (x, s, what) in [
-                (threshold, &bt.threshold, "threshold"),
-                (strength, &bt.strength, "strength"),
-            ] {
-                if x < 0.0 {
-                    return Err(SceneError::Negative {
-                        file: file.into(),
-                        at: cx.at(s),
-                        what: what.into(),
-                        value: x as f64,
-                    });
-                }
+    if let Some(post) = &doc.post
+        && let Some(bl) = &post.bloom
+    {
+        let bt = bl.get_ref();
+        let threshold = cx.finite1(&bt.threshold, "threshold")?;
+        let strength = cx.finite1(&bt.strength, "strength")?;
+        for (x, s, what) in [
+            (threshold, &bt.threshold, "threshold"),
+            (strength, &bt.strength, "strength"),
+        ] {
+            if x < 0.0 {
+                return Err(SceneError::Negative {
+                    file: file.into(),
+                    at: cx.at(s),
+                    what: what.into(),
+                    value: x as f64,
+                });
             }
-            let radius = cx.positive_u32(&bt.radius, "radius")?;
-            b.scene.post.bloom = Some(Bloom {
-                threshold,
-                radius,
-                strength,
-            });
         }
+        let radius = cx.positive_u32(&bt.radius, "radius")?;
+        b.scene.post.bloom = Some(Bloom {
+            threshold,
+            radius,
+            strength,
+        });
     }
 
     b.scene.camera = match &doc.camera {

@@ -267,15 +267,15 @@ impl Tungsten<'_> {
             }
             "transparency" => {
                 Self::approx(b, name, ty, "its base BSDF (alpha dropped)");
-                if let Some(alpha) = j.key("alpha") {
-                    if let Some(f) = alpha.v.as_str() {
-                        let p = self.dir.join(f);
-                        if !p.exists() {
-                            return Err(SceneError::MissingFile {
-                                path: p,
-                                referenced_by: Some(format!("{}: {}", self.file, alpha.path)),
-                            });
-                        }
+                if let Some(alpha) = j.key("alpha")
+                    && let Some(f) = alpha.v.as_str()
+                {
+                    let p = self.dir.join(f);
+                    if !p.exists() {
+                        return Err(SceneError::MissingFile {
+                            path: p,
+                            referenced_by: Some(format!("{}: {}", self.file, alpha.path)),
+                        });
                     }
                 }
                 let base = j.key("base").ok_or_else(|| SceneError::MissingKey {

@@ -124,25 +124,25 @@ pub(crate) fn load_with(
     b.scene.render = crate::model::RenderSettings::default();
     let mut ignored = Vec::new();
 
-    if let Some(r) = root.key("renderer") {
-        if let Some(spp) = r.j().key("spp") {
-            b.scene.render.spp = whole(spp.j())?;
-        }
+    if let Some(r) = root.key("renderer")
+        && let Some(spp) = r.j().key("spp")
+    {
+        b.scene.render.spp = whole(spp.j())?;
     }
-    if let Some(i) = root.key("integrator") {
-        if let Some(mb) = i.j().key("max_bounces") {
-            b.scene.render.max_bounces = whole(mb.j())?;
-        }
+    if let Some(i) = root.key("integrator")
+        && let Some(mb) = i.j().key("max_bounces")
+    {
+        b.scene.render.max_bounces = whole(mb.j())?;
     }
     let mut have_camera = false;
     if let Some(c) = root.key("camera") {
         t.camera(&mut b, c.j())?;
         have_camera = true;
     }
-    if let Some(m) = root.key("media") {
-        if m.v.as_array().is_some_and(|a| !a.is_empty()) {
-            ignored.push("media (participating media)".to_string());
-        }
+    if let Some(m) = root.key("media")
+        && m.v.as_array().is_some_and(|a| !a.is_empty())
+    {
+        ignored.push("media (participating media)".to_string());
     }
     let mut materials = HashMap::new();
     if let Some(prims) = root.key("primitives") {

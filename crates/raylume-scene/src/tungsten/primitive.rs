@@ -296,11 +296,11 @@ impl<'a> Tungsten<'a> {
                     }
                 };
                 let mut emits = false;
-                if let Some(e) = emission {
-                    if e.max_element() > 0.0 || e.min_element() < 0.0 {
-                        mat.emission = e;
-                        emits = true;
-                    }
+                if let Some(e) = emission
+                    && (e.max_element() > 0.0 || e.min_element() < 0.0)
+                {
+                    mat.emission = e;
+                    emits = true;
                 }
                 // The same BSDF may be used with several emissions: keep names apart.
                 if materials.keys().any(|(n, _)| *n == key_name) {
