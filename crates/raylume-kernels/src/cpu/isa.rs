@@ -10,8 +10,9 @@
 //! AVX-512 F/BW/CD/DQ/VL), each copy a `#[target_feature]` function into which the whole
 //! path is inlined (the per-bounce functions it calls are `#[inline(always)]` for that: a
 //! function left out of line would run at the build's level: the disassembly of a release
-//! build's `call_v4` copies should call nothing but libm's `sincosf` through the PLT;
-//! at bf09b4f `sample_environment` had dropped out of line, and was marked).
+//! build's `call_v4` copies should call nothing but the panics and
+//! `GpuBvh::cpu_walk_arrays`, no libm function since the angles' `math::sin_cos_turns`
+//! (c6c5093); at bf09b4f `sample_environment` had dropped out of line, and was marked).
 //! [`CpuIsa::best`] is the highest level the running CPU has; the tracer runs that one unless
 //! told otherwise ([`crate::CpuTracer::set_isa`]). The x86-64-v3 and v4 copies also take
 //! the AVX2 forms of [`Forms`](super::variant::Forms): the `Sobol` sampler's segments drawn

@@ -25,8 +25,9 @@
 //! every lane computes what [`trace_ray_at`](crate::shade::trace_ray_at) computes for its
 //! path, the same IEEE operations in the same order (each step below names the scalar
 //! function it mirrors; glam's `min`/`max` are selects on `<`/`>`, as SSE's `minps`/`maxps`,
-//! `f32::min`/`max` keep their NaN rule); sines and cosines come from the same libm calls,
-//! lane by lane. `tests/cpu_packet.rs` renders scenes of this variant both ways, at every
+//! `f32::min`/`max` keep their NaN rule; the angle's sine and cosine are
+//! `math::sin_cos_turns`'s polynomial in lanes, this module's `sin_cos_turns`).
+//! `tests/cpu_packet.rs` renders scenes of this variant both ways, at every
 //! instruction-set level, and compares the images bit for bit (reassociating one sum of the
 //! scattered direction fails it).
 
