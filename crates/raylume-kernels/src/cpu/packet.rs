@@ -100,6 +100,22 @@ pub trait Lane:
     }
 }
 
+/// `a.map(f)` written out: the array's `map` (`try_map`) was compiled out of line, a call
+/// from `cpu::isa`'s AVX copies for each gather.
+#[inline(always)]
+fn each<T: Copy, U>(a: [T; LANES], f: impl Fn(T) -> U) -> [U; LANES] {
+    [
+        f(a[0]),
+        f(a[1]),
+        f(a[2]),
+        f(a[3]),
+        f(a[4]),
+        f(a[5]),
+        f(a[6]),
+        f(a[7]),
+    ]
+}
+
 /// Words `4 * i..4 * i + 4` of `record` (a GPU record of four-word groups) as four `f32`s.
 #[inline(always)]
 fn quad<T: bytemuck::Pod>(record: &T, i: usize) -> &[f32; 4] {
@@ -856,8 +872,8 @@ fn shade<const F: u32, L: Lane>(
     let first = (0..LANES).find(|&j| hit[j]).unwrap_or(0);
     let prims: [usize; LANES] =
         std::array::from_fn(|j| found.prim[if hit[j] { j } else { first }] as usize);
-    let tris = prims.map(|i| &g.primitives[i]);
-    let mats = prims.map(|i| &g.materials[g.prim_materials[i] as usize]);
+    let tris = each(prims, |i| &g.primitives[i]);
+    let mats = each(prims, |i| &g.materials[g.prim_materials[i] as usize]);
     let (mut two_sided, mut hit_bits, mut last, mut roulette) = (0u32, 0u32, 0u32, 0u32);
     for j in 0..LANES {
         let bit = |b: bool| u32::from(b) << j;
@@ -875,15 +891,18 @@ fn shade<const F: u32, L: Lane>(
         V3 { x, y, z }
     };
     let (a, b, c) = (
-        xyz(tris.map(|p| &p.a)),
-        xyz(tris.map(|p| &p.b)),
-        xyz(tris.map(|p| &p.c)),
+        xyz(each(tris, |p| &p.a)),
+        xyz(each(tris, |p| &p.b)),
+        xyz(each(tris, |p| &p.c)),
     );
     let (origin, dir) = (V3::from_arrays(&paths.origin), V3::from_arrays(&paths.dir));
     let throughput = V3::from_arrays(&paths.throughput);
     let radiance = V3::from_arrays(&paths.radiance);
     // GpuMaterial's words 0..4: color, kind; 4..8: emission, alpha.
-    let (color, emission) = (xyz(mats.map(|m| quad(m, 0))), xyz(mats.map(|m| quad(m, 1))));
+    let (color, emission) = (
+        xyz(each(mats, |m| quad(m, 0))),
+        xyz(each(mats, |m| quad(m, 1))),
+    );
     let (t, u, v) = (
         L::from_array(found.t),
         L::from_array(found.u),
@@ -981,15 +1000,15 @@ fn shade<const F: u32, L: Lane>(
         light_two_sided |= u32::from(light.two_sided != 0) << j;
     }
     let none = <crate::gpu_types::GpuLight as bytemuck::Zeroable>::zeroed();
-    let lights = light_index.map(|i| g.lights.get(i).unwrap_or(&none));
+    let lights = each(light_index, |i| g.lights.get(i).unwrap_or(&none));
     // GpuLight's words: p0, cdf; e1, area; e2, two_sided; emission, kind.
     let (p0, e1, e2) = (
-        xyz(lights.map(|l| quad(l, 0))),
-        xyz(lights.map(|l| quad(l, 1))),
-        xyz(lights.map(|l| quad(l, 2))),
+        xyz(each(lights, |l| quad(l, 0))),
+        xyz(each(lights, |l| quad(l, 1))),
+        xyz(each(lights, |l| quad(l, 2))),
     );
-    let area = L::transpose(lights.map(|l| quad(l, 1)))[3];
-    let light_emission = xyz(lights.map(|l| quad(l, 3)));
+    let area = L::transpose(each(lights, |l| quad(l, 1)))[3];
+    let light_emission = xyz(each(lights, |l| quad(l, 3)));
     let (p_select, x) = (L::from_array(fp_select), L::from_array(fx));
     let light_two_sided = L::M::from_bits(light_two_sided);
     let shadow_origin = offset_ray_origin(&surface, dir, ng_facing);
