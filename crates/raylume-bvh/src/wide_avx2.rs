@@ -136,9 +136,11 @@ pub(crate) unsafe fn leaf_blocks8(
         let m = _mm256_min_ps(m, _mm256_permute_ps::<0b01_00_11_10>(m));
         let m = _mm256_min_ps(m, _mm256_permute_ps::<0b10_11_00_01>(m));
         // The highest lane holding it: block a's before block b's, each highest first (some
-        // lane holds it). The hit is replaced by a select, not a branch: whether two blocks
-        // hold a closer hit is a coin toss (Bitterli's Cornell box: ~13 % of its mispredicted
-        // branches under cachegrind).
+        // lane holds it). The lane's hit is built whether or not it is closer, then taken by
+        // `select_unpredictable` (whether two blocks hold a closer hit is a coin toss: the
+        // `if` around it was ~13 % of Bitterli's Cornell box's mispredicted branches under
+        // cachegrind; x86 may still compile the float select as short branches, but this
+        // measured faster than that `if`, and an SSE blend slower).
         let j = 31 - (_mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(t, m)) as u32).leading_zeros();
         let (mut ts, mut us, mut vs) = ([0f32; 8], [0f32; 8], [0f32; 8]);
         _mm256_storeu_ps(ts.as_mut_ptr(), t);

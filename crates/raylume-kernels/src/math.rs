@@ -83,7 +83,7 @@ pub fn atan2_poly(y: f32, x: f32) -> f32 {
 /// (ties to even) for `|x| < 2^22`, by two additions.
 pub const SIN_COS_ROUND: f32 = 12_582_912.0;
 
-/// `(sin 2πt, cos 2πt)` for `|t| < 2^20` turns, without a branch: `4t` (exact) less its
+/// `(sin 2πt, cos 2πt)` for `|t| < 2^20` turns, without branching on the angle's range: `4t` (exact) less its
 /// nearest integer `q` (exact) is the quarter turn's fraction `r` in `[-1/2, 1/2]`, the angle
 /// `a = r π/2` (one rounding) is given to Cephes' `sinf`/`cosf` minimax polynomials on
 /// `[-π/4, π/4]` (each within about an ulp), and the quadrant `q mod 4` swaps and negates them.

@@ -429,12 +429,41 @@ pub fn trace_ray_at<const F: u32, K: Forms>(
 }
 
 /// Where light `lo`'s share of `[0, 1)` begins: the cdf of the light before it, 0 for the
-/// first. Without a branch: which light a sample takes is a coin toss (Bitterli's Cornell
-/// box, two triangles: the branch was ~12 % of its mispredicted branches under cachegrind).
+/// first. Both read, then one taken by `select_unpredictable` (which light a sample takes is
+/// a coin toss: Bitterli's Cornell box, two triangles, where `if lo > 0` around the read was
+/// ~12 % of its mispredicted branches under cachegrind; x86 may still compile a float select
+/// as a short branch, but this measured faster).
 #[inline(always)]
 pub fn cdf_before(g: &Globals, lo: u32) -> f32 {
     let below = g.lights[lo.saturating_sub(1) as usize].cdf;
     std::hint::select_unpredictable(lo > 0, below, 0.0)
+}
+
+/// [`light_query`]'s choice of light by `u` (its `rnd.x`): the first light whose running
+/// probability exceeds `u`, its selection probability, and where `u` falls in its share of
+/// `[0, 1)`, rescaled to `[0, 1)` (below 1: `u` may reach the last light's cdf by rounding; 0
+/// for a light never chosen, `p_select` 0, which the caller rejects). `cpu::packet` chooses
+/// its lanes' lights through it too.
+#[inline(always)]
+pub fn choose_light(g: &Globals, u: f32) -> (u32, f32, f32) {
+    let mut lo = 0u32;
+    let mut hi = g.scene.light_count - 1;
+    while lo < hi {
+        let mid = (lo + hi) / 2;
+        if g.lights[mid as usize].cdf > u {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    let before = cdf_before(g, lo);
+    let p_select = g.lights[lo as usize].cdf - before;
+    let x = if p_select > 0.0 {
+        ((u - before) / p_select).min(crate::sobol::SOBOL_ONE_MINUS_EPSILON)
+    } else {
+        0.0
+    };
+    (lo, p_select, x)
 }
 
 /// The random numbers of a path's segment `depth`: the light's four (zero where no light can
@@ -685,26 +714,8 @@ pub fn light_query<const F: u32>(
     // `docs/RESULTS.md`, issue 15). A light's share of [0, 1) is at least its probability's
     // float spacing, so the rescaled number keeps fewer bits where thousands of lights share
     // the range: their points then fall on a coarser grid along one axis of each triangle.
-    let mut lo = 0u32;
-    let mut hi = g.scene.light_count - 1;
-    while lo < hi {
-        let mid = (lo + hi) / 2;
-        if g.lights[mid as usize].cdf > rnd.x {
-            hi = mid;
-        } else {
-            lo = mid + 1;
-        }
-    }
+    let (lo, p_select, x) = choose_light(g, rnd.x);
     let light = g.lights[lo as usize];
-    let before = cdf_before(g, lo);
-    let p_select = light.cdf - before;
-    // Below 1 (rnd.x may reach the last light's cdf by rounding); a light never chosen
-    // (p_select 0) is rejected below.
-    let x = if p_select > 0.0 {
-        ((rnd.x - before) / p_select).min(crate::sobol::SOBOL_ONE_MINUS_EPSILON)
-    } else {
-        0.0
-    };
     let ng = hit.geometric_normal;
     let front = dir_in.dot(ng) < 0.0;
     let ng_facing = if front { ng } else { -ng };

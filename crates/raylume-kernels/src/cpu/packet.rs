@@ -45,8 +45,8 @@ use crate::gpu_types::{
 use crate::math::{
     INV_PI, SIN_COS_C1, SIN_COS_C2, SIN_COS_C3, SIN_COS_ROUND, SIN_COS_S1, SIN_COS_S2, SIN_COS_S3,
 };
-use crate::shade::{PathState, cdf_before, escape, sampler_pixel, segment_rands};
-use crate::sobol::{SOBOL_ONE_MINUS_EPSILON, SobolPixel};
+use crate::shade::{PathState, choose_light, escape, sampler_pixel, segment_rands};
+use crate::sobol::SobolPixel;
 use crate::surface::{Globals, OFFSET_BACK_ULPS, OFFSET_HIT_ULPS, OFFSET_T_ULPS, UNIT_ROUNDOFF};
 
 /// Paths traced together.
@@ -977,37 +977,25 @@ fn shade<const F: u32, L: Lane>(
         if sample_bits >> j & 1 == 0 {
             continue;
         }
-        let rx = found.light_x[j];
-        let (mut lo, mut hi) = (0u32, scene.light_count - 1);
-        while lo < hi {
-            let mid = (lo + hi) / 2;
-            if g.lights[mid as usize].cdf > rx {
-                hi = mid;
-            } else {
-                lo = mid + 1;
-            }
-        }
+        let (lo, ps, x) = choose_light(g, found.light_x[j]);
+        (fp_select[j], fx[j]) = (ps, x);
         let light = &g.lights[lo as usize];
-        let before = cdf_before(g, lo);
-        let ps = light.cdf - before;
-        fp_select[j] = ps;
-        fx[j] = if ps > 0.0 {
-            ((rx - before) / ps).min(SOBOL_ONE_MINUS_EPSILON)
-        } else {
-            0.0
-        };
         light_index[j] = lo as usize;
         light_two_sided |= u32::from(light.two_sided != 0) << j;
     }
     let none = <crate::gpu_types::GpuLight as bytemuck::Zeroable>::zeroed();
     let lights = each(light_index, |i| g.lights.get(i).unwrap_or(&none));
     // GpuLight's words: p0, cdf; e1, area; e2, two_sided; emission, kind.
+    let [e1x, e1y, e1z, area] = L::transpose(each(lights, |l| quad(l, 1)));
     let (p0, e1, e2) = (
         xyz(each(lights, |l| quad(l, 0))),
-        xyz(each(lights, |l| quad(l, 1))),
+        V3 {
+            x: e1x,
+            y: e1y,
+            z: e1z,
+        },
         xyz(each(lights, |l| quad(l, 2))),
     );
-    let area = L::transpose(each(lights, |l| quad(l, 1)))[3];
     let light_emission = xyz(each(lights, |l| quad(l, 3)));
     let (p_select, x) = (L::from_array(fp_select), L::from_array(fx));
     let light_two_sided = L::M::from_bits(light_two_sided);
