@@ -65,7 +65,10 @@ for a, n in ips.items():
         if hit:
             cat = hit[0]; break
     by[cat] += n
-    fn, loc = ch[0] if ch else ('?', '?')
+    # The innermost frame in the project's own sources (an intrinsic's or glam's line says
+    # less than the line of ours that called it).
+    own = [(fn, loc) for fn, loc in ch if '/crates/' in loc or loc.startswith('crates/')]
+    fn, loc = (own or ch or [('?', '?')])[0]
     lines[(cat, loc.split('/')[-1].split(' ')[0], fn.split('(')[0][-70:])] += n
 print(f'{total} samples, {sum(ips.values())} in the binary')
 for k, n in by.most_common():
