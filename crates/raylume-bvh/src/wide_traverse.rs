@@ -603,9 +603,11 @@ fn walk_boxes<const SPHERES: bool, const AVX2: bool>(
     } else {
         Leaves::Blocks(blocks, primitives)
     };
-    // (child node, its box's t_near bits): the low and high words. Uninitialised (no 1.8 KB
-    // to zero for every ray); only entries below `sp` are read, each written before.
-    let mut stack = [MaybeUninit::<u64>::uninit(); BOX_STACK_SIZE];
+    // The children waiting and their boxes' entry distances. Uninitialised (no 1.8 KB to
+    // zero for every ray); only entries below `sp` are read, each written before. Eight
+    // entries of room past the last: the AVX2 push writes eight.
+    let mut stack_node = [MaybeUninit::<u32>::uninit(); BOX_STACK_SIZE + 8];
+    let mut stack_near = [MaybeUninit::<f32>::uninit(); BOX_STACK_SIZE + 8];
     let mut sp = 0usize;
     let mut node = 0u32;
     loop {
@@ -641,15 +643,32 @@ fn walk_boxes<const SPHERES: bool, const AVX2: bool>(
             let child = |slot: u32| b.child_base + u32::from(ranks[slot as usize]);
             let first = first_leading_bit(inner);
             let mut rest = inner & !(1 << first);
-            if rest != 0 {
+            if AVX2 {
+                #[cfg(target_arch = "x86_64")]
+                {
+                    debug_assert!(sp + 8 <= stack_node.len());
+                    // SAFETY: `AVX2` only from the `_avx2` methods, whose callers' CPUs have
+                    // it; `sp` is at most BOX_STACK_SIZE, so eight entries fit from it.
+                    sp += unsafe {
+                        crate::wide_avx2::push_children(
+                            near,
+                            b.child_base,
+                            ranks,
+                            oct,
+                            rest,
+                            stack_node.as_mut_ptr().add(sp).cast(),
+                            stack_near.as_mut_ptr().add(sp).cast(),
+                        )
+                    };
+                }
+            } else if rest != 0 {
                 let near = [near[0].to_array(), near[1].to_array()];
                 while rest != 0 {
                     let slot = rest.trailing_zeros() ^ oct;
                     rest &= rest - 1;
-                    let t_near = near[(slot >> 2) as usize][(slot & 3) as usize];
-                    stack[sp] = MaybeUninit::new(
-                        u64::from(child(slot)) | u64::from(t_near.to_bits()) << 32,
-                    );
+                    stack_node[sp] = MaybeUninit::new(child(slot));
+                    stack_near[sp] =
+                        MaybeUninit::new(near[(slot >> 2) as usize][(slot & 3) as usize]);
                     sp += 1;
                 }
             }
@@ -662,9 +681,10 @@ fn walk_boxes<const SPHERES: bool, const AVX2: bool>(
             }
             sp -= 1;
             // SAFETY: every entry below `sp` was written by the pushes above.
-            let entry = unsafe { stack[sp].assume_init() };
-            if f32::from_bits((entry >> 32) as u32) <= hit.t * WIDE_T_FAR_SCALE {
-                node = entry as u32;
+            let t_near = unsafe { stack_near[sp].assume_init() };
+            if t_near <= hit.t * WIDE_T_FAR_SCALE {
+                // SAFETY: as `t_near`.
+                node = unsafe { stack_node[sp].assume_init() };
                 break;
             }
         }
@@ -1128,6 +1148,48 @@ mod tests {
         }
         // (5,245 slots of 3000 rays through 300 triangles' nodes here.)
         assert!(hits > 2000, "{hits} slots hit");
+    }
+
+    /// The AVX2 push stores what the walk's loop over the children pushes, in its order, for
+    /// every octant and set of children.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_push_is_the_loops_pushes() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let near = [Vec4::new(0.5, 1.5, 2.5, 3.5), Vec4::new(4.5, 5.5, 6.5, 7.5)];
+        for imask in [0xffu32, 0b1011_0110, 0b0100_0001] {
+            let ranks = &INNER_RANK8[imask as usize];
+            for oct in 0..8u32 {
+                for rest in 0..256u32 {
+                    let (mut nodes, mut nears) = ([u32::MAX; 8], [f32::NAN; 8]);
+                    // SAFETY: AVX2 detected above; eight entries each.
+                    let n = unsafe {
+                        crate::wide_avx2::push_children(
+                            near,
+                            100,
+                            ranks,
+                            oct,
+                            rest,
+                            nodes.as_mut_ptr(),
+                            nears.as_mut_ptr(),
+                        )
+                    };
+                    let (mut want_nodes, mut want_nears) = (vec![], vec![]);
+                    let mut bits = rest;
+                    while bits != 0 {
+                        let slot = bits.trailing_zeros() ^ oct;
+                        bits &= bits - 1;
+                        want_nodes.push(100 + u32::from(ranks[slot as usize]));
+                        want_nears.push(near[(slot >> 2) as usize][(slot & 3) as usize]);
+                    }
+                    assert_eq!(n, want_nodes.len(), "{rest:08b} {oct}");
+                    assert_eq!(&nodes[..n], &want_nodes[..], "{rest:08b} {oct}");
+                    assert_eq!(&nears[..n], &want_nears[..], "{rest:08b} {oct}");
+                }
+            }
+        }
     }
 
     #[test]
