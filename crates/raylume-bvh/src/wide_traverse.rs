@@ -646,9 +646,13 @@ fn walk_boxes<const SPHERES: bool, const AVX2: bool>(
             if AVX2 {
                 #[cfg(target_arch = "x86_64")]
                 {
-                    debug_assert!(sp + 8 <= stack_node.len());
+                    // At most 7 entries a level of a tree `validate` holds to WIDE_STACK_SIZE
+                    // levels; checked all the same (one predictable branch), as the
+                    // loop's indexing below checks it: the eight writes stay in the arrays.
+                    assert!(sp <= BOX_STACK_SIZE, "the walk's stack overflowed");
                     // SAFETY: `AVX2` only from the `_avx2` methods, whose callers' CPUs have
-                    // it; `sp` is at most BOX_STACK_SIZE, so eight entries fit from it.
+                    // it; `sp` is at most BOX_STACK_SIZE (just checked), so eight entries fit
+                    // from it.
                     sp += unsafe {
                         crate::wide_avx2::push_children(
                             near,
