@@ -120,12 +120,15 @@ pub(crate) unsafe fn push_children(
             _mm256_cvtepu8_epi32(_mm_loadl_epi64(COMPRESS8[rest as usize].as_ptr().cast())),
             _mm256_set1_epi32(oct as i32),
         );
+        // The ranks permuted, then the base added (adding first, LLVM permuted the
+        // broadcast base too).
+        let ranks = _mm256_cvtepu8_epi32(_mm_loadl_epi64(ranks.as_ptr().cast()));
         let children = _mm256_add_epi32(
             _mm256_set1_epi32(child_base as i32),
-            _mm256_cvtepu8_epi32(_mm_loadl_epi64(ranks.as_ptr().cast())),
+            _mm256_permutevar8x32_epi32(ranks, order),
         );
         let near = _mm256_set_m128(near[1].into(), near[0].into());
-        _mm256_storeu_si256(nodes.cast(), _mm256_permutevar8x32_epi32(children, order));
+        _mm256_storeu_si256(nodes.cast(), children);
         _mm256_storeu_ps(nears, _mm256_permutevar8x32_ps(near, order));
     }
     rest.count_ones() as usize
