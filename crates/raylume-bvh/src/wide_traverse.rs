@@ -249,14 +249,14 @@ pub fn intersect_wide_node(node: &WideNode, r: &WideRay, t_min: f32, t_max: f32)
 
 /// A wide node as the CPU's walk reads it ([`intersect_wide_boxes`]): its eight child boxes
 /// as floats, per axis the slots' lower planes and upper planes, and the node's fields the
-/// walk needs (so that a node is one 240-byte read, not that and its [`WideNode`]). Each
+/// walk needs (so that a node is one 256-byte read, not that and its [`WideNode`]). Each
 /// plane is the quantised one moved out by [`WIDE_QUANT_PAD`] cells (`p + (q -/+ pad) *
 /// cell`, exact in `f64`) and rounded outward to `f32`, so each box holds the padded
 /// quantised box the GPU tests, and with it the child's true box. Empty slots hold zeros
 /// (their bits are never set: see [`intersect_wide_boxes`]). Made from the nodes by
 /// [`wide_boxes`]; the GPU never sees them.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-#[repr(C, align(16))]
+#[repr(C, align(64))]
 pub struct WideBoxes {
     /// `planes[axis][slot]` the lower planes, `planes[3 + axis][slot]` the upper ones (one
     /// array, so that the node test picks each axis' nearer plane by its row).
@@ -275,7 +275,10 @@ pub struct WideBoxes {
     pub block_base: u32,
 }
 
-const _: () = assert!(size_of::<WideBoxes>() == 240);
+// 240 bytes of fields, padded to 256 and aligned to a cache line: a node is four whole lines,
+// none of its rows straddles two, and its index becomes an address by a shift, not a
+// multiply, on the walk's chain of dependent loads.
+const _: () = assert!(size_of::<WideBoxes>() == 256);
 
 /// The largest `f32` at most `x`.
 fn f32_down(x: f64) -> f32 {
@@ -548,6 +551,24 @@ pub fn wide_walk<const SPHERES: bool>(
     hit
 }
 
+/// `NEXT_SLOT8[oct][m]`: of the slots set in `m` (non-zero), the one a walk in octant
+/// `oct` enters first, the highest `slot ^ oct` (`first_leading_bit(XOR_PERMUTE8[oct][m]) ^
+/// oct`), a table of 2 KiB.
+static NEXT_SLOT8: [[u8; 256]; 8] = {
+    let mut t = [[0u8; 256]; 8];
+    let mut oct = 0;
+    while oct < 8 {
+        let mut m = 1;
+        while m < 256 {
+            let p = XOR_PERMUTE8[oct][m] as u32;
+            t[oct][m] = ((31 - p.leading_zeros()) ^ oct as u32) as u8;
+            m += 1;
+        }
+        oct += 1;
+    }
+    t
+};
+
 /// `INNER_RANK8[m][s]`: the set bits of `m` below bit `s` (a node's inner children before
 /// slot `s`, with `m` its imask), a table of 2 KiB: one load where the baseline x86-64
 /// target has no `popcnt`.
@@ -592,6 +613,7 @@ fn walk_boxes<const SPHERES: bool, const AVX2: bool>(
 ) -> Hit {
     let (wr, sheared) = walk_rays(ray);
     let oct = (wr.oct_inv4 ^ if any_hit { WIDE_ANY_OCT_FLIP } else { 0 }) & 7;
+    let next_slot = &NEXT_SLOT8[oct as usize];
     let mut hit = Hit {
         t: t_max.min(T_MAX_LIMIT),
         prim: INVALID_INDEX,
@@ -637,12 +659,16 @@ fn walk_boxes<const SPHERES: bool, const AVX2: bool>(
         }
         // The hit inner children, bit `slot ^ octant` for each: the highest is entered now,
         // the others pushed lowest first, so that the next highest is on top.
-        let inner = u32::from(XOR_PERMUTE8[oct as usize][(mask & b.imask) as usize]);
-        if inner != 0 {
+        let hit_inner = (mask & b.imask) as usize;
+        if hit_inner != 0 {
             let ranks = &INNER_RANK8[(b.imask & 0xff) as usize];
             let child = |slot: u32| b.child_base + u32::from(ranks[slot as usize]);
-            let first = first_leading_bit(inner);
-            let mut rest = inner & !(1 << first);
+            // The slot entered now straight from a table: one load after the mask, where the
+            // highest bit of the permuted mask took a load, a bit scan and an XOR on the
+            // walk's chain from one node to the next. The others as permuted bits.
+            let slot = u32::from(next_slot[hit_inner]);
+            let inner = u32::from(XOR_PERMUTE8[oct as usize][hit_inner]);
+            let mut rest = inner & !(1 << (slot ^ oct));
             if AVX2 {
                 #[cfg(target_arch = "x86_64")]
                 {
@@ -676,7 +702,7 @@ fn walk_boxes<const SPHERES: bool, const AVX2: bool>(
                     sp += 1;
                 }
             }
-            node = child(first ^ oct);
+            node = child(slot);
             continue;
         }
         loop {
@@ -957,6 +983,24 @@ mod tests {
                     .filter(|s| m >> s & 1 == 1)
                     .fold(0u8, |a, s| a | table[1 << s]);
                 assert_eq!(moved, each);
+            }
+        }
+    }
+
+    #[test]
+    fn next_slot_table_is_the_slot_of_the_highest_permuted_bit() {
+        for oct in 0..8u32 {
+            for m in 1..256u32 {
+                // The slot whose `slot ^ oct` is the largest among those set in `m`.
+                let want = (0..8u32)
+                    .filter(|s| m >> s & 1 == 1)
+                    .max_by_key(|s| s ^ oct)
+                    .unwrap();
+                assert_eq!(
+                    u32::from(NEXT_SLOT8[oct as usize][m as usize]),
+                    want,
+                    "oct {oct}, m {m:#b}"
+                );
             }
         }
     }
