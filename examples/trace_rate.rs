@@ -341,6 +341,7 @@ fn cpu_rate_for<const SPHERES: bool>(
     isa: CpuIsa,
 ) -> (f64, u32) {
     let avx2 = cfg!(target_arch = "x86_64") && isa >= CpuIsa::X86_64V3;
+    let avx512 = cfg!(target_arch = "x86_64") && isa >= CpuIsa::X86_64V4;
     let mut best = f64::INFINITY;
     let mut hits = 0;
     for _ in 0..repeat {
@@ -360,7 +361,7 @@ fn cpu_rate_for<const SPHERES: bool>(
                                 origin: Vec3::from(q.origin),
                                 dir: Vec3::from(q.dir),
                             };
-                            n += u32::from(cpu_walk::<SPHERES>(bvh, &ray, q, any, avx2));
+                            n += u32::from(cpu_walk::<SPHERES>(bvh, &ray, q, any, avx2, avx512));
                         }
                         n
                     },
@@ -373,7 +374,8 @@ fn cpu_rate_for<const SPHERES: bool>(
 }
 
 /// Whether `ray` hits (any hit, or a closest one) with the wide walk's AVX2 tests where
-/// `avx2` (only inside `with_isa`'s x86-64-v3/v4 copies), else the build's.
+/// `avx2` (only inside `with_isa`'s x86-64-v3/v4 copies), its AVX-512 ones where `avx512`
+/// (only in the v4 copy), else the build's.
 #[inline(always)]
 fn cpu_walk<const SPHERES: bool>(
     bvh: &GpuBvh,
@@ -381,7 +383,20 @@ fn cpu_walk<const SPHERES: bool>(
     q: &Query,
     any: bool,
     avx2: bool,
+    avx512: bool,
 ) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if avx512 {
+        // SAFETY: `with_isa` runs x86-64-v4 only on a CPU that has it (it asserts so).
+        return unsafe {
+            if any {
+                bvh.trace_any_avx512::<SPHERES>(ray, q.t_min, q.t_max)
+            } else {
+                bvh.trace_closest_avx512::<SPHERES>(ray, q.t_min, q.t_max)
+                    .is_some()
+            }
+        };
+    }
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         // SAFETY: `with_isa` runs x86-64-v3 or v4 only on a CPU that has it (it asserts so),

@@ -44,12 +44,33 @@ pub struct GpuBvh {
 /// 40 bytes a primitive), which a GPU-only render never makes. Made once; a tree whose `wide_nodes` or `primitives` are
 /// changed after a CPU traversal needs [`CpuArrays::default`] again.
 #[derive(Clone, Default)]
-pub struct CpuArrays(OnceLock<(Vec<WideBoxes>, Vec<TriangleBlock>)>);
+pub struct CpuArrays(OnceLock<CpuWalkArrays>);
+
+/// What [`CpuArrays`] holds once made.
+#[derive(Clone)]
+pub(crate) struct CpuWalkArrays {
+    /// A node's float boxes ([`WideBoxes`]), by node.
+    pub(crate) boxes: Vec<WideBoxes>,
+    /// The nodes' leaf triangles four a block ([`TriangleBlock`]).
+    pub(crate) blocks: Vec<TriangleBlock>,
+    /// A small tree's triangles, all of them, sixteen a block (the AVX2 and AVX-512 walks
+    /// test them all instead of walking: `wide_avx2::flat_hit`, `flat_hit16`); empty for a
+    /// tree of more than `FLAT_MAX_PRIMITIVES` primitives, one with a sphere, or off
+    /// x86-64.
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    pub(crate) flat: Vec<crate::wide_avx2::FlatBlock>,
+    /// `flat` again for the AVX2 walks if the tree has at most `FLAT_MAX_PRIMITIVES_AVX2`
+    /// primitives, else empty. (An array of its own, not a flag or the count checked in the
+    /// walk: either made LLVM lay out `flat_hit` otherwise, its closest hits 20-30 % slower
+    /// on the Intel dev VM.)
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    pub(crate) flat_avx2: Vec<crate::wide_avx2::FlatBlock>,
+}
 
 impl std::fmt::Debug for CpuArrays {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self.0.get() {
-            Some((b, _)) => write!(f, "CpuArrays({} nodes)", b.len()),
+            Some(a) => write!(f, "CpuArrays({} nodes)", a.boxes.len()),
             None => write!(f, "CpuArrays(not made)"),
         }
     }
@@ -77,21 +98,38 @@ impl GpuBvh {
     /// same thread and re-enter this initialisation). Call it before tracing in parallel to
     /// keep that first call out of the loop, as the CPU tracer does.
     pub fn wide_boxes(&self) -> &[WideBoxes] {
-        &self.cpu_walk_arrays().0
+        &self.cpu_walk_arrays().boxes
     }
 
     /// The wide nodes' leaf triangles four a block, for the CPU's wide walk's four-at-once
     /// triangle tests ([`TriangleBlock`]; a node's first is its [`WideBoxes::block_base`]);
     /// made with [`GpuBvh::wide_boxes`].
     pub fn triangle_blocks(&self) -> &[TriangleBlock] {
-        &self.cpu_walk_arrays().1
+        &self.cpu_walk_arrays().blocks
     }
 
-    pub(crate) fn cpu_walk_arrays(&self) -> &(Vec<WideBoxes>, Vec<TriangleBlock>) {
+    pub(crate) fn cpu_walk_arrays(&self) -> &CpuWalkArrays {
         self.cpu_arrays.0.get_or_init(|| {
             let mut boxes: Vec<WideBoxes> = self.wide_nodes.iter().map(wide_boxes).collect();
             let blocks = triangle_blocks(&self.wide_nodes, &mut boxes, &self.primitives);
-            (boxes, blocks)
+            #[cfg(target_arch = "x86_64")]
+            let flat = crate::wide_avx2::flat_blocks(&self.primitives);
+            #[cfg(not(target_arch = "x86_64"))]
+            let flat = Vec::new();
+            #[cfg(target_arch = "x86_64")]
+            let flat_avx2 = if self.primitives.len() <= crate::wide_avx2::FLAT_MAX_PRIMITIVES_AVX2 {
+                flat.clone()
+            } else {
+                Vec::new()
+            };
+            #[cfg(not(target_arch = "x86_64"))]
+            let flat_avx2 = Vec::new();
+            CpuWalkArrays {
+                boxes,
+                blocks,
+                flat,
+                flat_avx2,
+            }
         })
     }
 }

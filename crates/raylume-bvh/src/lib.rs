@@ -58,6 +58,8 @@ mod validate;
 mod wide;
 #[cfg(target_arch = "x86_64")]
 mod wide_avx2;
+#[cfg(target_arch = "x86_64")]
+pub use wide_avx2::{FLAT_MAX_PRIMITIVES, FLAT_MAX_PRIMITIVES_AVX2};
 mod wide_convert;
 
 pub mod gpu_types;

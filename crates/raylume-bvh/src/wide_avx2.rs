@@ -12,15 +12,22 @@
 //! (the crate's brute-force tests, `tests/support`'s `check_against_brute_force`, compare
 //! the two walks over every test tree, and a unit test the node tests over every node).
 //!
+//! A tree of at most [`FLAT_MAX_PRIMITIVES_AVX2`] triangles is not walked here: [`flat_hit`]
+//! tests them all, eight at a time ([`flat_hit16`]: sixteen, in AVX-512 registers, for the
+//! `_avx512` walks, up to [`FLAT_MAX_PRIMITIVES`]), and gives the ray back to the walk only where several triangles hold the
+//! closest hit, so that the walk's order picks among them as before.
+//!
 //! Everything here is `#[inline(always)]` and `unsafe`: it must run on a CPU with AVX2, and
 //! it is fast only where it is inlined into a function compiled with AVX2 enabled
 //! (`raylume_kernels::cpu::isa`'s x86-64-v3/v4 copies of the path); called from elsewhere it
 //! computes the same hits with each intrinsic a call.
 
 use std::arch::x86_64::*;
+use std::mem::MaybeUninit;
 
 use glam::Vec4;
 
+use crate::INVALID_INDEX;
 use crate::intersect::{ShearedRay, T_MISS, TriangleBlock};
 use crate::traverse::Hit;
 use crate::wide_traverse::{WIDE_T_FAR_SCALE, WideBoxes, WideRay};
@@ -235,52 +242,56 @@ unsafe fn triangle_blocks8(
     t_min: f32,
     t_max: f32,
 ) -> [__m256; 3] {
-    // Each axis' byte offset of its three rows in a block (`v[3 * k + vertex]`), `k` held
-    // below 3 (a `ShearedRay` from `shear_ray` has it so), so that the nine loads below are
-    // a base, one of three offsets and a constant, with no bounds check to keep them apart.
-    let row = |k: u32| 48 * k.min(2) as usize;
-    let (kx, ky, kz) = (row(r.kx), row(r.ky), row(r.kz));
+    // SAFETY: the caller's CPU has AVX2; each load reads 16 bytes at `offset + 16 * vertex`
+    // (at most 96 + 32) of a 144-byte block (`triangle_lanes8`'s offsets).
+    unsafe {
+        triangle_lanes8(
+            r,
+            |vertex, offset| {
+                let at = |b: &TriangleBlock| {
+                    _mm_loadu_ps(b.v.as_ptr().cast::<u8>().add(offset + 16 * vertex).cast())
+                };
+                _mm256_set_m128(at(hi), at(lo))
+            },
+            48,
+            t_min,
+            t_max,
+        )
+    }
+}
+
+/// The watertight test of eight triangles against `r`, as
+/// [`intersect_triangle_block`](crate::intersect::intersect_triangle_block)'s four-lane
+/// form computes it lane by lane: `row(vertex, offset)` loads the eight lanes' coordinate
+/// of `vertex` on the axis whose rows begin at byte `offset` (`axis_bytes` times the axis).
+#[inline(always)]
+unsafe fn triangle_lanes8(
+    r: &ShearedRay,
+    row: impl Fn(usize, usize) -> __m256,
+    axis_bytes: usize,
+    t_min: f32,
+    t_max: f32,
+) -> [__m256; 3] {
+    // Each axis' byte offset of its three rows, `k` held below 3 (a `ShearedRay` from
+    // `shear_ray` has it so), so that the nine loads below are a base, one of three offsets
+    // and a constant, with no bounds check to keep them apart.
+    let axis = |k: u32| axis_bytes * k.min(2) as usize;
+    let (kx, ky, kz) = (axis(r.kx), axis(r.ky), axis(r.kz));
     let o = r.origin.to_array();
     let (ox, oy, oz) = (
         o[r.kx.min(2) as usize],
         o[r.ky.min(2) as usize],
         o[r.kz.min(2) as usize],
     );
-    // SAFETY: the caller's CPU has AVX2; each load reads 16 bytes at `offset + 16 * vertex`
-    // (at most 96 + 32) of a 144-byte block.
+    // SAFETY: the caller's CPU has AVX2; `row` reads what its caller allows.
     unsafe {
-        // Coordinate row `offset` of `vertex`, minus the origin's: hi's lanes above lo's.
-        #[inline(always)]
-        unsafe fn rel(
-            lo: &TriangleBlock,
-            hi: &TriangleBlock,
-            vertex: usize,
-            offset: usize,
-            o: f32,
-        ) -> __m256 {
-            // SAFETY: AVX (the caller's); `offset + 16 * vertex + 16 <= 144` (the caller's).
-            unsafe {
-                let at = |b: &TriangleBlock| {
-                    _mm_loadu_ps(b.v.as_ptr().cast::<u8>().add(offset + 16 * vertex).cast())
-                };
-                _mm256_sub_ps(_mm256_set_m128(at(hi), at(lo)), _mm256_set1_ps(o))
-            }
-        }
-        let (a_x, a_y, a_z) = (
-            rel(lo, hi, 0, kx, ox),
-            rel(lo, hi, 0, ky, oy),
-            rel(lo, hi, 0, kz, oz),
-        );
-        let (b_x, b_y, b_z) = (
-            rel(lo, hi, 1, kx, ox),
-            rel(lo, hi, 1, ky, oy),
-            rel(lo, hi, 1, kz, oz),
-        );
-        let (c_x, c_y, c_z) = (
-            rel(lo, hi, 2, kx, ox),
-            rel(lo, hi, 2, ky, oy),
-            rel(lo, hi, 2, kz, oz),
-        );
+        // Coordinate row `offset` of `vertex`, minus the origin's.
+        let rel = |vertex: usize, offset: usize, o: f32| {
+            _mm256_sub_ps(row(vertex, offset), _mm256_set1_ps(o))
+        };
+        let (a_x, a_y, a_z) = (rel(0, kx, ox), rel(0, ky, oy), rel(0, kz, oz));
+        let (b_x, b_y, b_z) = (rel(1, kx, ox), rel(1, ky, oy), rel(1, kz, oz));
+        let (c_x, c_y, c_z) = (rel(2, kx, ox), rel(2, ky, oy), rel(2, kz, oz));
         let (sx, sy, sz) = (
             _mm256_set1_ps(r.shear.x),
             _mm256_set1_ps(r.shear.y),
@@ -331,5 +342,450 @@ unsafe fn triangle_blocks8(
             _mm256_blendv_ps(zero, mul(w1, inv_det), hit),
             _mm256_blendv_ps(zero, mul(w2, inv_det), hit),
         ]
+    }
+}
+
+/// The most primitives a tree may hold for the CPU's AVX-512 walks to test all of them
+/// against every ray instead of walking the tree (`flat_hit16`; only trees of triangles).
+/// A walk goes node after node, each node's test waiting on the one before; these tests have
+/// no chain from one group of triangles to the next, so they run as fast as the core's vector
+/// units allow. On the Intel dev VM (`trace_rate`, two threads, against the walk), Bitterli's
+/// Cornell box (36 triangles): closest hits +18-22 %, any hits +52 % (diffuse rays) and 2.1x
+/// (primary); with 64 triangles +18-32 % and +60-110 %; with 96 the primary rays' closest
+/// hits 5 % slower, with 128 16 % (`docs/RESULTS.md`, issue 15).
+pub const FLAT_MAX_PRIMITIVES: usize = 64;
+
+/// [`FLAT_MAX_PRIMITIVES`] for the AVX2 walks (`flat_hit`, eight lanes at a time): with 36
+/// triangles closest hits -5 % (primary rays) to +2 % (diffuse), any hits +27-80 %; with 64
+/// closest hits 3-35 % slower.
+pub const FLAT_MAX_PRIMITIVES_AVX2: usize = 40;
+
+/// [`FlatBlock`]s at most in a flat tree.
+pub(crate) const FLAT_MAX_BLOCKS: usize = FLAT_MAX_PRIMITIVES / 16;
+
+/// Sixteen triangles' vertices for [`flat_hit16`] (and, a half at a time, [`flat_hit`]), as
+/// [`TriangleBlock`] holds four: `v[3 * axis + vertex]` holds coordinate `axis` of vertex
+/// `vertex` (a, b, c) of the sixteen lanes, one aligned load each.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+pub struct FlatBlock {
+    pub v: [[f32; 16]; 9],
+}
+
+const _: () = assert!(size_of::<FlatBlock>() == 576);
+
+/// The primitives of a tree of at most [`FLAT_MAX_PRIMITIVES`] triangles sixteen a block,
+/// primitive `16 i + j` in lane `j` of block `i` (zeros past the last: a degenerate
+/// triangle, never hit); empty for a larger tree or one with a sphere.
+pub(crate) fn flat_blocks(primitives: &[crate::Primitive]) -> Vec<FlatBlock> {
+    if primitives.len() > FLAT_MAX_PRIMITIVES
+        || primitives
+            .iter()
+            .any(|p| p.b[3].to_bits() == crate::PRIM_SPHERE)
+    {
+        return Vec::new();
+    }
+    let zero = FlatBlock { v: [[0.0; 16]; 9] };
+    let mut blocks = vec![zero; primitives.len().div_ceil(16)];
+    for (i, p) in primitives.iter().enumerate() {
+        for (vertex, v) in [&p.a, &p.b, &p.c].into_iter().enumerate() {
+            for (axis, &x) in v[..3].iter().enumerate() {
+                blocks[i / 16].v[3 * axis + vertex][i % 16] = x;
+            }
+        }
+    }
+    blocks
+}
+
+/// A flat test's miss, as the walk returns it.
+#[inline(always)]
+fn flat_miss(t_max: f32) -> Hit {
+    Hit {
+        t: t_max,
+        prim: INVALID_INDEX,
+        u: 0.0,
+        v: 0.0,
+    }
+}
+
+/// The walk's hit found without the tree: the first `count` primitives of `blocks`
+/// ([`flat_blocks`]) tested eight at a time ([`triangle_lanes8`], the walk's own triangle
+/// test), the closest kept. The walk's hit is the least `t` of all in `(t_min, t_max)` (its
+/// box tests are conservative), so where one triangle alone holds the least `t` this is the
+/// walk's hit bit for bit; where several do (a shared edge, coincident faces, a pre-split
+/// triangle's copies) the walk keeps the first it meets, which only the walk knows: `None`,
+/// walk it. With `any_hit` the first group with a hit answers. A miss is the walk's:
+/// `t_max`, `INVALID_INDEX`.
+///
+/// # Safety
+/// The CPU must have AVX2.
+#[inline(always)]
+pub(crate) unsafe fn flat_hit(
+    blocks: &[FlatBlock],
+    count: usize,
+    sheared: &ShearedRay,
+    t_min: f32,
+    t_max: f32,
+    any_hit: bool,
+) -> Option<Hit> {
+    const GROUPS: usize = FLAT_MAX_PRIMITIVES / 8;
+    let groups = count.div_ceil(8).min(2 * blocks.len()).min(GROUPS);
+    // SAFETY: the caller's CPU has AVX2; each group reads its block's rows (`64 * row + 32 *
+    // half`, 32 bytes, aligned); the arrays' entries below `groups` are written before they
+    // are read.
+    unsafe {
+        let miss = _mm256_set1_ps(T_MISS);
+        let lane = |t: __m256, u: __m256, v: __m256, j: u32, base: usize| {
+            let (mut ts, mut us, mut vs) = ([0f32; 8], [0f32; 8], [0f32; 8]);
+            _mm256_storeu_ps(ts.as_mut_ptr(), t);
+            _mm256_storeu_ps(us.as_mut_ptr(), u);
+            _mm256_storeu_ps(vs.as_mut_ptr(), v);
+            let j = (j & 7) as usize;
+            Hit {
+                t: ts[j],
+                prim: (base + j) as u32,
+                u: us[j],
+                v: vs[j],
+            }
+        };
+        let mut ts = [MaybeUninit::<__m256>::uninit(); GROUPS];
+        let mut us = [MaybeUninit::<__m256>::uninit(); GROUPS];
+        let mut vs = [MaybeUninit::<__m256>::uninit(); GROUPS];
+        let mut least = miss;
+        for g in 0..groups {
+            let rows = blocks[g / 2].v.as_ptr().cast::<u8>().add(32 * (g % 2));
+            // Row `3 * axis + vertex` at byte `192 * axis + 64 * vertex`.
+            let row = |vertex: usize, offset: usize| {
+                _mm256_load_ps(rows.add(offset + 64 * vertex).cast())
+            };
+            let [t, u, v] = triangle_lanes8(sheared, row, 192, t_min, t_max);
+            if any_hit {
+                let hits = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(t, miss)) as u32;
+                if hits != 0 {
+                    return Some(lane(t, u, v, hits.trailing_zeros(), 8 * g));
+                }
+                continue;
+            }
+            ts[g].write(t);
+            us[g].write(u);
+            vs[g].write(v);
+            least = _mm256_min_ps(least, t);
+        }
+        // The least t in every lane.
+        let m = _mm256_min_ps(least, _mm256_permute2f128_ps::<1>(least, least));
+        let m = _mm256_min_ps(m, _mm256_permute_ps::<0b01_00_11_10>(m));
+        let m = _mm256_min_ps(m, _mm256_permute_ps::<0b10_11_00_01>(m));
+        if any_hit || _mm256_cvtss_f32(m) == T_MISS {
+            return Some(flat_miss(t_max));
+        }
+        // Which lanes hold it: one, the hit; more, a tie only the walk's order settles.
+        let (mut n, mut at) = (0, 0);
+        for (g, t) in ts[..groups].iter().enumerate() {
+            let bits = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(t.assume_init(), m)) as u32;
+            n += bits.count_ones();
+            if bits != 0 {
+                at = g;
+            }
+        }
+        if n != 1 {
+            return None;
+        }
+        let t = ts[at].assume_init();
+        let j = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_EQ_OQ>(t, m)) as u32;
+        Some(lane(
+            t,
+            us[at].assume_init(),
+            vs[at].assume_init(),
+            j.trailing_zeros(),
+            8 * at,
+        ))
+    }
+}
+
+/// [`flat_hit`] sixteen lanes at a time in AVX-512 registers: the same hits. The triangle
+/// test is [`triangle_lanes8`]'s, lane for lane (the same operations, operands and order; the
+/// comparisons' predicates into mask registers).
+///
+/// # Safety
+/// The CPU must have AVX-512 F (and AVX2).
+#[inline(always)]
+pub(crate) unsafe fn flat_hit16(
+    blocks: &[FlatBlock],
+    r: &ShearedRay,
+    t_min: f32,
+    t_max: f32,
+    any_hit: bool,
+) -> Option<Hit> {
+    let blocks = &blocks[..blocks.len().min(FLAT_MAX_BLOCKS)];
+    // Each axis' byte offset of its three rows, `k` held below 3 (as `triangle_lanes8`).
+    let axis = |k: u32| 192 * k.min(2) as usize;
+    let (kx, ky, kz) = (axis(r.kx), axis(r.ky), axis(r.kz));
+    let o = r.origin.to_array();
+    // SAFETY: the caller's CPU has AVX-512 F; each load reads a block's row (`64 * row`, 64
+    // bytes, aligned); the arrays' entries below `blocks.len()` are written before they are
+    // read.
+    unsafe {
+        let miss = _mm512_set1_ps(T_MISS);
+        let zero = _mm512_setzero_ps();
+        let (ox, oy, oz) = (
+            _mm512_set1_ps(o[r.kx.min(2) as usize]),
+            _mm512_set1_ps(o[r.ky.min(2) as usize]),
+            _mm512_set1_ps(o[r.kz.min(2) as usize]),
+        );
+        let (sx, sy, sz) = (
+            _mm512_set1_ps(r.shear.x),
+            _mm512_set1_ps(r.shear.y),
+            _mm512_set1_ps(r.shear.z),
+        );
+        let (lo, hi) = (_mm512_set1_ps(t_min), _mm512_set1_ps(t_max));
+        let lane = |t: __m512, u: __m512, v: __m512, j: u32, base: usize| {
+            let (mut ts, mut us, mut vs) = ([0f32; 16], [0f32; 16], [0f32; 16]);
+            _mm512_storeu_ps(ts.as_mut_ptr(), t);
+            _mm512_storeu_ps(us.as_mut_ptr(), u);
+            _mm512_storeu_ps(vs.as_mut_ptr(), v);
+            let j = (j & 15) as usize;
+            Hit {
+                t: ts[j],
+                prim: (base + j) as u32,
+                u: us[j],
+                v: vs[j],
+            }
+        };
+        let mut ts = [MaybeUninit::<__m512>::uninit(); FLAT_MAX_BLOCKS];
+        let mut us = [MaybeUninit::<__m512>::uninit(); FLAT_MAX_BLOCKS];
+        let mut vs = [MaybeUninit::<__m512>::uninit(); FLAT_MAX_BLOCKS];
+        let mut least = miss;
+        for (i, block) in blocks.iter().enumerate() {
+            let rows = block.v.as_ptr().cast::<u8>();
+            let row = |vertex: usize, offset: usize| {
+                _mm512_load_ps(rows.add(offset + 64 * vertex).cast())
+            };
+            let (add, sub, mul) = (_mm512_add_ps, _mm512_sub_ps, _mm512_mul_ps);
+            let (a_x, a_y, a_z) = (
+                sub(row(0, kx), ox),
+                sub(row(0, ky), oy),
+                sub(row(0, kz), oz),
+            );
+            let (b_x, b_y, b_z) = (
+                sub(row(1, kx), ox),
+                sub(row(1, ky), oy),
+                sub(row(1, kz), oz),
+            );
+            let (c_x, c_y, c_z) = (
+                sub(row(2, kx), ox),
+                sub(row(2, ky), oy),
+                sub(row(2, kz), oz),
+            );
+            let ax = sub(a_x, mul(sx, a_z));
+            let ay = sub(a_y, mul(sy, a_z));
+            let bx = sub(b_x, mul(sx, b_z));
+            let by = sub(b_y, mul(sy, b_z));
+            let cx = sub(c_x, mul(sx, c_z));
+            let cy = sub(c_y, mul(sy, c_z));
+            let w0 = sub(mul(cx, by), mul(cy, bx));
+            let w1 = sub(mul(ax, cy), mul(ay, cx));
+            let w2 = sub(mul(bx, ay), mul(by, ax));
+            // glam's cmpge / cmple / cmpne / cmpgt / cmplt: GE_OS, LE_OS, NEQ_UQ, GT_OS, LT_OS.
+            let ge = |x| _mm512_cmp_ps_mask::<_CMP_GE_OS>(x, zero);
+            let le = |x| _mm512_cmp_ps_mask::<_CMP_LE_OS>(x, zero);
+            let inside = (ge(w0) & ge(w1) & ge(w2)) | (le(w0) & le(w1) & le(w2));
+            let det = add(add(w0, w1), w2);
+            let az = mul(sz, a_z);
+            let bz = mul(sz, b_z);
+            let cz = mul(sz, c_z);
+            let inv_det = _mm512_div_ps(_mm512_set1_ps(1.0), det);
+            let t = mul(add(add(mul(w0, az), mul(w1, bz)), mul(w2, cz)), inv_det);
+            let hit = inside
+                & _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(det, zero)
+                & _mm512_cmp_ps_mask::<_CMP_GT_OS>(t, lo)
+                & _mm512_cmp_ps_mask::<_CMP_LT_OS>(t, hi);
+            let t = _mm512_mask_blend_ps(hit, miss, t);
+            // (The eight-lane form blends `+0` into the misses' u and v; so does `maskz`.)
+            let u = _mm512_maskz_mul_ps(hit, w1, inv_det);
+            let v = _mm512_maskz_mul_ps(hit, w2, inv_det);
+            if any_hit {
+                if hit != 0 {
+                    return Some(lane(t, u, v, u32::from(hit).trailing_zeros(), 16 * i));
+                }
+                continue;
+            }
+            ts[i].write(t);
+            us[i].write(u);
+            vs[i].write(v);
+            least = _mm512_min_ps(least, t);
+        }
+        let m = _mm512_reduce_min_ps(least);
+        if any_hit || m == T_MISS {
+            return Some(flat_miss(t_max));
+        }
+        // Which lanes hold it: one, the hit; more, a tie only the walk's order settles.
+        let m = _mm512_set1_ps(m);
+        let (mut n, mut at) = (0, 0);
+        for (i, t) in ts[..blocks.len()].iter().enumerate() {
+            let bits = u32::from(_mm512_cmp_ps_mask::<_CMP_EQ_OQ>(t.assume_init(), m));
+            n += bits.count_ones();
+            if bits != 0 {
+                at = i;
+            }
+        }
+        if n != 1 {
+            return None;
+        }
+        let t = ts[at].assume_init();
+        let j = u32::from(_mm512_cmp_ps_mask::<_CMP_EQ_OQ>(t, m));
+        Some(lane(
+            t,
+            us[at].assume_init(),
+            vs[at].assume_init(),
+            j.trailing_zeros(),
+            16 * at,
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+    use raylume_scene::{Sphere, Triangle};
+
+    use super::*;
+    use crate::{BvhLayout, BvhQuality, GpuBvh, Ray};
+
+    /// `n` random triangles in the unit cube, then `copies` of the first ones again (faces
+    /// that coincide exactly: ties the walk's order settles), and a 2 x 2 quad grid whose
+    /// triangles share edges and vertices.
+    fn scene(n: usize, copies: usize, seed: u64) -> Vec<Triangle> {
+        let mut state = seed;
+        let mut r = || crate::test_rand(&mut state);
+        let mut tris: Vec<Triangle> = (0..n)
+            .map(|_| {
+                let c = Vec3::new(r(), r(), r());
+                let mut v = || c + (Vec3::new(r(), r(), r()) - 0.5) * 0.4;
+                Triangle::flat([v(), v(), v()], 0)
+            })
+            .collect();
+        tris.extend_from_within(..copies);
+        for (i, j) in [(0.0, 0.0), (0.5, 0.0), (0.0, 0.5), (0.5, 0.5)] {
+            let p = |x: f32, z: f32| Vec3::new(i + x, 0.5, j + z);
+            tris.push(Triangle::flat([p(0.0, 0.0), p(0.5, 0.0), p(0.5, 0.5)], 0));
+            tris.push(Triangle::flat([p(0.0, 0.0), p(0.5, 0.5), p(0.0, 0.5)], 0));
+        }
+        tris
+    }
+
+    /// Rays from random points towards random points, towards the triangles' vertices and
+    /// edge midpoints (where neighbours tie), and along the axes.
+    fn rays(tris: &[Triangle], n: usize, seed: u64) -> Vec<(Ray, f32, f32)> {
+        let mut state = seed;
+        let mut r = || crate::test_rand(&mut state);
+        (0..n)
+            .map(|i| {
+                let origin = Vec3::new(r(), r(), r()) * 2.0 - 0.5;
+                let tri = &tris[(r() * tris.len() as f32) as usize % tris.len()];
+                let [a, b, c] = tri.positions;
+                let target = match i % 4 {
+                    0 => Vec3::new(r(), r(), r()),
+                    1 => [a, b, c][i / 4 % 3],
+                    2 => (a + b) * 0.5,
+                    _ => origin + Vec3::Y * if r() < 0.5 { 1.0 } else { -1.0 },
+                };
+                let (t_min, t_max) = if i % 7 == 0 {
+                    (0.3, 0.8)
+                } else {
+                    (1e-4, f32::MAX)
+                };
+                (Ray::new(origin, target - origin), t_min, t_max)
+            })
+            .collect()
+    }
+
+    fn bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
+        h.map(|h| (h.prim, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()))
+    }
+
+    /// The AVX2 and AVX-512 walks of a tree of at most `FLAT_MAX_PRIMITIVES` triangles test
+    /// them all (`flat_hit`, `flat_hit16`) and must find the walk's hits bit for bit: where
+    /// one triangle holds the least distance, its hit; where several do (the copies, the
+    /// grid's shared edges), `None`, so that the walk decides. Every quality (pre-splits make
+    /// copies too).
+    #[test]
+    fn flat_hits_are_the_walks_hits_bit_for_bit() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("skipped: this CPU has no AVX2");
+            return;
+        }
+        let avx512 = std::arch::is_x86_feature_detected!("avx512f");
+        let mut ties = 0;
+        for (n, copies, seed) in [(30, 6, 3u64), (40, 8, 5), (8, 2, 9), (1, 0, 11)] {
+            let tris = scene(n, copies, seed);
+            for quality in [BvhQuality::Fast, BvhQuality::Quality] {
+                let bvh = GpuBvh::build_with_layout(&tris, &[], quality, BvhLayout::Wide).unwrap();
+                let arrays = bvh.cpu_walk_arrays();
+                // (Quality's pre-splits may take a tree past the limit: walked, then.)
+                let want_blocks = if bvh.primitives.len() <= FLAT_MAX_PRIMITIVES {
+                    bvh.primitives.len().div_ceil(16)
+                } else {
+                    0
+                };
+                assert_eq!(
+                    arrays.flat.len(),
+                    want_blocks,
+                    "{n} + {copies}, {quality:?}"
+                );
+                for (ray, t_min, t_max) in rays(&tris, 4000, seed + 1) {
+                    // SAFETY: this CPU has AVX2 (checked above).
+                    let (closest, any) = unsafe {
+                        (
+                            bvh.trace_closest_avx2::<false>(&ray, t_min, t_max),
+                            bvh.trace_any_avx2::<false>(&ray, t_min, t_max),
+                        )
+                    };
+                    let want = bvh.trace_closest_for::<false>(&ray, t_min, t_max);
+                    assert_eq!(bits(closest), bits(want), "{ray:?} {t_min} {t_max}");
+                    assert_eq!(any, want.is_some(), "{ray:?} {t_min} {t_max}");
+                    if avx512 {
+                        // SAFETY: this CPU has AVX-512 F (checked above) and AVX2.
+                        let (closest, any) = unsafe {
+                            (
+                                bvh.trace_closest_avx512::<false>(&ray, t_min, t_max),
+                                bvh.trace_any_avx512::<false>(&ray, t_min, t_max),
+                            )
+                        };
+                        assert_eq!(bits(closest), bits(want), "{ray:?} {t_min} {t_max}");
+                        assert_eq!(any, want.is_some(), "{ray:?} {t_min} {t_max}");
+                    }
+                    let sheared = crate::intersect::shear_ray(&ray);
+                    let t_max = t_max.min(crate::T_MAX_LIMIT);
+                    let count = bvh.primitives.len();
+                    // SAFETY: as above; `flat` is `flat_blocks`'.
+                    let flat =
+                        unsafe { flat_hit(&arrays.flat, count, &sheared, t_min, t_max, false) };
+                    ties += usize::from(flat.is_none() && !arrays.flat.is_empty());
+                }
+            }
+        }
+        // The copies must have made the flat test hand some rays back to the walk.
+        assert!(ties > 100, "{ties} ties");
+    }
+
+    /// Larger trees and trees with a sphere walk as before: no flat array.
+    #[test]
+    fn only_small_trees_of_triangles_are_tested_flat() {
+        let big = scene(FLAT_MAX_PRIMITIVES, 0, 1);
+        let bvh = GpuBvh::build_with_layout(&big, &[], BvhQuality::Fast, BvhLayout::Wide).unwrap();
+        assert!(bvh.primitives.len() > FLAT_MAX_PRIMITIVES);
+        assert!(bvh.cpu_walk_arrays().flat.is_empty());
+        let small = scene(10, 0, 1);
+        let sphere = Sphere {
+            center: Vec3::splat(0.5),
+            radius: 0.1,
+            material: 0,
+        };
+        let bvh = GpuBvh::build_with_layout(&small, &[sphere], BvhQuality::Fast, BvhLayout::Wide)
+            .unwrap();
+        assert!(bvh.cpu_walk_arrays().flat.is_empty());
+        let bvh =
+            GpuBvh::build_with_layout(&small, &[], BvhQuality::Fast, BvhLayout::Wide).unwrap();
+        assert_eq!(bvh.cpu_walk_arrays().flat.len(), 2);
     }
 }

@@ -933,21 +933,60 @@ impl GpuBvh {
     /// without `SPHERES`, triangles read four at a time from the nodes' blocks
     /// ([`intersect_triangle_block`]), both from [`GpuBvh::cpu_arrays`].
     /// With `AVX2`, the node and triangle tests eight lanes at a time in AVX registers (the
-    /// crate's `wide_avx2` module): the same hits bit for bit.
+    /// crate's `wide_avx2` module), and a tree of at most `FLAT_MAX_PRIMITIVES_AVX2`
+    /// triangles not walked but tested whole (`flat_hit`; with `AVX512` sixteen lanes at a
+    /// time and up to `FLAT_MAX_PRIMITIVES`, `flat_hit16`) unless several triangles hold the
+    /// closest hit: the same hits bit for bit.
     ///
     /// # Safety
-    /// With `AVX2`, the CPU must have AVX2 (without, none).
+    /// With `AVX2`, the CPU must have AVX2, with `AVX512` AVX-512 F too (without, none).
     #[inline(always)]
-    pub(crate) unsafe fn wide_walk<const SPHERES: bool, const AVX2: bool>(
+    pub(crate) unsafe fn wide_walk<const SPHERES: bool, const AVX2: bool, const AVX512: bool>(
         &self,
         ray: &Ray,
         t_min: f32,
         t_max: f32,
         any_hit: bool,
     ) -> Hit {
-        let (boxes, blocks) = self.cpu_walk_arrays();
-        debug_assert_eq!(self.wide_nodes.len(), boxes.len());
-        walk_boxes::<SPHERES, AVX2>(boxes, blocks, &self.primitives, ray, t_min, t_max, any_hit)
+        let arrays = self.cpu_walk_arrays();
+        debug_assert_eq!(self.wide_nodes.len(), arrays.boxes.len());
+        // A small tree of triangles: all of them tested, unless several share the closest
+        // hit (then the walk's order decides).
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 && !SPHERES {
+            let flat = if AVX512 {
+                &arrays.flat
+            } else {
+                &arrays.flat_avx2
+            };
+            if !flat.is_empty() {
+                let sheared = crate::intersect::shear_ray(ray);
+                let t_max = t_max.min(T_MAX_LIMIT);
+                // SAFETY: `AVX2` only from the `_avx2` and `_avx512` methods, whose callers'
+                // CPUs have it, `AVX512` only from the latter, whose callers' CPUs have
+                // AVX-512 F.
+                let hit = unsafe {
+                    if AVX512 {
+                        crate::wide_avx2::flat_hit16(flat, &sheared, t_min, t_max, any_hit)
+                    } else {
+                        let count = self.primitives.len();
+                        crate::wide_avx2::flat_hit(flat, count, &sheared, t_min, t_max, any_hit)
+                    }
+                };
+                if let Some(hit) = hit {
+                    return hit;
+                }
+            }
+        }
+        walk_boxes::<SPHERES, AVX2>(
+            &arrays.boxes,
+            &arrays.blocks,
+            &self.primitives,
+            ray,
+            t_min,
+            t_max,
+            any_hit,
+        )
     }
 }
 

@@ -543,6 +543,22 @@ pub fn check_against_brute_force(
                                 && bvh.trace_any_avx2::<false>(o, t0, t1) == any))
                 }
             };
+            // The AVX-512 walks (where this CPU has AVX-512 F): the same, the Cornell box's
+            // small tree tested flat sixteen triangles at a time.
+            #[cfg(target_arch = "x86_64")]
+            let avx2_ok = avx2_ok
+                && (!std::arch::is_x86_feature_detected!("avx512f") || {
+                    let (o, t0, t1) = (&q.ray, q.t_min, q.t_max);
+                    // SAFETY: this CPU has AVX-512 F (detected above) and so AVX2.
+                    unsafe {
+                        bits(bvh.trace_closest_avx512::<true>(o, t0, t1)) == bits(got_hit)
+                            && bvh.trace_any_avx512::<true>(o, t0, t1) == any
+                            && (!f.spheres.is_empty()
+                                || (bits(bvh.trace_closest_avx512::<false>(o, t0, t1))
+                                    == bits(got_hit)
+                                    && bvh.trace_any_avx512::<false>(o, t0, t1) == any))
+                    }
+                });
             #[cfg(not(target_arch = "x86_64"))]
             let avx2_ok = true;
             // A wide tree: the CPU's walk (float boxes) finds what the WGSL's mirror

@@ -15,8 +15,9 @@
 //! once, on a [`Lane`] type: one AVX register in `cpu::isa`'s x86-64-v3 and v4 copies
 //! (`Avx`, crate-private), two glam `Vec4`s (SSE, which every x86-64 level has) at the
 //! build's level ([`Sse`]); the paths are held a field's lanes side by side (`Paths`), and
-//! the AVX copies draw the sampler's numbers and walk the tree in the AVX2 forms
-//! ([`Lane::Forms`]: `SegmentKeys::draw_avx2`, `GpuBvh::trace_closest_avx2`). Bitterli's
+//! the AVX copies draw the sampler's numbers and walk the tree in the AVX2 forms (the
+//! [`Forms`] that [`trace_chunk`] takes: `SegmentKeys::draw_avx2`,
+//! `GpuBvh::trace_closest_avx2`; at x86-64-v4 `GpuBvh::trace_closest_avx512`). Bitterli's
 //! Cornell box on the AMD EPYC dev VM: 400x400, 24 spp, 1.70 -> 1.46 s (median) against one path at a time
 //! with the scalar draw, then 1.445 -> 1.365 s with the AVX2 walks (`docs/RESULTS.md`,
 //! issue 15).
@@ -83,8 +84,6 @@ pub trait Lane:
     fn lt(self, o: Self) -> Self::M;
     fn gt(self, o: Self) -> Self::M;
     fn ge(self, o: Self) -> Self::M;
-    /// The sampler's draw and the walks in this level's instructions (the same numbers).
-    type Forms: Forms;
 
     /// Eight four-word records' words side by side: result `k`'s lane `j` is `rows[j][k]`
     /// (a record's x, y, z and w: the gathers of the lanes' triangles, materials and lights).
@@ -162,7 +161,6 @@ pub struct Sse([Vec4; 2]);
 pub struct SseMask([BVec4A; 2]);
 
 impl Lane for Sse {
-    type Forms = super::variant::BuildForms;
     type M = SseMask;
 
     #[inline(always)]
@@ -366,7 +364,6 @@ mod avx {
     }
 
     impl Lane for Avx {
-        type Forms = crate::cpu::variant::Avx2Forms;
         type M = AvxMask;
 
         #[inline(always)]
@@ -764,9 +761,10 @@ fn offset_ray_origin<L: Lane>(s: &Surface<L>, dir_in: V3<L>, n: V3<L>) -> V3<L> 
 
 /// Traces the paths `r0..r0 + slots.len()` of the batch, writing each one's slot value as
 /// [`stages::trace_paths`](super::stages::trace_paths) does; returns the segments traced and
-/// the samples dropped. Only for a variant that [`runs`].
+/// the samples dropped, on lanes `L`, drawing and walking in the forms `K` (the same numbers
+/// and hits in each). Only for a variant that [`runs`].
 #[inline(always)]
-pub fn trace_chunk<const F: u32, L: Lane>(
+pub fn trace_chunk<const F: u32, L: Lane, K: Forms>(
     g: &Globals,
     bvh: &GpuBvh,
     r0: u32,
@@ -810,8 +808,7 @@ pub fn trace_chunk<const F: u32, L: Lane>(
                     slot[j] = next;
                     next += 1;
                 }
-                let (rl, rs, rr) =
-                    segment_rands::<L::Forms>(g, sp[j], pixel[j], sample[j], depth[j]);
+                let (rl, rs, rr) = segment_rands::<K>(g, sp[j], pixel[j], sample[j], depth[j]);
                 (found.light_x[j], found.light_y[j]) = (rl.x, rl.y);
                 (found.scatter_x[j], found.scatter_y[j], found.roulette[j]) = (rs.x, rs.y, rr);
                 let (o, d) = (&paths.origin, &paths.dir);
@@ -820,7 +817,7 @@ pub fn trace_chunk<const F: u32, L: Lane>(
                     dir: Vec3::new(d[0][j], d[1][j], d[2][j]),
                 };
                 rays += 1;
-                if let Some(h) = L::Forms::trace_closest::<F>(bvh, &ray, 0.0, T_MAX) {
+                if let Some(h) = K::trace_closest::<F>(bvh, &ray, 0.0, T_MAX) {
                     (found.prim[j], found.t[j], found.u[j], found.v[j]) = (h.prim, h.t, h.u, h.v);
                     hit[j] = true;
                     break;
@@ -836,7 +833,7 @@ pub fn trace_chunk<const F: u32, L: Lane>(
         if !hit.iter().any(|&h| h) {
             return (rays, dropped);
         }
-        shade::<F, L>(g, bvh, &mut paths, &hit, &found, &depth);
+        shade::<F, L, K>(g, bvh, &mut paths, &hit, &found, &depth);
         for j in 0..LANES {
             if !hit[j] {
                 continue;
@@ -857,7 +854,7 @@ pub fn trace_chunk<const F: u32, L: Lane>(
 /// emission's weight, the light sample, the scattered direction and the roulette, then the
 /// shadow rays lane by lane, then the radiance.
 #[inline(always)]
-fn shade<const F: u32, L: Lane>(
+fn shade<const F: u32, L: Lane, K: Forms>(
     g: &Globals,
     bvh: &GpuBvh,
     paths: &mut Paths,
@@ -1094,7 +1091,7 @@ fn shade<const F: u32, L: Lane>(
             origin: Vec3::new(so[0][j], so[1][j], so[2][j]),
             dir: Vec3::new(sd[0][j], sd[1][j], sd[2][j]),
         };
-        open |= u32::from(!L::Forms::trace_any::<F>(bvh, &ray, 0.0, t_max[j])) << j;
+        open |= u32::from(!K::trace_any::<F>(bvh, &ray, 0.0, t_max[j])) << j;
     }
     let open = L::M::from_bits(open);
     let arrived = query.and(open).pick3(light_in, V3::<L>::zero());
