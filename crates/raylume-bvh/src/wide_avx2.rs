@@ -517,27 +517,10 @@ pub(crate) unsafe fn flat_hit16(
     any_hit: bool,
 ) -> Option<Hit> {
     let blocks = &blocks[..blocks.len().min(FLAT_MAX_BLOCKS)];
-    // Each axis' byte offset of its three rows, `k` held below 3 (as `triangle_lanes8`).
-    let axis = |k: u32| 192 * k.min(2) as usize;
-    let (kx, ky, kz) = (axis(r.kx), axis(r.ky), axis(r.kz));
-    let o = r.origin.to_array();
-    // SAFETY: the caller's CPU has AVX-512 F; each load reads a block's row (`64 * row`, 64
-    // bytes, aligned); the arrays' entries below `blocks.len()` are written before they are
-    // read.
+    // SAFETY: the caller's CPU has AVX-512 F; the arrays' entries below `blocks.len()` are
+    // written before they are read.
     unsafe {
         let miss = _mm512_set1_ps(T_MISS);
-        let zero = _mm512_setzero_ps();
-        let (ox, oy, oz) = (
-            _mm512_set1_ps(o[r.kx.min(2) as usize]),
-            _mm512_set1_ps(o[r.ky.min(2) as usize]),
-            _mm512_set1_ps(o[r.kz.min(2) as usize]),
-        );
-        let (sx, sy, sz) = (
-            _mm512_set1_ps(r.shear.x),
-            _mm512_set1_ps(r.shear.y),
-            _mm512_set1_ps(r.shear.z),
-        );
-        let (lo, hi) = (_mm512_set1_ps(t_min), _mm512_set1_ps(t_max));
         let lane = |t: __m512, u: __m512, v: __m512, j: u32, base: usize| {
             let (mut ts, mut us, mut vs) = ([0f32; 16], [0f32; 16], [0f32; 16]);
             _mm512_storeu_ps(ts.as_mut_ptr(), t);
@@ -556,53 +539,7 @@ pub(crate) unsafe fn flat_hit16(
         let mut vs = [MaybeUninit::<__m512>::uninit(); FLAT_MAX_BLOCKS];
         let mut least = miss;
         for (i, block) in blocks.iter().enumerate() {
-            let rows = block.v.as_ptr().cast::<u8>();
-            let row = |vertex: usize, offset: usize| {
-                _mm512_load_ps(rows.add(offset + 64 * vertex).cast())
-            };
-            let (add, sub, mul) = (_mm512_add_ps, _mm512_sub_ps, _mm512_mul_ps);
-            let (a_x, a_y, a_z) = (
-                sub(row(0, kx), ox),
-                sub(row(0, ky), oy),
-                sub(row(0, kz), oz),
-            );
-            let (b_x, b_y, b_z) = (
-                sub(row(1, kx), ox),
-                sub(row(1, ky), oy),
-                sub(row(1, kz), oz),
-            );
-            let (c_x, c_y, c_z) = (
-                sub(row(2, kx), ox),
-                sub(row(2, ky), oy),
-                sub(row(2, kz), oz),
-            );
-            let ax = sub(a_x, mul(sx, a_z));
-            let ay = sub(a_y, mul(sy, a_z));
-            let bx = sub(b_x, mul(sx, b_z));
-            let by = sub(b_y, mul(sy, b_z));
-            let cx = sub(c_x, mul(sx, c_z));
-            let cy = sub(c_y, mul(sy, c_z));
-            let w0 = sub(mul(cx, by), mul(cy, bx));
-            let w1 = sub(mul(ax, cy), mul(ay, cx));
-            let w2 = sub(mul(bx, ay), mul(by, ax));
-            // glam's cmpge / cmple / cmpne / cmpgt / cmplt: GE_OS, LE_OS, NEQ_UQ, GT_OS, LT_OS.
-            let ge = |x| _mm512_cmp_ps_mask::<_CMP_GE_OS>(x, zero);
-            let le = |x| _mm512_cmp_ps_mask::<_CMP_LE_OS>(x, zero);
-            let inside = (ge(w0) & ge(w1) & ge(w2)) | (le(w0) & le(w1) & le(w2));
-            let det = add(add(w0, w1), w2);
-            let az = mul(sz, a_z);
-            let bz = mul(sz, b_z);
-            let cz = mul(sz, c_z);
-            let inv_det = _mm512_div_ps(_mm512_set1_ps(1.0), det);
-            let t = mul(add(add(mul(w0, az), mul(w1, bz)), mul(w2, cz)), inv_det);
-            let hit = inside
-                & _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(det, zero)
-                & _mm512_cmp_ps_mask::<_CMP_GT_OS>(t, lo)
-                & _mm512_cmp_ps_mask::<_CMP_LT_OS>(t, hi);
-            let t = _mm512_mask_blend_ps(hit, miss, t);
-            // (The eight-lane form blends `+0` into the misses' u and v; so does `maskz`.)
-            let u = _mm512_maskz_mul_ps(hit, w1, inv_det);
-            let v = _mm512_maskz_mul_ps(hit, w2, inv_det);
+            let (t, u, v, hit) = triangle_lanes16(block, r, t_min, t_max);
             if any_hit {
                 if hit != 0 {
                     return Some(lane(t, u, v, u32::from(hit).trailing_zeros(), 16 * i));
@@ -640,6 +577,89 @@ pub(crate) unsafe fn flat_hit16(
             j.trailing_zeros(),
             16 * at,
         ))
+    }
+}
+
+/// The watertight test of a [`FlatBlock`]'s sixteen triangles against `r`, lane for lane as
+/// [`triangle_lanes8`] (the same operations, operands and order; the comparisons' predicates
+/// into a mask): `t` (`T_MISS` where missed), `u`, `v` (`+0` where missed) and the hit lanes.
+///
+/// # Safety
+/// The CPU must have AVX-512 F.
+#[inline(always)]
+unsafe fn triangle_lanes16(
+    block: &FlatBlock,
+    r: &ShearedRay,
+    t_min: f32,
+    t_max: f32,
+) -> (__m512, __m512, __m512, __mmask16) {
+    // Each axis' byte offset of its three rows, `k` held below 3 (as `triangle_lanes8`).
+    let axis = |k: u32| 192 * k.min(2) as usize;
+    let (kx, ky, kz) = (axis(r.kx), axis(r.ky), axis(r.kz));
+    let o = r.origin.to_array();
+    // SAFETY: the caller's CPU has AVX-512 F; each load reads a row of the block (`64 * row`,
+    // 64 bytes, aligned).
+    unsafe {
+        let zero = _mm512_setzero_ps();
+        let miss = _mm512_set1_ps(T_MISS);
+        let (ox, oy, oz) = (
+            _mm512_set1_ps(o[r.kx.min(2) as usize]),
+            _mm512_set1_ps(o[r.ky.min(2) as usize]),
+            _mm512_set1_ps(o[r.kz.min(2) as usize]),
+        );
+        let (sx, sy, sz) = (
+            _mm512_set1_ps(r.shear.x),
+            _mm512_set1_ps(r.shear.y),
+            _mm512_set1_ps(r.shear.z),
+        );
+        let (lo, hi) = (_mm512_set1_ps(t_min), _mm512_set1_ps(t_max));
+        let rows = block.v.as_ptr().cast::<u8>();
+        let row =
+            |vertex: usize, offset: usize| _mm512_load_ps(rows.add(offset + 64 * vertex).cast());
+        let (add, sub, mul) = (_mm512_add_ps, _mm512_sub_ps, _mm512_mul_ps);
+        let (a_x, a_y, a_z) = (
+            sub(row(0, kx), ox),
+            sub(row(0, ky), oy),
+            sub(row(0, kz), oz),
+        );
+        let (b_x, b_y, b_z) = (
+            sub(row(1, kx), ox),
+            sub(row(1, ky), oy),
+            sub(row(1, kz), oz),
+        );
+        let (c_x, c_y, c_z) = (
+            sub(row(2, kx), ox),
+            sub(row(2, ky), oy),
+            sub(row(2, kz), oz),
+        );
+        let ax = sub(a_x, mul(sx, a_z));
+        let ay = sub(a_y, mul(sy, a_z));
+        let bx = sub(b_x, mul(sx, b_z));
+        let by = sub(b_y, mul(sy, b_z));
+        let cx = sub(c_x, mul(sx, c_z));
+        let cy = sub(c_y, mul(sy, c_z));
+        let w0 = sub(mul(cx, by), mul(cy, bx));
+        let w1 = sub(mul(ax, cy), mul(ay, cx));
+        let w2 = sub(mul(bx, ay), mul(by, ax));
+        // glam's cmpge / cmple / cmpne / cmpgt / cmplt: GE_OS, LE_OS, NEQ_UQ, GT_OS, LT_OS.
+        let ge = |x| _mm512_cmp_ps_mask::<_CMP_GE_OS>(x, zero);
+        let le = |x| _mm512_cmp_ps_mask::<_CMP_LE_OS>(x, zero);
+        let inside = (ge(w0) & ge(w1) & ge(w2)) | (le(w0) & le(w1) & le(w2));
+        let det = add(add(w0, w1), w2);
+        let az = mul(sz, a_z);
+        let bz = mul(sz, b_z);
+        let cz = mul(sz, c_z);
+        let inv_det = _mm512_div_ps(_mm512_set1_ps(1.0), det);
+        let t = mul(add(add(mul(w0, az), mul(w1, bz)), mul(w2, cz)), inv_det);
+        let hit = inside
+            & _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(det, zero)
+            & _mm512_cmp_ps_mask::<_CMP_GT_OS>(t, lo)
+            & _mm512_cmp_ps_mask::<_CMP_LT_OS>(t, hi);
+        let t = _mm512_mask_blend_ps(hit, miss, t);
+        // (The eight-lane form blends `+0` into the misses' u and v; so does `maskz`.)
+        let u = _mm512_maskz_mul_ps(hit, w1, inv_det);
+        let v = _mm512_maskz_mul_ps(hit, w2, inv_det);
+        (t, u, v, hit)
     }
 }
 
