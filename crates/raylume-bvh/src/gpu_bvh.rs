@@ -55,15 +55,15 @@ pub(crate) struct CpuWalkArrays {
     pub(crate) blocks: Vec<TriangleBlock>,
     /// A small tree's triangles, all of them, sixteen a block (the AVX2 and AVX-512 walks
     /// test them all instead of walking: `wide_avx2::flat_hit`, `flat_hit16`); empty for a
-    /// tree of more than `FLAT_MAX_PRIMITIVES` primitives, one with a sphere, or off
-    /// x86-64.
-    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    /// tree of more than `FLAT_MAX_PRIMITIVES` primitives or one with a sphere. x86-64 only,
+    /// as the walks that read it.
+    #[cfg(target_arch = "x86_64")]
     pub(crate) flat: Vec<crate::wide_avx2::FlatBlock>,
     /// `flat` again for the AVX2 walks if the tree has at most `FLAT_MAX_PRIMITIVES_AVX2`
     /// primitives, else empty. (An array of its own, not a flag or the count checked in the
     /// walk: either made LLVM lay out `flat_hit` otherwise, its closest hits 20-30 % slower
     /// on the Intel dev VM.)
-    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    #[cfg(target_arch = "x86_64")]
     pub(crate) flat_avx2: Vec<crate::wide_avx2::FlatBlock>,
 }
 
@@ -114,20 +114,18 @@ impl GpuBvh {
             let blocks = triangle_blocks(&self.wide_nodes, &mut boxes, &self.primitives);
             #[cfg(target_arch = "x86_64")]
             let flat = crate::wide_avx2::flat_blocks(&self.primitives);
-            #[cfg(not(target_arch = "x86_64"))]
-            let flat = Vec::new();
             #[cfg(target_arch = "x86_64")]
             let flat_avx2 = if self.primitives.len() <= crate::wide_avx2::FLAT_MAX_PRIMITIVES_AVX2 {
                 flat.clone()
             } else {
                 Vec::new()
             };
-            #[cfg(not(target_arch = "x86_64"))]
-            let flat_avx2 = Vec::new();
             CpuWalkArrays {
                 boxes,
                 blocks,
+                #[cfg(target_arch = "x86_64")]
                 flat,
+                #[cfg(target_arch = "x86_64")]
                 flat_avx2,
             }
         })
