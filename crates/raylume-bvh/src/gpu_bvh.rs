@@ -108,6 +108,24 @@ impl GpuBvh {
         &self.cpu_walk_arrays().blocks
     }
 
+    /// Whether the CPU's AVX walks test this tree flat, every triangle against every ray,
+    /// instead of walking it: with `avx512` the x86-64-v4 ones
+    /// ([`GpuBvh::trace_closest_avx512`], a wide tree of at most
+    /// [`FLAT_MAX_PRIMITIVES`](crate::FLAT_MAX_PRIMITIVES) triangles), else the AVX2 ones
+    /// ([`GpuBvh::trace_closest_avx2`], at most
+    /// [`FLAT_MAX_PRIMITIVES_AVX2`](crate::FLAT_MAX_PRIMITIVES_AVX2)). The same hits either
+    /// way; a render's stats say which. Makes the CPU arrays ([`GpuBvh::wide_boxes`]).
+    #[cfg(target_arch = "x86_64")]
+    pub fn cpu_walks_flat(&self, avx512: bool) -> bool {
+        let arrays = self.cpu_walk_arrays();
+        let flat = if avx512 {
+            &arrays.flat
+        } else {
+            &arrays.flat_avx2
+        };
+        self.layout == crate::BvhLayout::Wide && !flat.is_empty()
+    }
+
     pub(crate) fn cpu_walk_arrays(&self) -> &CpuWalkArrays {
         self.cpu_arrays.0.get_or_init(|| {
             let mut boxes: Vec<WideBoxes> = self.wide_nodes.iter().map(wide_boxes).collect();

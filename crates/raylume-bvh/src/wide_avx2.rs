@@ -807,5 +807,14 @@ mod tests {
         let bvh =
             GpuBvh::build_with_layout(&small, &[], BvhQuality::Fast, BvhLayout::Wide).unwrap();
         assert_eq!(bvh.cpu_walk_arrays().flat.len(), 2);
+        assert!(bvh.cpu_walks_flat(true) && bvh.cpu_walks_flat(false));
+        // 40 < 56 <= 64 triangles: flat at x86-64-v4 only.
+        let mid = scene(48, 0, 1);
+        let bvh = GpuBvh::build_with_layout(&mid, &[], BvhQuality::Fast, BvhLayout::Wide).unwrap();
+        assert!(bvh.cpu_walks_flat(true) && !bvh.cpu_walks_flat(false));
+        // A binary tree is walked (its walk has no flat test).
+        let bvh =
+            GpuBvh::build_with_layout(&small, &[], BvhQuality::Fast, BvhLayout::Binary).unwrap();
+        assert!(!bvh.cpu_walks_flat(true));
     }
 }

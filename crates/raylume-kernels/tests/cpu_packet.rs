@@ -108,6 +108,21 @@ fn packets_render_the_one_path_image_bit_for_bit_at_every_level() {
             tracer.packets(),
             "{name}: a scene of diffuse triangles takes the packets"
         );
+        // A tree of a few dozen triangles is tested flat wherever the walks have AVX.
+        #[cfg(target_arch = "x86_64")]
+        {
+            let limit = if tracer.isa() >= CpuIsa::X86_64V4 {
+                raylume_bvh::FLAT_MAX_PRIMITIVES
+            } else {
+                raylume_bvh::FLAT_MAX_PRIMITIVES_AVX2
+            };
+            let flat = tracer.isa() >= CpuIsa::X86_64V3 && bvh.primitives.len() <= limit;
+            let n = bvh.primitives.len();
+            assert_eq!(tracer.walks_flat(), flat, "{name}: {n}, {:?}", tracer.isa());
+            if name == "cornell" {
+                assert_eq!(flat, tracer.isa() >= CpuIsa::X86_64V3, "{name}: {n}");
+            }
+        }
         for &(estimator, sampler, roulette) in &runs {
             tracer.set_estimator(estimator);
             tracer.set_sampler(sampler);

@@ -2366,6 +2366,9 @@ impl Tracer {
         if tracer.packets() {
             stats.adapter += ", packets";
         }
+        if tracer.walks_flat() {
+            stats.adapter += ", flat tree";
+        }
         stats.specialisation = self.specialisation.name().into();
         stats.pipeline_features = tracer.variant_features().names();
         stats.seconds.upload += t.elapsed().as_secs_f64();

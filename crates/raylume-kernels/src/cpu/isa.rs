@@ -168,6 +168,23 @@ pub fn with_isa<R>(isa: CpuIsa, f: impl FnOnce() -> R) -> R {
     }
 }
 
+/// Whether the walks of the path at level `isa` ([`trace_paths`], [`trace_chunk`]) test
+/// `bvh` flat, every triangle against every ray (`GpuBvh::cpu_walks_flat`: a small tree, with
+/// the forms this level runs).
+pub fn walks_flat(isa: CpuIsa, bvh: &GpuBvh) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        let avx512 = isa >= CpuIsa::X86_64V4 || cfg!(target_feature = "avx512f");
+        let avx2 = avx512 || isa >= CpuIsa::X86_64V3 || cfg!(target_feature = "avx2");
+        avx2 && bvh.cpu_walks_flat(avx512)
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (isa, bvh);
+        false
+    }
+}
+
 /// [`stages::trace_paths`] at level `isa` ([`with_isa`]).
 #[inline(always)]
 pub fn trace_paths<const F: u32>(

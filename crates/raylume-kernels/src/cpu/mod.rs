@@ -115,6 +115,13 @@ impl CpuTracer {
         self.packets && packet::runs(variant::variant(self.variant))
     }
 
+    /// Whether the renders' walks test the scene's tree flat, every triangle against every
+    /// ray, at the level set ([`isa::walks_flat`]: a tree of at most
+    /// `raylume_bvh::FLAT_MAX_PRIMITIVES` triangles at x86-64-v4): the same image either way.
+    pub fn walks_flat(&self) -> bool {
+        isa::walks_flat(self.isa, &self.bvh)
+    }
+
     /// The instruction-set level the renders' paths run at ([`CpuTracer::set_isa`]).
     pub fn isa(&self) -> CpuIsa {
         self.isa
