@@ -397,6 +397,19 @@ pub(crate) fn flat_blocks(primitives: &[crate::Primitive]) -> Vec<FlatBlock> {
     blocks
 }
 
+/// The hit in lane `j` of a group of `N` lanes (a power of two) whose first primitive is
+/// `base`: its `t`, `u` and `v` from the group's lanes stored side by side.
+#[inline(always)]
+fn lane_hit<const N: usize>(t: &[f32; N], u: &[f32; N], v: &[f32; N], j: u32, base: usize) -> Hit {
+    let j = j as usize & (N - 1);
+    Hit {
+        t: t[j],
+        prim: (base + j) as u32,
+        u: u[j],
+        v: v[j],
+    }
+}
+
 /// A flat test's miss, as the walk returns it.
 #[inline(always)]
 fn flat_miss(t_max: f32) -> Hit {
@@ -440,13 +453,7 @@ pub(crate) unsafe fn flat_hit(
             _mm256_storeu_ps(ts.as_mut_ptr(), t);
             _mm256_storeu_ps(us.as_mut_ptr(), u);
             _mm256_storeu_ps(vs.as_mut_ptr(), v);
-            let j = (j & 7) as usize;
-            Hit {
-                t: ts[j],
-                prim: (base + j) as u32,
-                u: us[j],
-                v: vs[j],
-            }
+            lane_hit(&ts, &us, &vs, j, base)
         };
         let mut ts = [MaybeUninit::<__m256>::uninit(); GROUPS];
         let mut us = [MaybeUninit::<__m256>::uninit(); GROUPS];
@@ -526,13 +533,7 @@ pub(crate) unsafe fn flat_hit16(
             _mm512_storeu_ps(ts.as_mut_ptr(), t);
             _mm512_storeu_ps(us.as_mut_ptr(), u);
             _mm512_storeu_ps(vs.as_mut_ptr(), v);
-            let j = (j & 15) as usize;
-            Hit {
-                t: ts[j],
-                prim: (base + j) as u32,
-                u: us[j],
-                v: vs[j],
-            }
+            lane_hit(&ts, &us, &vs, j, base)
         };
         let mut ts = [MaybeUninit::<__m512>::uninit(); FLAT_MAX_BLOCKS];
         let mut us = [MaybeUninit::<__m512>::uninit(); FLAT_MAX_BLOCKS];

@@ -168,14 +168,27 @@ pub fn with_isa<R>(isa: CpuIsa, f: impl FnOnce() -> R) -> R {
     }
 }
 
+/// Whether the path at level `isa` runs the AVX-512 forms (`Avx512Forms`): where `with_isa`
+/// runs x86-64-v4 (asserting the CPU has it), or the build's own target has AVX-512.
+#[cfg(target_arch = "x86_64")]
+fn avx512_forms(isa: CpuIsa) -> bool {
+    isa >= CpuIsa::X86_64V4 || cfg!(target_feature = "avx512f")
+}
+
+/// Whether the path at level `isa` runs at least the AVX2 forms (`Avx2Forms`, AVX lanes):
+/// where `with_isa` runs x86-64-v3 or v4, or the build's own target has AVX2.
+#[cfg(target_arch = "x86_64")]
+fn avx2_forms(isa: CpuIsa) -> bool {
+    avx512_forms(isa) || isa >= CpuIsa::X86_64V3 || cfg!(target_feature = "avx2")
+}
+
 /// Whether the walks of the path at level `isa` ([`trace_paths`], [`trace_chunk`]) test
 /// `bvh` flat, every triangle against every ray (`GpuBvh::cpu_walks_flat`: a small tree, with
 /// the forms this level runs).
 pub fn walks_flat(isa: CpuIsa, bvh: &GpuBvh) -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        let avx512 = isa >= CpuIsa::X86_64V4 || cfg!(target_feature = "avx512f");
-        let avx2 = avx512 || isa >= CpuIsa::X86_64V3 || cfg!(target_feature = "avx2");
+        let (avx2, avx512) = (avx2_forms(isa), avx512_forms(isa));
         avx2 && bvh.cpu_walks_flat(avx512)
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -194,7 +207,7 @@ pub fn trace_paths<const F: u32>(
     r: u32,
 ) -> ([f32; 3], bool, u32) {
     #[cfg(target_arch = "x86_64")]
-    if isa >= CpuIsa::X86_64V4 || cfg!(target_feature = "avx512f") {
+    if avx512_forms(isa) {
         // As below, a small tree's flat test sixteen lanes at a time where the level has
         // AVX-512.
         return with_isa(
@@ -204,7 +217,7 @@ pub fn trace_paths<const F: u32>(
         );
     }
     #[cfg(target_arch = "x86_64")]
-    if isa >= CpuIsa::X86_64V3 || cfg!(target_feature = "avx2") {
+    if avx2_forms(isa) {
         // The Sobol' draws in AVX2 where `with_isa` runs a level with it (asserting the CPU
         // has it), or the build's own target has it.
         return with_isa(
@@ -234,7 +247,7 @@ pub fn trace_chunk<const F: u32>(
 ) -> (u64, u64) {
     use super::packet;
     #[cfg(target_arch = "x86_64")]
-    if isa >= CpuIsa::X86_64V4 || cfg!(target_feature = "avx512f") {
+    if avx512_forms(isa) {
         // AVX lanes, and the AVX-512 forms where the level has them.
         return with_isa(
             isa,
@@ -247,7 +260,7 @@ pub fn trace_chunk<const F: u32>(
         );
     }
     #[cfg(target_arch = "x86_64")]
-    if isa >= CpuIsa::X86_64V3 || cfg!(target_feature = "avx2") {
+    if avx2_forms(isa) {
         // AVX lanes only where `with_isa` runs a level with AVX (it asserts the CPU has it),
         // or the build's own target has it.
         return with_isa(
