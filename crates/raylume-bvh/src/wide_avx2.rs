@@ -510,8 +510,9 @@ pub(crate) unsafe fn flat_hit(
 }
 
 /// [`flat_hit`] sixteen lanes at a time in AVX-512 registers: the same hits. The triangle
-/// test is [`triangle_lanes8`]'s, lane for lane (the same operations, operands and order; the
-/// comparisons' predicates into mask registers).
+/// test is [`triangle_lanes8`]'s, lane for lane (the same values; see [`triangle_lanes16`]
+/// for the predicates it computes otherwise); a hit's `u` and `v` are computed for the one
+/// lane kept.
 ///
 /// # Safety
 /// The CPU must have AVX-512 F (and AVX2).
@@ -523,34 +524,41 @@ pub(crate) unsafe fn flat_hit16(
     t_max: f32,
     any_hit: bool,
 ) -> Option<Hit> {
+    debug_assert!(t_max <= crate::T_MAX_LIMIT, "a finite t_max: {t_max}");
     let blocks = &blocks[..blocks.len().min(FLAT_MAX_BLOCKS)];
     // SAFETY: the caller's CPU has AVX-512 F; the arrays' entries below `blocks.len()` are
     // written before they are read.
     unsafe {
         let miss = _mm512_set1_ps(T_MISS);
-        let lane = |t: __m512, u: __m512, v: __m512, j: u32, base: usize| {
-            let (mut ts, mut us, mut vs) = ([0f32; 16], [0f32; 16], [0f32; 16]);
-            _mm512_storeu_ps(ts.as_mut_ptr(), t);
-            _mm512_storeu_ps(us.as_mut_ptr(), u);
-            _mm512_storeu_ps(vs.as_mut_ptr(), v);
-            lane_hit(&ts, &us, &vs, j, base)
+        // The hit of lane `j` of a block's lanes, `u` and `v` as `triangle_lanes8` computes
+        // them (the same product, one lane).
+        let lane = |l: &Lanes16, j: u32, base: usize| {
+            let (mut ts, mut w1, mut w2, mut inv) =
+                ([0f32; 16], [0f32; 16], [0f32; 16], [0f32; 16]);
+            _mm512_storeu_ps(ts.as_mut_ptr(), l.t);
+            _mm512_storeu_ps(w1.as_mut_ptr(), l.w1);
+            _mm512_storeu_ps(w2.as_mut_ptr(), l.w2);
+            _mm512_storeu_ps(inv.as_mut_ptr(), l.inv_det);
+            let j = j as usize & 15;
+            Hit {
+                t: ts[j],
+                prim: (base + j) as u32,
+                u: w1[j] * inv[j],
+                v: w2[j] * inv[j],
+            }
         };
-        let mut ts = [MaybeUninit::<__m512>::uninit(); FLAT_MAX_BLOCKS];
-        let mut us = [MaybeUninit::<__m512>::uninit(); FLAT_MAX_BLOCKS];
-        let mut vs = [MaybeUninit::<__m512>::uninit(); FLAT_MAX_BLOCKS];
+        let mut tested = [MaybeUninit::<Lanes16>::uninit(); FLAT_MAX_BLOCKS];
         let mut least = miss;
         for (i, block) in blocks.iter().enumerate() {
-            let (t, u, v, hit) = triangle_lanes16(block, r, t_min, t_max);
+            let l = triangle_lanes16(block, r, t_min, t_max);
             if any_hit {
-                if hit != 0 {
-                    return Some(lane(t, u, v, u32::from(hit).trailing_zeros(), 16 * i));
+                if l.hit != 0 {
+                    return Some(lane(&l, u32::from(l.hit).trailing_zeros(), 16 * i));
                 }
                 continue;
             }
-            ts[i].write(t);
-            us[i].write(u);
-            vs[i].write(v);
-            least = _mm512_min_ps(least, t);
+            least = _mm512_mask_min_ps(least, l.hit, least, l.t);
+            tested[i].write(l);
         }
         let m = _mm512_reduce_min_ps(least);
         if any_hit || m == T_MISS {
@@ -559,8 +567,9 @@ pub(crate) unsafe fn flat_hit16(
         // Which lanes hold it: one, the hit; more, a tie only the walk's order settles.
         let m = _mm512_set1_ps(m);
         let (mut n, mut at) = (0, 0);
-        for (i, t) in ts[..blocks.len()].iter().enumerate() {
-            let bits = u32::from(_mm512_cmp_ps_mask::<_CMP_EQ_OQ>(t.assume_init(), m));
+        for (i, l) in tested[..blocks.len()].iter().enumerate() {
+            let l = l.assume_init_ref();
+            let bits = u32::from(_mm512_mask_cmp_ps_mask::<_CMP_EQ_OQ>(l.hit, l.t, m));
             n += bits.count_ones();
             if bits != 0 {
                 at = i;
@@ -569,31 +578,40 @@ pub(crate) unsafe fn flat_hit16(
         if n != 1 {
             return None;
         }
-        let t = ts[at].assume_init();
-        let j = u32::from(_mm512_cmp_ps_mask::<_CMP_EQ_OQ>(t, m));
-        Some(lane(
-            t,
-            us[at].assume_init(),
-            vs[at].assume_init(),
-            j.trailing_zeros(),
-            16 * at,
-        ))
+        let l = tested[at].assume_init_ref();
+        let j = u32::from(_mm512_mask_cmp_ps_mask::<_CMP_EQ_OQ>(l.hit, l.t, m));
+        Some(lane(l, j.trailing_zeros(), 16 * at))
     }
 }
 
+/// [`triangle_lanes16`]'s results: `t` (any value where missed), the edge functions `w1`,
+/// `w2` and `1 / det` (a hit's `u` is `w1 * inv_det`, its `v` `w2 * inv_det`) and the hit
+/// lanes.
+#[derive(Clone, Copy)]
+struct Lanes16 {
+    t: __m512,
+    w1: __m512,
+    w2: __m512,
+    inv_det: __m512,
+    hit: __mmask16,
+}
+
 /// The watertight test of a [`FlatBlock`]'s sixteen triangles against `r`, lane for lane as
-/// [`triangle_lanes8`] (the same operations, operands and order; the comparisons' predicates
-/// into a mask): `t` (`T_MISS` where missed), `u`, `v` (`+0` where missed) and the hit lanes.
+/// [`triangle_lanes8`]: the same operations, operands and order for every value, and the
+/// same hits, which it finds with fewer instructions (`t_max` must be finite, as the walks'
+/// `min(t_max, T_MAX_LIMIT)`):
+/// - inside: the least of `w0, w1, w2` at least 0 or the greatest at most 0, which is all
+///   three `>= 0` or all `<= 0` unless one is NaN; then `det` and `t` are NaN, and `t > t_min`
+///   is false in both forms;
+/// - `det != 0` is not tested: a zero `det` makes `t` infinite or NaN, never inside the
+///   finite `(t_min, t_max)`;
+/// - the comparisons of `t` are masked by the ones before (no separate ANDs), and `u`, `v`
+///   are left to the lane kept ([`Lanes16`]).
 ///
 /// # Safety
 /// The CPU must have AVX-512 F.
 #[inline(always)]
-unsafe fn triangle_lanes16(
-    block: &FlatBlock,
-    r: &ShearedRay,
-    t_min: f32,
-    t_max: f32,
-) -> (__m512, __m512, __m512, __mmask16) {
+unsafe fn triangle_lanes16(block: &FlatBlock, r: &ShearedRay, t_min: f32, t_max: f32) -> Lanes16 {
     // Each axis' byte offset of its three rows, `k` held below 3 (as `triangle_lanes8`).
     let axis = |k: u32| 192 * k.min(2) as usize;
     let (kx, ky, kz) = (axis(r.kx), axis(r.ky), axis(r.kz));
@@ -602,7 +620,6 @@ unsafe fn triangle_lanes16(
     // 64 bytes, aligned).
     unsafe {
         let zero = _mm512_setzero_ps();
-        let miss = _mm512_set1_ps(T_MISS);
         let (ox, oy, oz) = (
             _mm512_set1_ps(o[r.kx.min(2) as usize]),
             _mm512_set1_ps(o[r.ky.min(2) as usize]),
@@ -642,25 +659,26 @@ unsafe fn triangle_lanes16(
         let w0 = sub(mul(cx, by), mul(cy, bx));
         let w1 = sub(mul(ax, cy), mul(ay, cx));
         let w2 = sub(mul(bx, ay), mul(by, ax));
-        // glam's cmpge / cmple / cmpne / cmpgt / cmplt: GE_OS, LE_OS, NEQ_UQ, GT_OS, LT_OS.
-        let ge = |x| _mm512_cmp_ps_mask::<_CMP_GE_OS>(x, zero);
-        let le = |x| _mm512_cmp_ps_mask::<_CMP_LE_OS>(x, zero);
-        let inside = (ge(w0) & ge(w1) & ge(w2)) | (le(w0) & le(w1) & le(w2));
+        // glam's cmpge / cmple / cmpgt / cmplt: GE_OS, LE_OS, GT_OS, LT_OS.
+        let least = _mm512_min_ps(_mm512_min_ps(w0, w1), w2);
+        let most = _mm512_max_ps(_mm512_max_ps(w0, w1), w2);
+        let inside = _mm512_cmp_ps_mask::<_CMP_GE_OS>(least, zero)
+            | _mm512_cmp_ps_mask::<_CMP_LE_OS>(most, zero);
         let det = add(add(w0, w1), w2);
         let az = mul(sz, a_z);
         let bz = mul(sz, b_z);
         let cz = mul(sz, c_z);
         let inv_det = _mm512_div_ps(_mm512_set1_ps(1.0), det);
         let t = mul(add(add(mul(w0, az), mul(w1, bz)), mul(w2, cz)), inv_det);
-        let hit = inside
-            & _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>(det, zero)
-            & _mm512_cmp_ps_mask::<_CMP_GT_OS>(t, lo)
-            & _mm512_cmp_ps_mask::<_CMP_LT_OS>(t, hi);
-        let t = _mm512_mask_blend_ps(hit, miss, t);
-        // (The eight-lane form blends `+0` into the misses' u and v; so does `maskz`.)
-        let u = _mm512_maskz_mul_ps(hit, w1, inv_det);
-        let v = _mm512_maskz_mul_ps(hit, w2, inv_det);
-        (t, u, v, hit)
+        let hit = _mm512_mask_cmp_ps_mask::<_CMP_GT_OS>(inside, t, lo);
+        let hit = _mm512_mask_cmp_ps_mask::<_CMP_LT_OS>(hit, t, hi);
+        Lanes16 {
+            t,
+            w1,
+            w2,
+            inv_det,
+            hit,
+        }
     }
 }
 
@@ -701,14 +719,20 @@ mod tests {
         let mut r = || crate::test_rand(&mut state);
         (0..n)
             .map(|i| {
-                let origin = Vec3::new(r(), r(), r()) * 2.0 - 0.5;
+                let mut origin = Vec3::new(r(), r(), r()) * 2.0 - 0.5;
                 let tri = &tris[(r() * tris.len() as f32) as usize % tris.len()];
                 let [a, b, c] = tri.positions;
-                let target = match i % 4 {
+                let target = match i % 5 {
                     0 => Vec3::new(r(), r(), r()),
-                    1 => [a, b, c][i / 4 % 3],
+                    1 => [a, b, c][i / 5 % 3],
                     2 => (a + b) * 0.5,
-                    _ => origin + Vec3::Y * if r() < 0.5 { 1.0 } else { -1.0 },
+                    3 => origin + Vec3::Y * if r() < 0.5 { 1.0 } else { -1.0 },
+                    // In the triangle's plane (a zero or nearly zero determinant), at a
+                    // vertex or through the triangle.
+                    _ => {
+                        origin = a + (b - a) * (1.0 + r()) - (c - a) * r();
+                        if r() < 0.5 { c } else { (a + c) * 0.5 }
+                    }
                 };
                 let (t_min, t_max) = if i % 7 == 0 {
                     (0.3, 0.8)
