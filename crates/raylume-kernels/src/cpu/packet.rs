@@ -8,9 +8,10 @@
 //! diffuse triangles, emission, next-event estimation, no sky, textures, spheres or other
 //! materials): a chunk of the batch's paths is traced [`LANES`] at a time, each lane taking
 //! the chunk's next path when its own ends. Per segment, the random numbers and the walks run
-//! lane by lane (the scalar functions: [`segment_rands`], the tree's walk; a lane whose path
-//! escapes takes the next one and walks again, so that the shading finds every lane with a
-//! hit), and everything between them (the surface, the emission's weight, next-event
+//! lane by lane (the scalar functions: [`segment_rands`], the tree's walk; every lane's
+//! numbers drawn before the first walk, so that the draws' chains of multiplies overlap the
+//! walks; a lane whose path escapes takes the next one and walks again, so that the shading
+//! finds every lane with a hit), and everything between them (the surface, the emission's weight, next-event
 //! estimation's light sample, the scattered direction, Russian roulette) runs on all lanes at
 //! once, on a [`Lane`] type: one AVX register in `cpu::isa`'s x86-64-v3 and v4 copies
 //! (`Avx`, crate-private), two glam `Vec4`s (SSE, which every x86-64 level has) at the
@@ -793,13 +794,19 @@ pub fn trace_chunk<const F: u32, L: Lane, K: Forms>(
     loop {
         // Every lane walks until its path hits something: a path that escapes ends there,
         // and the lane takes the chunk's next path, so that the shading below finds every
-        // lane busy but at the chunk's end.
+        // lane busy but at the chunk's end. All the lanes' numbers are drawn before their
+        // walks, so that the draws' long chains of multiplies run beside the walks.
         let mut hit = [false; LANES];
-        for j in 0..LANES {
-            loop {
+        let mut todo = (1u32 << LANES) - 1;
+        while todo != 0 {
+            let mut live = 0u32;
+            let mut m = todo;
+            while m != 0 {
+                let j = m.trailing_zeros() as usize;
+                m &= m - 1;
                 if slot[j] == usize::MAX {
                     if next == slots.len() {
-                        break;
+                        continue;
                     }
                     let (p, s) = batch_ray(scene, r0 + next as u32);
                     sp[j] = sampler_pixel(scene, p);
@@ -808,20 +815,32 @@ pub fn trace_chunk<const F: u32, L: Lane, K: Forms>(
                     slot[j] = next;
                     next += 1;
                 }
+                live |= 1 << j;
                 let (rl, rs, rr) = segment_rands::<K>(g, sp[j], pixel[j], sample[j], depth[j]);
                 (found.light_x[j], found.light_y[j]) = (rl.x, rl.y);
                 (found.scatter_x[j], found.scatter_y[j], found.roulette[j]) = (rs.x, rs.y, rr);
+            }
+            let mut missed = 0u32;
+            let mut m = live;
+            while m != 0 {
+                let j = m.trailing_zeros() as usize;
+                m &= m - 1;
                 let (o, d) = (&paths.origin, &paths.dir);
                 let ray = Ray {
                     origin: Vec3::new(o[0][j], o[1][j], o[2][j]),
                     dir: Vec3::new(d[0][j], d[1][j], d[2][j]),
                 };
                 rays += 1;
-                if let Some(h) = K::trace_closest::<F>(bvh, &ray, 0.0, T_MAX) {
-                    (found.prim[j], found.t[j], found.u[j], found.v[j]) = (h.prim, h.t, h.u, h.v);
-                    hit[j] = true;
-                    break;
-                }
+                let h = K::trace_closest::<F>(bvh, &ray, 0.0, T_MAX);
+                hit[j] = h.is_some();
+                missed |= u32::from(h.is_none()) << j;
+                let h = h.unwrap_or_default();
+                (found.prim[j], found.t[j], found.u[j], found.v[j]) = (h.prim, h.t, h.u, h.v);
+            }
+            todo = missed;
+            while missed != 0 {
+                let j = missed.trailing_zeros() as usize;
+                missed &= missed - 1;
                 let mut path = paths.get(j);
                 escape::<F>(g, &mut path);
                 let (v, d) = write_sample(path.radiance);
