@@ -479,8 +479,7 @@ pub fn segment_rands<K: Forms>(
     sample: u32,
     depth: u32,
 ) -> (Vec4, Vec4, f32) {
-    let wants_light = g.scene.light_count > 0 && depth < g.scene.max_bounces;
-    let wants_roulette = depth >= g.scene.rr_depth;
+    let (wants_light, wants_roulette) = segment_wants(g, depth);
     match g.sobol_segments.get(depth as usize) {
         // The `Sobol` sampler's three groups at once, their hashes from the render's table
         // (the same numbers: `SegmentKeys::draw`).
@@ -507,6 +506,46 @@ pub fn segment_rands<K: Forms>(
                 0.0
             },
         ),
+    }
+}
+
+/// Whether segment `depth` draws its light sample's numbers (a light to sample, not the
+/// last segment) and its roulette's (from `rr_depth` on): [`segment_rands`] gives zeros for
+/// those it does not.
+#[inline(always)]
+pub fn segment_wants(g: &Globals, depth: u32) -> (bool, bool) {
+    (
+        g.scene.light_count > 0 && depth < g.scene.max_bounces,
+        depth >= g.scene.rr_depth,
+    )
+}
+
+/// A segment's numbers as [`segment_rands`] draws them under the `Sobol` sampler, for the
+/// paths of diffuse surfaces (`cpu::packet`), which use the first pair of its light and
+/// scatter groups and, at segment 0, the camera's pair: [`SegmentKeys::draw_pairs`] by
+/// `K::draw_pairs`, the light and roulette numbers zeroed as [`segment_rands`] zeroes them;
+/// `None` where [`segment_rands`] does not draw from the render's table (another sampler, or
+/// a segment past it).
+///
+/// [`SegmentKeys::draw_pairs`]: crate::sobol::SegmentKeys::draw_pairs
+#[inline(always)]
+pub fn segment_pairs<K: Forms>(
+    g: &Globals,
+    sp: SobolPixel,
+    sample: u32,
+    depth: u32,
+) -> Option<crate::sobol::SegmentPairs> {
+    match g.sobol_segments.get(depth as usize) {
+        Some(keys) if keys.seed() == sp.seed && g.scene.sampler == SAMPLER_SOBOL => {
+            let (wants_light, wants_roulette) = segment_wants(g, depth);
+            let d = K::draw_pairs(keys, sp, sample);
+            Some(crate::sobol::SegmentPairs {
+                light: std::hint::select_unpredictable(wants_light, d.light, glam::Vec2::ZERO),
+                roulette: std::hint::select_unpredictable(wants_roulette, d.roulette, 0.0),
+                ..d
+            })
+        }
+        _ => None,
     }
 }
 

@@ -497,6 +497,16 @@ pub struct SegmentKeys {
     scrambles: [u32; 8],
     /// Each seed's `(seed >> 16) | 1`.
     scramble_muls: [u32; 8],
+    /// [`SegmentKeys::draw_pairs`]' index keys, lanes: light pair 0, scatter pair 0, (light
+    /// pair 0, twice), roulette pair 0, camera, (roulette pair 0, twice).
+    pair_keys: [u32; 8],
+    /// Each of `pair_keys`' `(key >> 16) | 1`.
+    pair_key_muls: [u32; 8],
+    /// [`SegmentKeys::draw_pairs`]' Owen seeds, lanes: the light's x, y, the scattered
+    /// direction's x, y, the roulette's x (and again), the camera's x, y.
+    pair_scrambles: [u32; 8],
+    /// Each of `pair_scrambles`' `(seed >> 16) | 1`.
+    pair_scramble_muls: [u32; 8],
     /// The roulette's x seed and its multiplier.
     roulette: [u32; 2],
     /// The camera group's (`DIM_CAMERA`, drawn at segment 0 only) index key and its x and y
@@ -504,6 +514,31 @@ pub struct SegmentKeys {
     camera: [u32; 3],
     /// The seed these were hashed under.
     seed: u32,
+}
+
+// The AVX2 forms' aligned loads: every array of eight words on a 32-byte boundary.
+const _: () = {
+    use std::mem::offset_of;
+    assert!(offset_of!(SegmentKeys, keys) % 32 == 0);
+    assert!(offset_of!(SegmentKeys, key_muls) % 32 == 0);
+    assert!(offset_of!(SegmentKeys, scrambles) % 32 == 0);
+    assert!(offset_of!(SegmentKeys, scramble_muls) % 32 == 0);
+    assert!(offset_of!(SegmentKeys, pair_keys) % 32 == 0);
+    assert!(offset_of!(SegmentKeys, pair_key_muls) % 32 == 0);
+    assert!(offset_of!(SegmentKeys, pair_scrambles) % 32 == 0);
+    assert!(offset_of!(SegmentKeys, pair_scramble_muls) % 32 == 0);
+    assert!(size_of::<SegmentKeys>() == 288);
+};
+
+/// The numbers a path segment of diffuse surfaces draws ([`SegmentKeys::draw_pairs`]): the
+/// first pair of its light and scatter groups, the roulette's first number and the camera
+/// group's pair (used at segment 0 only).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SegmentPairs {
+    pub light: glam::Vec2,
+    pub scatter: glam::Vec2,
+    pub roulette: f32,
+    pub camera: glam::Vec2,
 }
 
 impl SegmentKeys {
@@ -548,6 +583,18 @@ impl SegmentKeys {
             scatter.0[3],
         ];
         let mul = |k: u32| (k >> 16) | 1;
+        let (l, sc, r, c) = (light.1[0], scatter.1[0], roulette.1[0], camera.1[0]);
+        let pair_keys = [l, sc, l, l, r, c, r, r];
+        let pair_scrambles = [
+            light.0[0],
+            light.0[1],
+            scatter.0[0],
+            scatter.0[1],
+            roulette.0[0],
+            roulette.0[0],
+            camera.0[0],
+            camera.0[1],
+        ];
         Self {
             keys,
             key_muls: keys.map(mul),
@@ -556,6 +603,52 @@ impl SegmentKeys {
             roulette: [roulette.0[0], mul(roulette.0[0])],
             camera: [camera.1[0], camera.0[0], camera.0[1]],
             seed,
+            pair_keys,
+            pair_key_muls: pair_keys.map(mul),
+            pair_scrambles,
+            pair_scramble_muls: pair_scrambles.map(mul),
+        }
+    }
+
+    /// What a segment of diffuse surfaces draws ([`SegmentPairs`]): the `x`, `y` of
+    /// [`SegmentKeys::draw`]'s light and scatter groups and its roulette number, and (these
+    /// keys being segment 0's) [`SegmentKeys::draw_camera`]'s pair, bit for bit: one pass
+    /// of index hashes and one of scrambles over eight lanes, where `draw` and `draw_camera`
+    /// take two passes and a scalar hash, and another path of scalar hashes.
+    #[inline(always)]
+    pub fn draw_pairs(&self, p: SobolPixel, sample: u32) -> SegmentPairs {
+        debug_assert_eq!(p.seed, self.seed);
+        let m = p.morton | zsobol_sample_bits(sample, p.log2_spp);
+        let rm = m.reverse_bits();
+        let index: [u32; 8] = std::array::from_fn(|j| {
+            owen_body(rm, self.pair_keys[j], self.pair_key_muls[j]).reverse_bits()
+        });
+        // As `_mm256_unpacklo_epi32(index, pre)`: lanes 0, 1 and 4, 5 with their prefixes.
+        let pre = |j: usize| sobol_dim1_unreversed(index[j]);
+        let points = [
+            index[0],
+            pre(0),
+            index[1],
+            pre(1),
+            index[4],
+            pre(4),
+            index[5],
+            pre(5),
+        ];
+        let f = |j: usize| {
+            let bits = owen_body(
+                points[j],
+                self.pair_scrambles[j],
+                self.pair_scramble_muls[j],
+            )
+            .reverse_bits();
+            rand_f32(bits).min(SOBOL_ONE_MINUS_EPSILON)
+        };
+        SegmentPairs {
+            light: glam::Vec2::new(f(0), f(1)),
+            scatter: glam::Vec2::new(f(2), f(3)),
+            roulette: f(4),
+            camera: glam::Vec2::new(f(6), f(7)),
         }
     }
 
@@ -616,115 +709,29 @@ impl SegmentKeys {
     pub unsafe fn draw_avx2(&self, p: SobolPixel, sample: u32) -> (Vec4, Vec4, f32) {
         use std::arch::x86_64::*;
         debug_assert_eq!(p.seed, self.seed);
-        #[inline(always)]
-        unsafe fn load(a: &[u32; 8]) -> __m256i {
-            // SAFETY: the caller's CPU has AVX2 (`draw_avx2`'s contract); `a` is one of
-            // `SegmentKeys`' 32-byte-aligned arrays of eight words.
-            unsafe { _mm256_load_si256(a.as_ptr().cast()) }
-        }
-        #[inline(always)]
-        unsafe fn splat(x: u32) -> __m256i {
-            // SAFETY: the caller's CPU has AVX2 (`draw_avx2`'s contract).
-            unsafe { _mm256_set1_epi32(x as i32) }
-        }
-        /// `owen_body`, lane by lane.
-        #[inline(always)]
-        unsafe fn owen(v: __m256i, seed: __m256i, mul: __m256i) -> __m256i {
-            // SAFETY: the caller's CPU has AVX2 (`draw_avx2`'s contract).
-            unsafe {
-                let mut v = _mm256_xor_si256(v, _mm256_mullo_epi32(v, splat(0x3d20_adea)));
-                v = _mm256_add_epi32(v, seed);
-                v = _mm256_mullo_epi32(v, mul);
-                v = _mm256_xor_si256(v, _mm256_mullo_epi32(v, splat(0x0552_6c56)));
-                _mm256_xor_si256(v, _mm256_mullo_epi32(v, splat(0x53a2_2864)))
-            }
-        }
-        /// `u32::reverse_bits`, lane by lane: the bytes reversed, then each byte's bits by
-        /// two table lookups of its nibbles.
-        #[inline(always)]
-        unsafe fn reverse(v: __m256i) -> __m256i {
-            // SAFETY: the caller's CPU has AVX2 (`draw_avx2`'s contract).
-            unsafe {
-                let bytes = _mm256_setr_epi8(
-                    3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12, 3, 2, 1, 0, 7, 6, 5, 4,
-                    11, 10, 9, 8, 15, 14, 13, 12,
-                );
-                let v = _mm256_shuffle_epi8(v, bytes);
-                let nibble = _mm256_set1_epi8(0x0f);
-                // Each nibble's bits reversed, placed high (for the low nibble) or low.
-                const R: [u8; 16] = [
-                    0x0, 0x8, 0x4, 0xc, 0x2, 0xa, 0x6, 0xe, 0x1, 0x9, 0x5, 0xd, 0x3, 0xb, 0x7, 0xf,
-                ];
-                const HI: [u8; 32] = {
-                    let mut t = [0u8; 32];
-                    let mut i = 0;
-                    while i < 32 {
-                        t[i] = R[i % 16] << 4;
-                        i += 1;
-                    }
-                    t
-                };
-                const LO: [u8; 32] = {
-                    let mut t = [0u8; 32];
-                    let mut i = 0;
-                    while i < 32 {
-                        t[i] = R[i % 16];
-                        i += 1;
-                    }
-                    t
-                };
-                let (hi, lo) = (&HI, &LO);
-                let hi_of_lo = _mm256_loadu_si256(hi.as_ptr().cast());
-                let lo_of_hi = _mm256_loadu_si256(lo.as_ptr().cast());
-                let low = _mm256_and_si256(v, nibble);
-                let high = _mm256_and_si256(_mm256_srli_epi16::<4>(v), nibble);
-                _mm256_or_si256(
-                    _mm256_shuffle_epi8(hi_of_lo, low),
-                    _mm256_shuffle_epi8(lo_of_hi, high),
-                )
-            }
-        }
         // SAFETY: the caller's CPU has AVX2; the loads read this struct's 32-byte-aligned
         // arrays of eight words.
         unsafe {
+            let load = |a: &[u32; 8]| _mm256_load_si256(a.as_ptr().cast());
             let m = p.morton | zsobol_sample_bits(sample, p.log2_spp);
-            let index = reverse(owen(
-                splat(m.reverse_bits()),
+            let index = avx2::reverse(avx2::owen(
+                _mm256_set1_epi32(m.reverse_bits() as i32),
                 load(&self.keys),
                 load(&self.key_muls),
             ));
-            // sobol_dim1_unreversed, lane by lane.
-            let mut pre = index;
-            for (shift, mask) in [
-                (1, 0x5555_5555u32),
-                (2, 0x3333_3333),
-                (4, 0x0f0f_0f0f),
-                (8, 0x00ff_00ff),
-                (16, 0x0000_ffff),
-            ] {
-                let shifted = _mm256_srlv_epi32(pre, splat(shift));
-                pre = _mm256_xor_si256(pre, _mm256_and_si256(shifted, splat(mask)));
-            }
+            let pre = avx2::dim1_unreversed(index);
             // [index0, pre0, index1, pre1, index2, pre2, index3, pre3].
             let points = _mm256_permute2x128_si256::<0x20>(
                 _mm256_unpacklo_epi32(index, pre),
                 _mm256_unpackhi_epi32(index, pre),
             );
-            let bits = reverse(owen(
+            let bits = avx2::reverse(avx2::owen(
                 points,
                 load(&self.scrambles),
                 load(&self.scramble_muls),
             ));
-            // rand_f32(x).min(SOBOL_ONE_MINUS_EPSILON): exact (24 bits), never NaN.
-            let floats = _mm256_min_ps(
-                _mm256_mul_ps(
-                    _mm256_cvtepi32_ps(_mm256_srli_epi32::<8>(bits)),
-                    _mm256_set1_ps(1.0 / 16_777_216.0),
-                ),
-                _mm256_set1_ps(SOBOL_ONE_MINUS_EPSILON),
-            );
             let mut v = [0.0f32; 8];
-            _mm256_storeu_ps(v.as_mut_ptr(), floats);
+            _mm256_storeu_ps(v.as_mut_ptr(), avx2::unit_floats(bits));
             let index4 = _mm256_extract_epi32::<4>(index) as u32;
             let r = owen_body(index4, self.roulette[0], self.roulette[1]).reverse_bits();
             (
@@ -736,7 +743,155 @@ impl SegmentKeys {
     }
 }
 
-/// Segments whose [`SegmentKeys`] [`segment_keys`] makes at most (160 KiB): paths that go on
+/// The eight-lane steps of [`SegmentKeys::draw_avx2`] and [`SegmentKeys::draw_pairs_avx2`]:
+/// each of the scalar forms' steps one instruction (or a few: the bit reversals by byte
+/// shuffles). Every function needs a CPU with AVX2 (their callers' contracts).
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    use super::SOBOL_ONE_MINUS_EPSILON;
+
+    /// `owen_body`, lane by lane.
+    #[inline(always)]
+    pub(super) unsafe fn owen(v: __m256i, seed: __m256i, mul: __m256i) -> __m256i {
+        // SAFETY: the caller's CPU has AVX2.
+        unsafe {
+            let splat = |x: u32| _mm256_set1_epi32(x as i32);
+            let mut v = _mm256_xor_si256(v, _mm256_mullo_epi32(v, splat(0x3d20_adea)));
+            v = _mm256_add_epi32(v, seed);
+            v = _mm256_mullo_epi32(v, mul);
+            v = _mm256_xor_si256(v, _mm256_mullo_epi32(v, splat(0x0552_6c56)));
+            _mm256_xor_si256(v, _mm256_mullo_epi32(v, splat(0x53a2_2864)))
+        }
+    }
+
+    /// `u32::reverse_bits`, lane by lane: the bytes reversed, then each byte's bits by
+    /// two table lookups of its nibbles.
+    #[inline(always)]
+    pub(super) unsafe fn reverse(v: __m256i) -> __m256i {
+        // Each nibble's bits reversed, placed high (for the low nibble) or low.
+        const R: [u8; 16] = [
+            0x0, 0x8, 0x4, 0xc, 0x2, 0xa, 0x6, 0xe, 0x1, 0x9, 0x5, 0xd, 0x3, 0xb, 0x7, 0xf,
+        ];
+        const HI: [u8; 32] = {
+            let mut t = [0u8; 32];
+            let mut i = 0;
+            while i < 32 {
+                t[i] = R[i % 16] << 4;
+                i += 1;
+            }
+            t
+        };
+        const LO: [u8; 32] = {
+            let mut t = [0u8; 32];
+            let mut i = 0;
+            while i < 32 {
+                t[i] = R[i % 16];
+                i += 1;
+            }
+            t
+        };
+        // SAFETY: the caller's CPU has AVX2; the loads read the 32-byte tables above.
+        unsafe {
+            let bytes = _mm256_setr_epi8(
+                3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12, 3, 2, 1, 0, 7, 6, 5, 4, 11,
+                10, 9, 8, 15, 14, 13, 12,
+            );
+            let v = _mm256_shuffle_epi8(v, bytes);
+            let nibble = _mm256_set1_epi8(0x0f);
+            let (hi, lo) = (&HI, &LO);
+            let hi_of_lo = _mm256_loadu_si256(hi.as_ptr().cast());
+            let lo_of_hi = _mm256_loadu_si256(lo.as_ptr().cast());
+            let low = _mm256_and_si256(v, nibble);
+            let high = _mm256_and_si256(_mm256_srli_epi16::<4>(v), nibble);
+            _mm256_or_si256(
+                _mm256_shuffle_epi8(hi_of_lo, low),
+                _mm256_shuffle_epi8(lo_of_hi, high),
+            )
+        }
+    }
+
+    /// `sobol_dim1_unreversed`, lane by lane.
+    #[inline(always)]
+    pub(super) unsafe fn dim1_unreversed(index: __m256i) -> __m256i {
+        // SAFETY: the caller's CPU has AVX2.
+        unsafe {
+            let mut pre = index;
+            for (shift, mask) in [
+                (1, 0x5555_5555u32),
+                (2, 0x3333_3333),
+                (4, 0x0f0f_0f0f),
+                (8, 0x00ff_00ff),
+                (16, 0x0000_ffff),
+            ] {
+                let shifted = _mm256_srlv_epi32(pre, _mm256_set1_epi32(shift));
+                pre = _mm256_xor_si256(
+                    pre,
+                    _mm256_and_si256(shifted, _mm256_set1_epi32(mask as i32)),
+                );
+            }
+            pre
+        }
+    }
+
+    /// `rand_f32(x).min(SOBOL_ONE_MINUS_EPSILON)`, lane by lane: exact (24 bits), never NaN.
+    #[inline(always)]
+    pub(super) unsafe fn unit_floats(bits: __m256i) -> __m256 {
+        // SAFETY: the caller's CPU has AVX2.
+        unsafe {
+            _mm256_min_ps(
+                _mm256_mul_ps(
+                    _mm256_cvtepi32_ps(_mm256_srli_epi32::<8>(bits)),
+                    _mm256_set1_ps(1.0 / 16_777_216.0),
+                ),
+                _mm256_set1_ps(SOBOL_ONE_MINUS_EPSILON),
+            )
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl SegmentKeys {
+    /// [`SegmentKeys::draw_pairs`] in AVX2 instructions, bit for bit (the forms of
+    /// [`SegmentKeys::draw_avx2`]).
+    ///
+    /// # Safety
+    /// The CPU must have AVX2 (`cpu::isa`'s x86-64-v3 and v4 copies call it).
+    #[inline(always)]
+    pub unsafe fn draw_pairs_avx2(&self, p: SobolPixel, sample: u32) -> SegmentPairs {
+        use std::arch::x86_64::*;
+        debug_assert_eq!(p.seed, self.seed);
+        // SAFETY: the caller's CPU has AVX2; the loads read this struct's 32-byte-aligned
+        // arrays of eight words.
+        unsafe {
+            let load = |a: &[u32; 8]| _mm256_load_si256(a.as_ptr().cast());
+            let m = p.morton | zsobol_sample_bits(sample, p.log2_spp);
+            let index = avx2::reverse(avx2::owen(
+                _mm256_set1_epi32(m.reverse_bits() as i32),
+                load(&self.pair_keys),
+                load(&self.pair_key_muls),
+            ));
+            let pre = avx2::dim1_unreversed(index);
+            let points = _mm256_unpacklo_epi32(index, pre);
+            let bits = avx2::reverse(avx2::owen(
+                points,
+                load(&self.pair_scrambles),
+                load(&self.pair_scramble_muls),
+            ));
+            let mut v = [0.0f32; 8];
+            _mm256_storeu_ps(v.as_mut_ptr(), avx2::unit_floats(bits));
+            SegmentPairs {
+                light: glam::Vec2::new(v[0], v[1]),
+                scatter: glam::Vec2::new(v[2], v[3]),
+                roulette: v[4],
+                camera: glam::Vec2::new(v[6], v[7]),
+            }
+        }
+    }
+}
+
+/// Segments whose [`SegmentKeys`] [`segment_keys`] makes at most (288 KiB): paths that go on
 /// past them hash their groups as they draw.
 pub const SEGMENT_KEYS_MAX: u32 = 1024;
 
@@ -1329,6 +1484,51 @@ mod tests {
             assert_eq!(bits(a), bits(x));
             assert_eq!(bits(b), bits(y));
             assert_eq!(c.to_bits(), z.to_bits());
+        }
+    }
+
+    /// `SegmentKeys::draw_pairs` draws `draw`'s light and scatter pairs and roulette number
+    /// and `draw_camera`'s pair bit for bit, and so does `draw_pairs_avx2` (where this CPU
+    /// has AVX2).
+    #[test]
+    fn segment_pairs_are_the_groups_numbers() {
+        let avx2 = cfg!(target_arch = "x86_64") && {
+            #[cfg(target_arch = "x86_64")]
+            let has = std::arch::is_x86_feature_detected!("avx2");
+            #[cfg(not(target_arch = "x86_64"))]
+            let has = false;
+            has
+        };
+        let mut state = 0x9e37_79b9u32;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state
+        };
+        for _ in 0..20_000 {
+            let spp = 1 + next() % 5000;
+            let pixel = UVec2::new(next() % 70_000, next() % 5000);
+            let p = sobol_pixel(next(), pixel, spp);
+            let keys = SegmentKeys::new(p.seed, next() % 80);
+            let sample = next() % spp;
+            let (light, scatter, roulette) = keys.draw(p, sample);
+            let camera = keys.draw_camera(p, sample);
+            let pairs = keys.draw_pairs(p, sample);
+            let bits = |v: glam::Vec2| v.to_array().map(f32::to_bits);
+            assert_eq!(bits(pairs.light), bits(light.truncate().truncate()));
+            assert_eq!(bits(pairs.scatter), bits(scatter.truncate().truncate()));
+            assert_eq!(pairs.roulette.to_bits(), roulette.to_bits());
+            assert_eq!(bits(pairs.camera), bits(camera));
+            #[cfg(target_arch = "x86_64")]
+            if avx2 {
+                // SAFETY: AVX2 detected above.
+                let wide = unsafe { keys.draw_pairs_avx2(p, sample) };
+                assert_eq!(bits(wide.light), bits(pairs.light));
+                assert_eq!(bits(wide.scatter), bits(pairs.scatter));
+                assert_eq!(wide.roulette.to_bits(), pairs.roulette.to_bits());
+                assert_eq!(bits(wide.camera), bits(pairs.camera));
+            }
         }
     }
 }

@@ -39,7 +39,7 @@ use glam::{BVec4A, Vec3, Vec4};
 use raylume_bvh::{GpuBvh, Ray};
 use raylume_scene::Feature;
 
-use super::stages::{batch_ray, camera_path_at, write_sample};
+use super::stages::{batch_ray, camera_path_at, camera_path_from, write_sample};
 use super::variant::{ALWAYS, Forms, has};
 use crate::gpu_types::{
     LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_TWO_SIDED, RR_MAX_SURVIVAL, SHADOW_T_SCALE, T_MAX,
@@ -47,7 +47,7 @@ use crate::gpu_types::{
 use crate::math::{
     INV_PI, SIN_COS_C1, SIN_COS_C2, SIN_COS_C3, SIN_COS_ROUND, SIN_COS_S1, SIN_COS_S2, SIN_COS_S3,
 };
-use crate::shade::{PathState, choose_light, escape, sampler_pixel, segment_rands};
+use crate::shade::{PathState, choose_light, escape, sampler_pixel, segment_pairs, segment_rands};
 use crate::sobol::SobolPixel;
 use crate::surface::{Globals, OFFSET_BACK_ULPS, OFFSET_HIT_ULPS, OFFSET_T_ULPS, UNIT_ROUNDOFF};
 
@@ -804,19 +804,36 @@ pub fn trace_chunk<const F: u32, L: Lane, K: Forms>(
             while m != 0 {
                 let j = m.trailing_zeros() as usize;
                 m &= m - 1;
-                if slot[j] == usize::MAX {
+                let fresh = slot[j] == usize::MAX;
+                if fresh {
                     if next == slots.len() {
                         continue;
                     }
                     let (p, s) = batch_ray(scene, r0 + next as u32);
                     sp[j] = sampler_pixel(scene, p);
-                    paths.set(j, &camera_path_at(g, sp[j], p, s));
                     (pixel[j], sample[j], depth[j]) = (p, s, 0);
                     slot[j] = next;
                     next += 1;
                 }
                 live |= 1 << j;
-                let (rl, rs, rr) = segment_rands::<K>(g, sp[j], pixel[j], sample[j], depth[j]);
+                // The segment's numbers, and a new path's camera ray (under the `Sobol`
+                // sampler from the same draw: `segment_pairs`).
+                let (rl, rs, rr) = match segment_pairs::<K>(g, sp[j], sample[j], depth[j]) {
+                    Some(d) => {
+                        if fresh {
+                            paths.set(j, &camera_path_from(scene, pixel[j], d.camera));
+                        }
+                        (d.light, d.scatter, d.roulette)
+                    }
+                    None => {
+                        if fresh {
+                            paths.set(j, &camera_path_at(g, sp[j], pixel[j], sample[j]));
+                        }
+                        let (rl, rs, rr) =
+                            segment_rands::<K>(g, sp[j], pixel[j], sample[j], depth[j]);
+                        (rl.truncate().truncate(), rs.truncate().truncate(), rr)
+                    }
+                };
                 (found.light_x[j], found.light_y[j]) = (rl.x, rl.y);
                 (found.scatter_x[j], found.scatter_y[j], found.roulette[j]) = (rs.x, rs.y, rr);
             }

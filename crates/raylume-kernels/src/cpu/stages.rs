@@ -74,7 +74,13 @@ pub fn camera_path_at(g: &Globals, sp: SobolPixel, pixel: u32, sample: u32) -> P
             Vec2::new(j.x, j.y)
         }
     };
-    let dir = generate_camera_ray(scene, pixel, j);
+    camera_path_from(scene, pixel, j)
+}
+
+/// The camera path of `pixel` through its point `jitter` (the camera group's first pair).
+#[inline(always)]
+pub fn camera_path_from(scene: &SceneUniforms, pixel: u32, jitter: Vec2) -> PathState {
+    let dir = generate_camera_ray(scene, pixel, jitter);
     PathState::new(Vec3::from(scene.camera_origin), dir)
 }
 

@@ -19,7 +19,7 @@ use raylume_bvh::{GpuBvh, Hit, Ray};
 use raylume_scene::{Feature, Features};
 
 use crate::Specialisation;
-use crate::sobol::{SegmentKeys, SobolPixel};
+use crate::sobol::{SegmentKeys, SegmentPairs, SobolPixel};
 
 /// Whether the feature set `f` (a variant's bits) holds `feature`: the Rust side of a WGSL
 /// `HAS_*` constant.
@@ -62,6 +62,12 @@ pub trait Forms {
         keys.draw(p, sample)
     }
 
+    /// The pairs a segment of diffuse surfaces draws ([`SegmentKeys::draw_pairs`]).
+    #[inline(always)]
+    fn draw_pairs(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> SegmentPairs {
+        keys.draw_pairs(p, sample)
+    }
+
     /// The closest hit of `ray` in variant `F` ([`trace_closest`]).
     #[inline(always)]
     fn trace_closest<const F: u32>(bvh: &GpuBvh, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
@@ -94,6 +100,12 @@ impl Forms for Avx2Forms {
     fn draw(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> (Vec4, Vec4, f32) {
         // SAFETY: used only where the CPU has AVX2 (`cpu::isa` checks it).
         unsafe { keys.draw_avx2(p, sample) }
+    }
+
+    #[inline(always)]
+    fn draw_pairs(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> SegmentPairs {
+        // SAFETY: as `draw`.
+        unsafe { keys.draw_pairs_avx2(p, sample) }
     }
 
     #[inline(always)]
@@ -133,6 +145,11 @@ impl Forms for Avx512Forms {
     #[inline(always)]
     fn draw(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> (Vec4, Vec4, f32) {
         Avx2Forms::draw(keys, p, sample)
+    }
+
+    #[inline(always)]
+    fn draw_pairs(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> SegmentPairs {
+        Avx2Forms::draw_pairs(keys, p, sample)
     }
 
     #[inline(always)]
