@@ -480,10 +480,10 @@ pub fn segment_rands<K: Forms>(
     depth: u32,
 ) -> (Vec4, Vec4, f32) {
     let (wants_light, wants_roulette) = segment_wants(g, depth);
-    match g.sobol_segments.get(depth as usize) {
+    match table_keys(g, sp, depth) {
         // The `Sobol` sampler's three groups at once, their hashes from the render's table
         // (the same numbers: `SegmentKeys::draw`).
-        Some(keys) if keys.seed() == sp.seed && g.scene.sampler == SAMPLER_SOBOL => {
+        Some(keys) => {
             let (light, scatter, roulette) = K::draw(keys, sp, sample);
             // Selects, not branches: whether a path is past `rr_depth` varies from path
             // to path.
@@ -535,16 +535,28 @@ pub fn segment_pairs<K: Forms>(
     sample: u32,
     depth: u32,
 ) -> Option<crate::sobol::SegmentPairs> {
-    match g.sobol_segments.get(depth as usize) {
-        Some(keys) if keys.seed() == sp.seed && g.scene.sampler == SAMPLER_SOBOL => {
-            let (wants_light, wants_roulette) = segment_wants(g, depth);
-            let d = K::draw_pairs(keys, sp, sample);
-            Some(crate::sobol::SegmentPairs {
-                light: std::hint::select_unpredictable(wants_light, d.light, glam::Vec2::ZERO),
-                roulette: std::hint::select_unpredictable(wants_roulette, d.roulette, 0.0),
-                ..d
-            })
+    table_keys(g, sp, depth).map(|keys| {
+        let (wants_light, wants_roulette) = segment_wants(g, depth);
+        let d = K::draw_pairs(keys, sp, sample);
+        crate::sobol::SegmentPairs {
+            light: std::hint::select_unpredictable(wants_light, d.light, glam::Vec2::ZERO),
+            roulette: std::hint::select_unpredictable(wants_roulette, d.roulette, 0.0),
+            ..d
         }
+    })
+}
+
+/// Segment `depth`'s hashes from the render's table (`Globals::sobol_segments`) where the
+/// `Sobol` sampler draws from it: the pixel's seed the table's (not a tile of its own) and
+/// the segment within the table.
+#[inline(always)]
+fn table_keys<'a>(
+    g: &Globals<'a>,
+    sp: SobolPixel,
+    depth: u32,
+) -> Option<&'a crate::sobol::SegmentKeys> {
+    match g.sobol_segments.get(depth as usize) {
+        Some(keys) if keys.seed() == sp.seed && g.scene.sampler == SAMPLER_SOBOL => Some(keys),
         _ => None,
     }
 }

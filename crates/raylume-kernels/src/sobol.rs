@@ -1455,6 +1455,28 @@ mod tests {
             }
         }
     }
+
+    /// `n` random draws to compare forms over: a pixel of an image up to 70,000 x 5,000 at
+    /// 1-5,000 spp under any seed, a segment's keys (segments 0..80) and a sample.
+    fn draw_cases(seed: u32, n: usize) -> Vec<(SobolPixel, SegmentKeys, u32)> {
+        let mut state = seed;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state
+        };
+        (0..n)
+            .map(|_| {
+                let spp = 1 + next() % 5000;
+                let pixel = UVec2::new(next() % 70_000, next() % 5000);
+                let p = sobol_pixel(next(), pixel, spp);
+                let keys = SegmentKeys::new(p.seed, next() % 80);
+                (p, keys, next() % spp)
+            })
+            .collect()
+    }
+
     /// `SegmentKeys::draw_avx2` draws `SegmentKeys::draw`'s numbers bit for bit (where this
     /// CPU has AVX2).
     #[cfg(target_arch = "x86_64")]
@@ -1464,19 +1486,7 @@ mod tests {
             eprintln!("no AVX2 here: nothing to compare");
             return;
         }
-        let mut state = 0x1234_5678u32;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            state
-        };
-        for _ in 0..20_000 {
-            let spp = 1 + next() % 5000;
-            let pixel = UVec2::new(next() % 70_000, next() % 5000);
-            let p = sobol_pixel(next(), pixel, spp);
-            let keys = SegmentKeys::new(p.seed, next() % 80);
-            let sample = next() % spp;
+        for (p, keys, sample) in draw_cases(0x1234_5678, 20_000) {
             let (a, b, c) = keys.draw(p, sample);
             // SAFETY: AVX2 detected above.
             let (x, y, z) = unsafe { keys.draw_avx2(p, sample) };
@@ -1492,26 +1502,9 @@ mod tests {
     /// has AVX2).
     #[test]
     fn segment_pairs_are_the_groups_numbers() {
-        let avx2 = cfg!(target_arch = "x86_64") && {
-            #[cfg(target_arch = "x86_64")]
-            let has = std::arch::is_x86_feature_detected!("avx2");
-            #[cfg(not(target_arch = "x86_64"))]
-            let has = false;
-            has
-        };
-        let mut state = 0x9e37_79b9u32;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            state
-        };
-        for _ in 0..20_000 {
-            let spp = 1 + next() % 5000;
-            let pixel = UVec2::new(next() % 70_000, next() % 5000);
-            let p = sobol_pixel(next(), pixel, spp);
-            let keys = SegmentKeys::new(p.seed, next() % 80);
-            let sample = next() % spp;
+        #[cfg(target_arch = "x86_64")]
+        let avx2 = std::arch::is_x86_feature_detected!("avx2");
+        for (p, keys, sample) in draw_cases(0x9e37_79b9, 20_000) {
             let (light, scatter, roulette) = keys.draw(p, sample);
             let camera = keys.draw_camera(p, sample);
             let pairs = keys.draw_pairs(p, sample);

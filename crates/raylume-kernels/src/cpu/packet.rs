@@ -1,35 +1,33 @@
 //! The CPU path of scenes of diffuse triangles, [`LANES`] paths at a time.
 //!
 //! One path at a time, a segment of Bitterli's Cornell box costs about 2,000 instructions
-//! (cachegrind, issue 15 in `docs/RESULTS.md`): some 1,000 in its two walks, ~250 in the
-//! sampler, the rest in the shading and the light sample, scalar code whose every operation
-//! serves one path. Mitsuba 3's LLVM backend runs those stages over 8 or 16 paths an
-//! instruction. This module does so for the variant without any feature group ([`runs`]:
-//! diffuse triangles, emission, next-event estimation, no sky, textures, spheres or other
-//! materials): a chunk of the batch's paths is traced [`LANES`] at a time, each lane taking
-//! the chunk's next path when its own ends. Per segment, the random numbers and the walks run
-//! lane by lane (the scalar functions: [`segment_rands`], the tree's walk; every lane's
-//! numbers drawn before the first walk, so that the draws' chains of multiplies overlap the
-//! walks; a lane whose path escapes takes the next one and walks again, so that the shading
-//! finds every lane with a hit), and everything between them (the surface, the emission's weight, next-event
-//! estimation's light sample, the scattered direction, Russian roulette) runs on all lanes at
-//! once, on a [`Lane`] type: one AVX register in `cpu::isa`'s x86-64-v3 and v4 copies
-//! (`Avx`, crate-private), two glam `Vec4`s (SSE, which every x86-64 level has) at the
-//! build's level ([`Sse`]); the paths are held a field's lanes side by side (`Paths`), and
-//! the AVX copies draw the sampler's numbers and walk the tree in the AVX2 forms (the
-//! [`Forms`] that [`trace_chunk`] takes: `SegmentKeys::draw_avx2`,
-//! `GpuBvh::trace_closest_avx2`; at x86-64-v4 `GpuBvh::trace_closest_avx512`). Bitterli's
-//! Cornell box on the AMD EPYC dev VM: 400x400, 24 spp, 1.70 -> 1.46 s (median) against one path at a time
-//! with the scalar draw, then 1.445 -> 1.365 s with the AVX2 walks (`docs/RESULTS.md`,
-//! issue 15).
+//! (cachegrind, issue 15 in `docs/RESULTS.md`): some 1,000 in its two walks, ~250 in the sampler,
+//! the rest in the shading and the light sample, scalar code whose every operation serves one path.
+//! Mitsuba 3's LLVM backend runs those stages over 8 or 16 paths an instruction. This module does
+//! so for the variant without any feature group ([`runs`]: diffuse triangles, emission, next-event
+//! estimation, no sky, textures, spheres or other materials): a chunk of the batch's paths is
+//! traced [`LANES`] at a time, each lane taking the chunk's next path when its own ends. Per
+//! segment, the random numbers and the walks run lane by lane (the scalar functions:
+//! [`segment_pairs`] or [`segment_rands`], the tree's walk; every lane's numbers drawn before the
+//! first walk, so that the draws' chains of multiplies overlap the walks; a lane whose path escapes
+//! takes the next one and walks again, so that the shading finds every lane with a hit), and
+//! everything between them (the surface, the emission's weight, next-event estimation's light
+//! sample, the scattered direction, Russian roulette) runs on all lanes at once, on a [`Lane`]
+//! type: one AVX register in `cpu::isa`'s x86-64-v3 and v4 copies (`Avx`, crate-private), two glam
+//! `Vec4`s (SSE, which every x86-64 level has) at the build's level ([`Sse`]); the paths are held a
+//! field's lanes side by side (`Paths`), and the AVX copies draw the sampler's numbers and walk the
+//! tree in the AVX2 forms (the [`Forms`] that [`trace_chunk`] takes:
+//! `SegmentKeys::draw_pairs_avx2`, `GpuBvh::trace_closest_avx2`; at x86-64-v4
+//! `GpuBvh::trace_closest_avx512`). Bitterli's Cornell box on the AMD EPYC dev VM: 400x400, 24 spp,
+//! 1.70 -> 1.46 s (median) against one path at a time with the scalar draw, then 1.445 -> 1.365 s
+//! with the AVX2 walks (`docs/RESULTS.md`, issue 15).
 //!
-//! **The same image bit for bit** as [`stages::trace_paths`](super::stages::trace_paths):
-//! every lane computes what [`trace_ray_at`](crate::shade::trace_ray_at) computes for its
-//! path, the same IEEE operations in the same order (each step below names the scalar
-//! function it mirrors; glam's `min`/`max` are selects on `<`/`>`, as SSE's `minps`/`maxps`,
-//! `f32::min`/`max` keep their NaN rule; the angle's sine and cosine are
-//! `math::sin_cos_turns`'s polynomial in lanes, this module's `sin_cos_turns`).
-//! `tests/cpu_packet.rs` renders scenes of this variant both ways, at every
+//! **The same image bit for bit** as [`stages::trace_paths`](super::stages::trace_paths): every
+//! lane computes what [`trace_ray_at`](crate::shade::trace_ray_at) computes for its path, the same
+//! IEEE operations in the same order (each step below names the scalar function it mirrors; glam's
+//! `min`/`max` are selects on `<`/`>`, as SSE's `minps`/`maxps`, `f32::min`/`max` keep their NaN
+//! rule; the angle's sine and cosine are `math::sin_cos_turns`'s polynomial in lanes, this module's
+//! `sin_cos_turns`). `tests/cpu_packet.rs` renders scenes of this variant both ways, at every
 //! instruction-set level, and compares the images bit for bit (reassociating one sum of the
 //! scattered direction fails it).
 
