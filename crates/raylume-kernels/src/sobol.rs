@@ -712,26 +712,13 @@ impl SegmentKeys {
         // SAFETY: the caller's CPU has AVX2; the loads read this struct's 32-byte-aligned
         // arrays of eight words.
         unsafe {
-            let load = |a: &[u32; 8]| _mm256_load_si256(a.as_ptr().cast());
-            let m = p.morton | zsobol_sample_bits(sample, p.log2_spp);
-            let index = avx2::reverse(avx2::owen(
-                _mm256_set1_epi32(m.reverse_bits() as i32),
-                load(&self.keys),
-                load(&self.key_muls),
-            ));
-            let pre = avx2::dim1_unreversed(index);
+            let (index, pre) = avx2::indices(p, sample, &self.keys, &self.key_muls);
             // [index0, pre0, index1, pre1, index2, pre2, index3, pre3].
             let points = _mm256_permute2x128_si256::<0x20>(
                 _mm256_unpacklo_epi32(index, pre),
                 _mm256_unpackhi_epi32(index, pre),
             );
-            let bits = avx2::reverse(avx2::owen(
-                points,
-                load(&self.scrambles),
-                load(&self.scramble_muls),
-            ));
-            let mut v = [0.0f32; 8];
-            _mm256_storeu_ps(v.as_mut_ptr(), avx2::unit_floats(bits));
+            let v = avx2::scrambled(points, &self.scrambles, &self.scramble_muls);
             let index4 = _mm256_extract_epi32::<4>(index) as u32;
             let r = owen_body(index4, self.roulette[0], self.roulette[1]).reverse_bits();
             (
@@ -750,7 +737,48 @@ impl SegmentKeys {
 mod avx2 {
     use std::arch::x86_64::*;
 
-    use super::SOBOL_ONE_MINUS_EPSILON;
+    use super::{SOBOL_ONE_MINUS_EPSILON, SobolPixel, zsobol_sample_bits};
+
+    /// The index hashes of pixel `p`'s `sample` under eight keys (`keys`, their `muls`:
+    /// `shuffled_sample_index`, lane by lane) and their prefix XORs (`sobol_dim1` before its
+    /// reversal): `(index, pre)`. `keys` and `muls` must be 32-byte aligned (`SegmentKeys`'
+    /// arrays).
+    #[inline(always)]
+    pub(super) unsafe fn indices(
+        p: SobolPixel,
+        sample: u32,
+        keys: &[u32; 8],
+        muls: &[u32; 8],
+    ) -> (__m256i, __m256i) {
+        // SAFETY: the caller's CPU has AVX2; the loads read two aligned arrays of eight words.
+        unsafe {
+            let m = p.morton | zsobol_sample_bits(sample, p.log2_spp);
+            let index = reverse(owen(
+                _mm256_set1_epi32(m.reverse_bits() as i32),
+                _mm256_load_si256(keys.as_ptr().cast()),
+                _mm256_load_si256(muls.as_ptr().cast()),
+            ));
+            (index, dim1_unreversed(index))
+        }
+    }
+
+    /// `points` Owen-scrambled under eight seeds (`seeds`, their `muls`; `fast_owen` of the
+    /// reversed points, lane by lane) as numbers in `[0, 1)`. `seeds` and `muls` must be
+    /// 32-byte aligned.
+    #[inline(always)]
+    pub(super) unsafe fn scrambled(points: __m256i, seeds: &[u32; 8], muls: &[u32; 8]) -> [f32; 8] {
+        // SAFETY: the caller's CPU has AVX2; the loads read two aligned arrays of eight words.
+        unsafe {
+            let bits = reverse(owen(
+                points,
+                _mm256_load_si256(seeds.as_ptr().cast()),
+                _mm256_load_si256(muls.as_ptr().cast()),
+            ));
+            let mut v = [0.0f32; 8];
+            _mm256_storeu_ps(v.as_mut_ptr(), unit_floats(bits));
+            v
+        }
+    }
 
     /// `owen_body`, lane by lane.
     #[inline(always)]
@@ -865,22 +893,9 @@ impl SegmentKeys {
         // SAFETY: the caller's CPU has AVX2; the loads read this struct's 32-byte-aligned
         // arrays of eight words.
         unsafe {
-            let load = |a: &[u32; 8]| _mm256_load_si256(a.as_ptr().cast());
-            let m = p.morton | zsobol_sample_bits(sample, p.log2_spp);
-            let index = avx2::reverse(avx2::owen(
-                _mm256_set1_epi32(m.reverse_bits() as i32),
-                load(&self.pair_keys),
-                load(&self.pair_key_muls),
-            ));
-            let pre = avx2::dim1_unreversed(index);
+            let (index, pre) = avx2::indices(p, sample, &self.pair_keys, &self.pair_key_muls);
             let points = _mm256_unpacklo_epi32(index, pre);
-            let bits = avx2::reverse(avx2::owen(
-                points,
-                load(&self.pair_scrambles),
-                load(&self.pair_scramble_muls),
-            ));
-            let mut v = [0.0f32; 8];
-            _mm256_storeu_ps(v.as_mut_ptr(), avx2::unit_floats(bits));
+            let v = avx2::scrambled(points, &self.pair_scrambles, &self.pair_scramble_muls);
             SegmentPairs {
                 light: glam::Vec2::new(v[0], v[1]),
                 scatter: glam::Vec2::new(v[2], v[3]),
