@@ -65,6 +65,11 @@ pub(crate) struct CpuWalkArrays {
     /// on the Intel dev VM.)
     #[cfg(target_arch = "x86_64")]
     pub(crate) flat_avx2: Vec<crate::wide_avx2::FlatBlock>,
+    /// The triangles of `flat` a segment between two points of the scene may meet (all but
+    /// the hull's faces: `wide_avx2::flat_between_blocks`), tested by the flat walks' any-hit
+    /// tests of such segments ([`GpuBvh::trace_any_between_avx512`]), and how many.
+    #[cfg(target_arch = "x86_64")]
+    pub(crate) flat_between: (Vec<crate::wide_avx2::FlatBlock>, usize),
 }
 
 impl std::fmt::Debug for CpuArrays {
@@ -138,9 +143,13 @@ impl GpuBvh {
             } else {
                 Vec::new()
             };
+            #[cfg(target_arch = "x86_64")]
+            let flat_between = crate::wide_avx2::flat_between_blocks(&self.primitives);
             CpuWalkArrays {
                 boxes,
                 blocks,
+                #[cfg(target_arch = "x86_64")]
+                flat_between,
                 #[cfg(target_arch = "x86_64")]
                 flat,
                 #[cfg(target_arch = "x86_64")]

@@ -397,6 +397,58 @@ pub(crate) fn flat_blocks(primitives: &[crate::Primitive]) -> Vec<FlatBlock> {
     blocks
 }
 
+/// Which of `primitives` are faces of their convex hull: triangles with every vertex of every
+/// primitive on one side of their plane or on it (the Cornell box's walls and the boxes'
+/// bottoms on its floor: 14 of its 36). A segment between two points of the hull (a shadow
+/// ray from a surface toward a point of a lamp) meets such a face's plane only at an end, so
+/// the face cannot lie between them ([`flat_between_blocks`]). Decided in `f64`: the
+/// vertices' differences and the normal's products are exact there, the signed distances
+/// within 1e-16 of their size (a vertex nearer its plane than that counts on the side its
+/// rounding gives, far below the `f32` walk's own rounding); a degenerate triangle or a
+/// sphere is no face.
+pub(crate) fn hull_faces(primitives: &[crate::Primitive]) -> Vec<bool> {
+    let vertices: Vec<glam::DVec3> = primitives
+        .iter()
+        .flat_map(|p| [p.a, p.b, p.c])
+        .map(|v| glam::DVec3::new(v[0].into(), v[1].into(), v[2].into()))
+        .collect();
+    primitives
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            if p.b[3].to_bits() == crate::PRIM_SPHERE {
+                return false;
+            }
+            let [a, b, c] = [0, 1, 2].map(|k| vertices[3 * i + k]);
+            let n = (b - a).cross(c - a);
+            if n == glam::DVec3::ZERO || !n.is_finite() {
+                return false;
+            }
+            let side = |v: &glam::DVec3| n.dot(*v - a);
+            vertices.iter().all(|v| side(v) >= 0.0) || vertices.iter().all(|v| side(v) <= 0.0)
+        })
+        .collect()
+}
+
+/// The [`flat_blocks`] of a flat tree's triangles that are not [`hull_faces`], and how many
+/// there are: what a segment between two points of the hull may meet
+/// ([`GpuBvh::trace_any_between_avx512`](crate::GpuBvh::trace_any_between_avx512)). Empty,
+/// with the tree's count, for a tree [`flat_blocks`] leaves empty.
+pub(crate) fn flat_between_blocks(primitives: &[crate::Primitive]) -> (Vec<FlatBlock>, usize) {
+    if flat_blocks(primitives).is_empty() {
+        return (Vec::new(), primitives.len());
+    }
+    let faces = hull_faces(primitives);
+    let inner: Vec<crate::Primitive> = primitives
+        .iter()
+        .zip(&faces)
+        .filter(|&(_, &face)| !face)
+        .map(|(p, _)| *p)
+        .collect();
+    let count = inner.len();
+    (flat_blocks(&inner), count)
+}
+
 /// The hit in lane `j` of a group of `N` lanes (a power of two) whose first primitive is
 /// `base`: its `t`, `u` and `v` from the group's lanes stored side by side.
 #[inline(always)]
@@ -811,6 +863,141 @@ mod tests {
         }
         // The copies must have made the flat test hand some rays back to the walk.
         assert!(ties > 100, "{ties} ties");
+    }
+
+    /// A room (six walls, 12 triangles), a box standing on its floor turned about the
+    /// vertical (its bottom in the floor's plane), a lamp below the ceiling and a tetrahedron
+    /// in the air: 30 triangles, the first 12 and the box's bottom (12, 13) the hull's faces.
+    fn room() -> Vec<Triangle> {
+        let mut tris = Vec::new();
+        let mut quad = |o: Vec3, e1: Vec3, e2: Vec3| {
+            tris.push(Triangle::flat([o, o + e1, o + e1 + e2], 0));
+            tris.push(Triangle::flat([o, o + e1 + e2, o + e2], 0));
+        };
+        let (x, y, z) = (Vec3::X * 2.0, Vec3::Y * 2.0, Vec3::Z * 2.0);
+        let c = Vec3::new(-1.0, 0.0, -1.0);
+        quad(c, x, z); // floor
+        quad(c + y, z, x); // ceiling
+        quad(c, y, x); // back
+        quad(c + z, x, y); // front
+        quad(c, z, y); // left
+        quad(c + x, y, z); // right
+        let (s, co) = 0.4f32.sin_cos();
+        let (u, w) = (Vec3::new(co, 0.0, s) * 0.6, Vec3::new(-s, 0.0, co) * 0.6);
+        let (b, h) = (Vec3::new(0.2, 0.0, 0.1), Vec3::Y * 0.7);
+        quad(b, u, w); // the box's bottom, on the floor
+        quad(b + h, w, u);
+        quad(b, h, u);
+        quad(b + w, u, h);
+        quad(b, w, h);
+        quad(b + u, h, w);
+        quad(Vec3::new(-0.25, 1.98, -0.2), Vec3::X * 0.5, Vec3::Z * 0.4); // lamp
+        let t = [
+            Vec3::new(-0.6, 1.0, -0.2),
+            Vec3::new(-0.2, 1.1, -0.5),
+            Vec3::new(-0.4, 1.4, 0.1),
+            Vec3::new(-0.7, 1.3, -0.6),
+        ];
+        for [i, j, k] in [[0, 1, 2], [0, 1, 3], [0, 2, 3], [1, 2, 3]] {
+            tris.push(Triangle::flat([t[i], t[j], t[k]], 0));
+        }
+        tris
+    }
+
+    /// A shadow ray is a segment between two points of the scene: from a surface point (offset
+    /// off its triangle toward the ray's side) to a point of a lamp, `t_max` short of it by
+    /// `SHADOW_T_SCALE`'s margin. The flat walks' `trace_any_between` leave the hull's faces
+    /// out and must answer as the walk's full test does, for segments between random points
+    /// of random triangles, many from near their triangle's edges (near the room's corners,
+    /// where a wall's plane passes within rounding of the origin). Rays that are not such
+    /// segments (from outside the room) show the walls are left out.
+    #[test]
+    fn flat_between_answers_the_any_hit_test() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("skipped: this CPU has no AVX2");
+            return;
+        }
+        let avx512 = std::arch::is_x86_feature_detected!("avx512f");
+        let tris = room();
+        let mut state = 7u64;
+        let mut r = || crate::test_rand(&mut state);
+        for quality in [BvhQuality::Fast, BvhQuality::Quality] {
+            let bvh = GpuBvh::build_with_layout(&tris, &[], quality, BvhLayout::Wide).unwrap();
+            assert!(bvh.cpu_walks_flat(true) && bvh.cpu_walks_flat(false));
+            // The hull's faces: the walls and the box's bottom, by their scene index.
+            let faces = hull_faces(&bvh.primitives);
+            for (p, face) in bvh.primitives.iter().zip(&faces) {
+                let index = p.c[3].to_bits();
+                assert_eq!(*face, index < 14, "triangle {index}, {quality:?}");
+            }
+            let inner = faces.iter().filter(|f| !**f).count();
+            assert_eq!(bvh.cpu_walk_arrays().flat_between.1, inner);
+            let (mut blocked, mut open, mut at_start) = (0, 0, 0);
+            for i in 0..20_000 {
+                let mut point = |near_edge: bool| {
+                    let t = &tris[(r() * tris.len() as f32) as usize % tris.len()];
+                    let [a, b, c] = t.positions;
+                    let (mut u, mut v) = (r(), r());
+                    if u + v > 1.0 {
+                        (u, v) = (1.0 - u, 1.0 - v);
+                    }
+                    if near_edge {
+                        u *= 1e-5;
+                    }
+                    (
+                        a + (b - a) * u + (c - a) * v,
+                        (b - a).cross(c - a).normalize(),
+                    )
+                };
+                let (from, n) = point(i % 3 == 0);
+                let (to, _) = point(false);
+                let side = if n.dot(to - from) >= 0.0 { 1.0 } else { -1.0 };
+                let origin = from + n * side * 1e-4;
+                let ray = Ray::new(origin, to - origin);
+                let (t_min, t_max) = (0.0, 0.9999);
+                let want = bvh.trace_any_for::<false>(&ray, t_min, t_max);
+                // SAFETY: this CPU has AVX2 (checked above).
+                let mut got =
+                    vec![unsafe { bvh.trace_any_between_avx2::<false>(&ray, t_min, t_max) }];
+                if avx512 {
+                    // SAFETY: this CPU has AVX-512 F (checked above) and AVX2.
+                    got.push(unsafe { bvh.trace_any_between_avx512::<false>(&ray, t_min, t_max) });
+                }
+                if got.iter().any(|&g| g != want) {
+                    // Only where the full test meets a wall at the segment's very start: an
+                    // origin in a corner, on another wall's plane.
+                    let hit = bvh.trace_closest_for::<false>(&ray, t_min, t_max).unwrap();
+                    assert!(
+                        want && got.iter().all(|g| !g) && faces[hit.prim as usize] && hit.t < 1e-5,
+                        "{ray:?}, {quality:?}: {hit:?}"
+                    );
+                    at_start += 1;
+                }
+                if want {
+                    blocked += 1;
+                } else {
+                    open += 1;
+                }
+            }
+            // Both answers common: the box and the tetrahedron block a share of the segments.
+            assert!(
+                blocked > 2000 && open > 2000,
+                "{blocked} blocked, {open} open"
+            );
+            // The corners' origins are rare even here, where a third of the origins lie within
+            // 1e-5 of an edge.
+            eprintln!("{quality:?}: {blocked} blocked, {open} open, {at_start} at a wall's plane");
+            assert!(at_start < 100, "{at_start}");
+            // From outside, through the floor and the back wall: the full test meets them.
+            let outside = Ray::new(Vec3::new(0.1, -1.0, -2.0), Vec3::new(0.0, 1.5, 1.5));
+            assert!(bvh.trace_any_for::<false>(&outside, 0.0, 0.9));
+            // SAFETY: as above.
+            assert!(!unsafe { bvh.trace_any_between_avx2::<false>(&outside, 0.0, 0.9) });
+            if avx512 {
+                // SAFETY: as above.
+                assert!(!unsafe { bvh.trace_any_between_avx512::<false>(&outside, 0.0, 0.9) });
+            }
+        }
     }
 
     /// Larger trees and trees with a sphere walk as before: no flat array.

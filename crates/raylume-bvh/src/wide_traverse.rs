@@ -947,6 +947,7 @@ impl GpuBvh {
         t_min: f32,
         t_max: f32,
         any_hit: bool,
+        between: bool,
     ) -> Hit {
         let arrays = self.cpu_walk_arrays();
         debug_assert_eq!(self.wide_nodes.len(), arrays.boxes.len());
@@ -962,6 +963,12 @@ impl GpuBvh {
             if !flat.is_empty() {
                 let sheared = crate::intersect::shear_ray(ray);
                 let t_max = t_max.min(T_MAX_LIMIT);
+                // A segment between two points of the scene: the triangles it may meet.
+                let (flat, count) = if between {
+                    (&arrays.flat_between.0, arrays.flat_between.1)
+                } else {
+                    (flat, self.primitives.len())
+                };
                 // SAFETY: `AVX2` only from the `_avx2` and `_avx512` methods, whose callers'
                 // CPUs have it, `AVX512` only from the latter, whose callers' CPUs have
                 // AVX-512 F.
@@ -969,7 +976,6 @@ impl GpuBvh {
                     if AVX512 {
                         crate::wide_avx2::flat_hit16(flat, &sheared, t_min, t_max, any_hit)
                     } else {
-                        let count = self.primitives.len();
                         crate::wide_avx2::flat_hit(flat, count, &sheared, t_min, t_max, any_hit)
                     }
                 };

@@ -580,13 +580,16 @@ pub fn escape<const F: u32>(g: &Globals, path: &mut PathState) {
     path.alive = false;
 }
 
-/// Whether the light sample `query`'s shadow ray is blocked (false without a sample).
+/// Whether the light sample `query`'s shadow ray is blocked (false without a sample): toward
+/// the sky [`Forms::trace_any`], toward a point of a lamp [`Forms::trace_any_between`] (a
+/// segment between two points of the scene; the same answer).
 /// A function, not a closure in [`trace_ray_at`]: one the compiler left out of line would run
 /// at the build's instruction level, not the one `cpu::isa` compiled the path for.
 #[inline(always)]
 fn shadowed<const F: u32, K: Forms>(bvh: &GpuBvh, query: &Option<LightQuery>) -> bool {
     match query {
-        Some(q) => K::trace_any::<F>(bvh, &q.ray, 0.0, q.t_max),
+        Some(q) if q.is_env => K::trace_any::<F>(bvh, &q.ray, 0.0, q.t_max),
+        Some(q) => K::trace_any_between::<F>(bvh, &q.ray, 0.0, q.t_max),
         None => false,
     }
 }

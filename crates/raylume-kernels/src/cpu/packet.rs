@@ -1125,7 +1125,8 @@ fn shade<const F: u32, L: Lane, K: Forms>(
             origin: Vec3::new(so[0][j], so[1][j], so[2][j]),
             dir: Vec3::new(sd[0][j], sd[1][j], sd[2][j]),
         };
-        open |= u32::from(!K::trace_any::<F>(bvh, &ray, 0.0, t_max[j])) << j;
+        // Toward a point of a lamp (this variant has no sky): `shade::shadowed`'s test.
+        open |= u32::from(!K::trace_any_between::<F>(bvh, &ray, 0.0, t_max[j])) << j;
     }
     let open = L::M::from_bits(open);
     let arrived = query.and(open).pick3(light_in, V3::<L>::zero());

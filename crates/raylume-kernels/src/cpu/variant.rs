@@ -79,6 +79,14 @@ pub trait Forms {
     fn trace_any<const F: u32>(bvh: &GpuBvh, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         trace_any::<F>(bvh, ray, t_min, t_max)
     }
+
+    /// [`Forms::trace_any`] for a shadow ray toward a point of a lamp (a segment between two
+    /// points of the scene): the AVX forms leave out the faces of the scene's hull where
+    /// they test a small tree flat (`GpuBvh::trace_any_between_avx512`: the same answer).
+    #[inline(always)]
+    fn trace_any_between<const F: u32>(bvh: &GpuBvh, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        Self::trace_any::<F>(bvh, ray, t_min, t_max)
+    }
 }
 
 /// The forms every level runs: the build's instructions.
@@ -131,6 +139,18 @@ impl Forms for Avx2Forms {
             }
         }
     }
+
+    #[inline(always)]
+    fn trace_any_between<const F: u32>(bvh: &GpuBvh, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        // SAFETY: as `draw`.
+        unsafe {
+            if has(F, Feature::Spheres) {
+                bvh.trace_any_between_avx2::<true>(ray, t_min, t_max)
+            } else {
+                bvh.trace_any_between_avx2::<false>(ray, t_min, t_max)
+            }
+        }
+    }
 }
 
 /// The x86-64-v4 forms: [`Avx2Forms`]' with a small tree's triangles tested sixteen at a
@@ -172,6 +192,18 @@ impl Forms for Avx512Forms {
                 bvh.trace_any_avx512::<true>(ray, t_min, t_max)
             } else {
                 bvh.trace_any_avx512::<false>(ray, t_min, t_max)
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn trace_any_between<const F: u32>(bvh: &GpuBvh, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        // SAFETY: as `trace_closest`.
+        unsafe {
+            if has(F, Feature::Spheres) {
+                bvh.trace_any_between_avx512::<true>(ray, t_min, t_max)
+            } else {
+                bvh.trace_any_between_avx512::<false>(ray, t_min, t_max)
             }
         }
     }
