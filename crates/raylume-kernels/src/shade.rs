@@ -582,7 +582,8 @@ pub fn escape<const F: u32>(g: &Globals, path: &mut PathState) {
 
 /// Whether the light sample `query`'s shadow ray is blocked (false without a sample): toward
 /// the sky [`Forms::trace_any`], toward a point of a lamp [`Forms::trace_any_between`] (a
-/// segment between two points of the scene; the same answer).
+/// segment between two points of the scene; the same answer but for a rounding artifact at
+/// an origin in a corner).
 /// A function, not a closure in [`trace_ray_at`]: one the compiler left out of line would run
 /// at the build's instruction level, not the one `cpu::isa` compiled the path for.
 #[inline(always)]

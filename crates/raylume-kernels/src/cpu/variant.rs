@@ -82,7 +82,8 @@ pub trait Forms {
 
     /// [`Forms::trace_any`] for a shadow ray toward a point of a lamp (a segment between two
     /// points of the scene): the AVX forms leave out the faces of the scene's hull where
-    /// they test a small tree flat (`GpuBvh::trace_any_between_avx512`: the same answer).
+    /// they test a small tree flat (`GpuBvh::trace_any_between_avx512`: the same answer but
+    /// where the full test meets a wall within rounding of the ray's origin).
     #[inline(always)]
     fn trace_any_between<const F: u32>(bvh: &GpuBvh, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         Self::trace_any::<F>(bvh, ray, t_min, t_max)
