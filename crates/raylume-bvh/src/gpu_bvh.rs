@@ -144,7 +144,7 @@ impl GpuBvh {
                 Vec::new()
             };
             #[cfg(target_arch = "x86_64")]
-            let flat_between = crate::wide_avx2::flat_between_blocks(&self.primitives);
+            let flat_between = crate::wide_avx2::flat_between_blocks(&self.primitives, &flat);
             CpuWalkArrays {
                 boxes,
                 blocks,

@@ -433,9 +433,12 @@ pub(crate) fn hull_faces(primitives: &[crate::Primitive]) -> Vec<bool> {
 /// The [`flat_blocks`] of a flat tree's triangles that are not [`hull_faces`], and how many
 /// there are: what a segment between two points of the hull may meet
 /// ([`GpuBvh::trace_any_between_avx512`](crate::GpuBvh::trace_any_between_avx512)). Empty,
-/// with the tree's count, for a tree [`flat_blocks`] leaves empty.
-pub(crate) fn flat_between_blocks(primitives: &[crate::Primitive]) -> (Vec<FlatBlock>, usize) {
-    if flat_blocks(primitives).is_empty() {
+/// with the tree's count, for a tree whose `flat` blocks ([`flat_blocks`]) are empty.
+pub(crate) fn flat_between_blocks(
+    primitives: &[crate::Primitive],
+    flat: &[FlatBlock],
+) -> (Vec<FlatBlock>, usize) {
+    if flat.is_empty() {
         return (Vec::new(), primitives.len());
     }
     let faces = hull_faces(primitives);
