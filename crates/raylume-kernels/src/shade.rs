@@ -535,22 +535,34 @@ pub fn segment_pairs<K: Forms>(
     sample: u32,
     depth: u32,
 ) -> Option<crate::sobol::SegmentPairs> {
-    table_keys(g, sp, depth).map(|keys| {
-        let (wants_light, wants_roulette) = segment_wants(g, depth);
-        let d = K::draw_pairs(keys, sp, sample);
-        crate::sobol::SegmentPairs {
-            light: std::hint::select_unpredictable(wants_light, d.light, glam::Vec2::ZERO),
-            roulette: std::hint::select_unpredictable(wants_roulette, d.roulette, 0.0),
-            ..d
-        }
-    })
+    table_keys(g, sp, depth).map(|keys| wanted_pairs(g, K::draw_pairs(keys, sp, sample), depth))
+}
+
+/// The pairs `d` drawn for segment `depth` ([`SegmentKeys::draw_pairs`]), the light and
+/// roulette numbers zeroed where the segment does not use them, as [`segment_rands`] zeroes
+/// them: what [`segment_pairs`] returns.
+///
+/// [`SegmentKeys::draw_pairs`]: crate::sobol::SegmentKeys::draw_pairs
+#[inline(always)]
+pub fn wanted_pairs(
+    g: &Globals,
+    d: crate::sobol::SegmentPairs,
+    depth: u32,
+) -> crate::sobol::SegmentPairs {
+    let (wants_light, wants_roulette) = segment_wants(g, depth);
+    crate::sobol::SegmentPairs {
+        light: std::hint::select_unpredictable(wants_light, d.light, glam::Vec2::ZERO),
+        roulette: std::hint::select_unpredictable(wants_roulette, d.roulette, 0.0),
+        ..d
+    }
 }
 
 /// Segment `depth`'s hashes from the render's table (`Globals::sobol_segments`) where the
 /// `Sobol` sampler draws from it: the pixel's seed the table's (not a tile of its own) and
-/// the segment within the table.
+/// the segment within the table. [`segment_pairs`] draws from them; `cpu::packet` draws
+/// four lanes' at once.
 #[inline(always)]
-fn table_keys<'a>(
+pub(crate) fn table_keys<'a>(
     g: &Globals<'a>,
     sp: SobolPixel,
     depth: u32,

@@ -507,6 +507,11 @@ pub struct SegmentKeys {
     pair_scrambles: [u32; 8],
     /// Each of `pair_scrambles`' `(seed >> 16) | 1`.
     pair_scramble_muls: [u32; 8],
+    /// [`SegmentKeys::draw_pairs4_avx512`]'s index keys, the four distinct ones of
+    /// `pair_keys`: light pair 0, scatter pair 0, roulette pair 0, camera (one 128-bit lane).
+    quad_keys: [u32; 4],
+    /// Each of `quad_keys`' `(key >> 16) | 1`.
+    quad_key_muls: [u32; 4],
     /// The roulette's x seed and its multiplier.
     roulette: [u32; 2],
     /// The camera group's (`DIM_CAMERA`, drawn at segment 0 only) index key and its x and y
@@ -516,7 +521,8 @@ pub struct SegmentKeys {
     seed: u32,
 }
 
-// The AVX2 forms' aligned loads: every array of eight words on a 32-byte boundary.
+// The AVX2 forms' aligned loads: every array of eight words on a 32-byte boundary, of four
+// on a 16-byte one.
 const _: () = {
     use std::mem::offset_of;
     assert!(offset_of!(SegmentKeys, keys) % 32 == 0);
@@ -527,7 +533,9 @@ const _: () = {
     assert!(offset_of!(SegmentKeys, pair_key_muls) % 32 == 0);
     assert!(offset_of!(SegmentKeys, pair_scrambles) % 32 == 0);
     assert!(offset_of!(SegmentKeys, pair_scramble_muls) % 32 == 0);
-    assert!(size_of::<SegmentKeys>() == 288);
+    assert!(offset_of!(SegmentKeys, quad_keys) % 16 == 0);
+    assert!(offset_of!(SegmentKeys, quad_key_muls) % 16 == 0);
+    assert!(size_of::<SegmentKeys>() == 320);
 };
 
 /// The numbers a path segment of diffuse surfaces draws ([`SegmentKeys::draw_pairs`]): the
@@ -607,6 +615,8 @@ impl SegmentKeys {
             pair_key_muls: pair_keys.map(mul),
             pair_scrambles,
             pair_scramble_muls: pair_scrambles.map(mul),
+            quad_keys: [l, sc, r, c],
+            quad_key_muls: [l, sc, r, c].map(mul),
         }
     }
 
@@ -906,7 +916,204 @@ impl SegmentKeys {
     }
 }
 
-/// Segments whose [`SegmentKeys`] [`segment_keys`] makes at most (288 KiB): paths that go on
+#[cfg(target_arch = "x86_64")]
+impl SegmentKeys {
+    /// [`SegmentKeys::draw_pairs`] of four paths at once, bit for bit: path `k` at pixel
+    /// `p[k]`, `sample[k]`, under `keys[k]` (its segment's; `p[k].seed` must be their seed).
+    /// The index hashes of the four paths' four distinct keys in one sixteen-lane pass, the
+    /// scrambles of two paths' eight points in each of two more, where four
+    /// [`SegmentKeys::draw_pairs_avx2`] take eight eight-lane passes (half of their first
+    /// passes' lanes repeats a key).
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512 F and BW (`cpu::isa`'s x86-64-v4 copies call it).
+    #[inline(always)]
+    pub unsafe fn draw_pairs4_avx512(
+        keys: [&SegmentKeys; 4],
+        p: [SobolPixel; 4],
+        sample: [u32; 4],
+    ) -> [SegmentPairs; 4] {
+        use std::arch::x86_64::*;
+        // SAFETY: the caller's CPU has AVX-512 F and BW; the loads read the keys' 16- and
+        // 32-byte-aligned arrays of four and eight words.
+        unsafe {
+            for k in 0..4 {
+                debug_assert_eq!(p[k].seed, keys[k].seed);
+            }
+            let index_of = |k: usize| p[k].morton | zsobol_sample_bits(sample[k], p[k].log2_spp);
+            let m = [index_of(0), index_of(1), index_of(2), index_of(3)];
+            // Path k's index in each lane of 128-bit lane k, reversed.
+            let rm = avx512::reverse(_mm512_permutexvar_epi32(
+                _mm512_setr_epi32(0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3),
+                _mm512_castsi128_si512(_mm_loadu_si128(m.as_ptr().cast())),
+            ));
+            let quad_keys = [0, 1, 2, 3].map(|k| &keys[k].quad_keys);
+            let quad_muls = [0, 1, 2, 3].map(|k| &keys[k].quad_key_muls);
+            // Lanes per path: light pair 0, scatter pair 0, roulette pair 0, camera.
+            let index = avx512::reverse(avx512::owen(
+                rm,
+                avx512::quads(quad_keys),
+                avx512::quads(quad_muls),
+            ));
+            let pre = avx512::dim1_unreversed(index);
+            // Per path: [light x, y, scatter x, y] and [roulette x, (y), camera x, y].
+            let (lo, hi) = (
+                _mm512_unpacklo_epi32(index, pre),
+                _mm512_unpackhi_epi32(index, pre),
+            );
+            // Two paths' points: [lo a, lo b, hi a, hi b], scrambled.
+            let [d0, d1] = avx512::two_paths(
+                _mm512_shuffle_i32x4::<0b01_00_01_00>(lo, hi),
+                keys[0],
+                keys[1],
+            );
+            let [d2, d3] = avx512::two_paths(
+                _mm512_shuffle_i32x4::<0b11_10_11_10>(lo, hi),
+                keys[2],
+                keys[3],
+            );
+            [d0, d1, d2, d3]
+        }
+    }
+}
+
+/// [`avx2`]'s steps sixteen lanes at a time. Every function needs a CPU with AVX-512 F and
+/// BW (their callers' contracts).
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use std::arch::x86_64::*;
+
+    use super::{SOBOL_ONE_MINUS_EPSILON, SegmentKeys, SegmentPairs};
+
+    /// Four arrays of four words (16-byte aligned), one a 128-bit lane.
+    #[inline(always)]
+    pub(super) unsafe fn quads(a: [&[u32; 4]; 4]) -> __m512i {
+        // SAFETY: the caller's CPU has AVX-512 F; the loads read aligned arrays of four words.
+        unsafe {
+            let v = _mm512_castsi128_si512(_mm_load_si128(a[0].as_ptr().cast()));
+            let v = _mm512_inserti32x4::<1>(v, _mm_load_si128(a[1].as_ptr().cast()));
+            let v = _mm512_inserti32x4::<2>(v, _mm_load_si128(a[2].as_ptr().cast()));
+            _mm512_inserti32x4::<3>(v, _mm_load_si128(a[3].as_ptr().cast()))
+        }
+    }
+
+    /// Two arrays of eight words (32-byte aligned) `[a0, a1]` and `[b0, b1]` (halves) as
+    /// `[a0, b0, a1, b1]`.
+    #[inline(always)]
+    pub(super) unsafe fn halves(a: &[u32; 8], b: &[u32; 8]) -> __m512i {
+        // SAFETY: the caller's CPU has AVX-512 F; the loads read aligned arrays of eight words.
+        unsafe {
+            let v = _mm512_inserti64x4::<1>(
+                _mm512_castsi256_si512(_mm256_load_si256(a.as_ptr().cast())),
+                _mm256_load_si256(b.as_ptr().cast()),
+            );
+            _mm512_shuffle_i32x4::<0b11_01_10_00>(v, v)
+        }
+    }
+
+    /// The pairs of two paths from their points `[light and scatter of a, of b, roulette and
+    /// camera of a, of b]`, scrambled under `a`'s and `b`'s seeds.
+    #[inline(always)]
+    pub(super) unsafe fn two_paths(
+        points: __m512i,
+        a: &SegmentKeys,
+        b: &SegmentKeys,
+    ) -> [SegmentPairs; 2] {
+        // SAFETY: the caller's CPU has AVX-512 F and BW.
+        unsafe {
+            let bits = reverse(owen(
+                points,
+                halves(&a.pair_scrambles, &b.pair_scrambles),
+                halves(&a.pair_scramble_muls, &b.pair_scramble_muls),
+            ));
+            let mut v = [0.0f32; 16];
+            _mm512_storeu_ps(v.as_mut_ptr(), unit_floats(bits));
+            [
+                SegmentPairs {
+                    light: glam::Vec2::new(v[0], v[1]),
+                    scatter: glam::Vec2::new(v[2], v[3]),
+                    roulette: v[8],
+                    camera: glam::Vec2::new(v[10], v[11]),
+                },
+                SegmentPairs {
+                    light: glam::Vec2::new(v[4], v[5]),
+                    scatter: glam::Vec2::new(v[6], v[7]),
+                    roulette: v[12],
+                    camera: glam::Vec2::new(v[14], v[15]),
+                },
+            ]
+        }
+    }
+
+    /// `owen_body`, lane by lane.
+    #[inline(always)]
+    pub(super) unsafe fn owen(v: __m512i, seed: __m512i, mul: __m512i) -> __m512i {
+        // SAFETY: the caller's CPU has AVX-512 F.
+        unsafe {
+            let splat = |x: u32| _mm512_set1_epi32(x as i32);
+            let mut v = _mm512_xor_si512(v, _mm512_mullo_epi32(v, splat(0x3d20_adea)));
+            v = _mm512_add_epi32(v, seed);
+            v = _mm512_mullo_epi32(v, mul);
+            v = _mm512_xor_si512(v, _mm512_mullo_epi32(v, splat(0x0552_6c56)));
+            _mm512_xor_si512(v, _mm512_mullo_epi32(v, splat(0x53a2_2864)))
+        }
+    }
+
+    /// `u32::reverse_bits`, lane by lane (as `avx2::reverse`: the bytes reversed, then each
+    /// byte's bits by two table lookups of its nibbles).
+    #[inline(always)]
+    pub(super) unsafe fn reverse(v: __m512i) -> __m512i {
+        // SAFETY: the caller's CPU has AVX-512 F and BW.
+        unsafe {
+            let bytes = _mm512_set4_epi32(0x0c0d_0e0f, 0x0809_0a0b, 0x0405_0607, 0x0001_0203);
+            let v = _mm512_shuffle_epi8(v, bytes);
+            // Each nibble's bits reversed, placed high (for the low nibble) or low.
+            let lo_of_hi = _mm512_set4_epi32(0x0f07_0b03, 0x0d05_0901, 0x0e06_0a02, 0x0c04_0800);
+            let hi_of_lo = _mm512_slli_epi32::<4>(lo_of_hi);
+            let nibble = _mm512_set1_epi8(0x0f);
+            let low = _mm512_and_si512(v, nibble);
+            let high = _mm512_and_si512(_mm512_srli_epi16::<4>(v), nibble);
+            _mm512_or_si512(
+                _mm512_shuffle_epi8(hi_of_lo, low),
+                _mm512_shuffle_epi8(lo_of_hi, high),
+            )
+        }
+    }
+
+    /// `sobol_dim1_unreversed`, lane by lane.
+    #[inline(always)]
+    pub(super) unsafe fn dim1_unreversed(index: __m512i) -> __m512i {
+        // SAFETY: the caller's CPU has AVX-512 F.
+        unsafe {
+            let step = |y: __m512i, shifted: __m512i, mask: u32| {
+                _mm512_xor_si512(y, _mm512_and_si512(shifted, _mm512_set1_epi32(mask as i32)))
+            };
+            let mut y = index;
+            y = step(y, _mm512_srli_epi32::<1>(y), 0x5555_5555);
+            y = step(y, _mm512_srli_epi32::<2>(y), 0x3333_3333);
+            y = step(y, _mm512_srli_epi32::<4>(y), 0x0f0f_0f0f);
+            y = step(y, _mm512_srli_epi32::<8>(y), 0x00ff_00ff);
+            step(y, _mm512_srli_epi32::<16>(y), 0x0000_ffff)
+        }
+    }
+
+    /// `rand_f32(x).min(SOBOL_ONE_MINUS_EPSILON)`, lane by lane (`avx2::unit_floats`).
+    #[inline(always)]
+    pub(super) unsafe fn unit_floats(bits: __m512i) -> __m512 {
+        // SAFETY: the caller's CPU has AVX-512 F.
+        unsafe {
+            _mm512_min_ps(
+                _mm512_mul_ps(
+                    _mm512_cvtepi32_ps(_mm512_srli_epi32::<8>(bits)),
+                    _mm512_set1_ps(1.0 / 16_777_216.0),
+                ),
+                _mm512_set1_ps(SOBOL_ONE_MINUS_EPSILON),
+            )
+        }
+    }
+}
+
+/// Segments whose [`SegmentKeys`] [`segment_keys`] makes at most (320 KiB): paths that go on
 /// past them hash their groups as they draw.
 pub const SEGMENT_KEYS_MAX: u32 = 1024;
 
@@ -1536,6 +1743,34 @@ mod tests {
                 assert_eq!(bits(wide.scatter), bits(pairs.scatter));
                 assert_eq!(wide.roulette.to_bits(), pairs.roulette.to_bits());
                 assert_eq!(bits(wide.camera), bits(pairs.camera));
+            }
+        }
+    }
+
+    /// `SegmentKeys::draw_pairs4_avx512` draws each of its four paths' `draw_pairs` bit for
+    /// bit, every path under its own keys (where this CPU has AVX-512 F and BW).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn four_paths_draw_their_own_pairs() {
+        if !(std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512bw"))
+        {
+            eprintln!("no AVX-512 here: nothing to compare");
+            return;
+        }
+        let bits = |v: glam::Vec2| v.to_array().map(f32::to_bits);
+        for four in draw_cases(0x2545_f491, 20_000).chunks_exact(4) {
+            let keys = std::array::from_fn(|k| &four[k].1);
+            let p = std::array::from_fn(|k| four[k].0);
+            let sample = std::array::from_fn(|k| four[k].2);
+            // SAFETY: AVX-512 F and BW detected above.
+            let wide = unsafe { SegmentKeys::draw_pairs4_avx512(keys, p, sample) };
+            for (k, w) in wide.iter().enumerate() {
+                let pairs = keys[k].draw_pairs(p[k], sample[k]);
+                assert_eq!(bits(w.light), bits(pairs.light), "path {k}");
+                assert_eq!(bits(w.scatter), bits(pairs.scatter), "path {k}");
+                assert_eq!(w.roulette.to_bits(), pairs.roulette.to_bits(), "path {k}");
+                assert_eq!(bits(w.camera), bits(pairs.camera), "path {k}");
             }
         }
     }

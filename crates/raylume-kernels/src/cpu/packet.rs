@@ -8,8 +8,10 @@
 //! estimation, no sky, textures, spheres or other materials): a chunk of the batch's paths is
 //! traced [`LANES`] at a time, each lane taking the chunk's next path when its own ends. Per
 //! segment, the random numbers and the walks run lane by lane (the scalar functions:
-//! [`segment_pairs`] or [`segment_rands`], the tree's walk; every lane's numbers drawn before the
-//! first walk, so that the draws' chains of multiplies overlap the walks; a lane whose path escapes
+//! [`segment_pairs`](crate::shade::segment_pairs) or [`segment_rands`], the tree's walk; every
+//! lane's numbers drawn before the first walk, so that the draws' chains of multiplies overlap the
+//! walks, and under the `Sobol` sampler four lanes' at once, `Forms::draw_pairs4`: at x86-64-v4
+//! `SegmentKeys::draw_pairs4_avx512`, sixteen lanes an instruction; a lane whose path escapes
 //! takes the next one and walks again, so that the shading finds every lane with a hit), and
 //! everything between them (the surface, the emission's weight, next-event estimation's light
 //! sample, the scattered direction, Russian roulette) runs on all lanes at once, on a [`Lane`]
@@ -45,8 +47,10 @@ use crate::gpu_types::{
 use crate::math::{
     INV_PI, SIN_COS_C1, SIN_COS_C2, SIN_COS_C3, SIN_COS_ROUND, SIN_COS_S1, SIN_COS_S2, SIN_COS_S3,
 };
-use crate::shade::{PathState, choose_light, escape, sampler_pixel, segment_pairs, segment_rands};
-use crate::sobol::SobolPixel;
+use crate::shade::{
+    PathState, choose_light, escape, sampler_pixel, segment_rands, table_keys, wanted_pairs,
+};
+use crate::sobol::{SegmentKeys, SegmentPairs, SobolPixel};
 use crate::surface::{Globals, OFFSET_BACK_ULPS, OFFSET_HIT_ULPS, OFFSET_T_ULPS, UNIT_ROUNDOFF};
 
 /// Paths traced together.
@@ -797,13 +801,13 @@ pub fn trace_chunk<const F: u32, L: Lane, K: Forms>(
         let mut hit = [false; LANES];
         let mut todo = (1u32 << LANES) - 1;
         while todo != 0 {
-            let mut live = 0u32;
+            // The lanes' paths: a lane without one takes the chunk's next.
+            let (mut live, mut fresh) = (0u32, 0u32);
             let mut m = todo;
             while m != 0 {
                 let j = m.trailing_zeros() as usize;
                 m &= m - 1;
-                let fresh = slot[j] == usize::MAX;
-                if fresh {
+                if slot[j] == usize::MAX {
                     if next == slots.len() {
                         continue;
                     }
@@ -812,12 +816,22 @@ pub fn trace_chunk<const F: u32, L: Lane, K: Forms>(
                     (pixel[j], sample[j], depth[j]) = (p, s, 0);
                     slot[j] = next;
                     next += 1;
+                    fresh |= 1 << j;
                 }
                 live |= 1 << j;
-                // The segment's numbers, and a new path's camera ray (under the `Sobol`
-                // sampler from the same draw: `segment_pairs`).
-                let (rl, rs, rr) = match segment_pairs::<K>(g, sp[j], sample[j], depth[j]) {
+            }
+            // The segment's numbers: under the `Sobol` sampler from the render's table, four
+            // lanes at a time (`Forms::draw_pairs4`: the numbers `segment_pairs` draws).
+            let drawn = table_pairs::<K>(g, &sp, &sample, &depth, live);
+            let mut m = live;
+            while m != 0 {
+                let j = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let fresh = fresh & (1 << j) != 0;
+                // A new path's camera ray (from the same draw under the `Sobol` sampler).
+                let (rl, rs, rr) = match drawn[j] {
                     Some(d) => {
+                        let d = wanted_pairs(g, d, depth[j]);
                         if fresh {
                             paths.set(j, &camera_path_from(scene, pixel[j], d.camera));
                         }
@@ -882,6 +896,62 @@ pub fn trace_chunk<const F: u32, L: Lane, K: Forms>(
             }
         }
     }
+}
+
+/// The pairs ([`SegmentKeys::draw_pairs`]) of the lanes of `live` whose segment the render's
+/// table serves ([`table_keys`]), four lanes at a time by [`Forms::draw_pairs4`] (a last
+/// lone lane by [`Forms::draw_pairs`]); `None` for the other lanes.
+#[inline(always)]
+fn table_pairs<K: Forms>(
+    g: &Globals,
+    sp: &[SobolPixel; LANES],
+    sample: &[u32; LANES],
+    depth: &[u32; LANES],
+    live: u32,
+) -> [Option<SegmentPairs>; LANES] {
+    let mut drawn = [None; LANES];
+    let mut keys: [Option<&SegmentKeys>; LANES] = [None; LANES];
+    // The lanes the table serves, in order.
+    let (mut lanes, mut n) = ([0usize; LANES], 0usize);
+    let mut m = live;
+    while m != 0 {
+        let j = m.trailing_zeros() as usize;
+        m &= m - 1;
+        keys[j] = table_keys(g, sp[j], depth[j]);
+        if keys[j].is_some() {
+            lanes[n] = j;
+            n += 1;
+        }
+    }
+    let mut at = 0;
+    while at < n {
+        if n - at == 1 {
+            let j = lanes[at];
+            if let Some(k) = keys[j] {
+                drawn[j] = Some(K::draw_pairs(k, sp[j], sample[j]));
+            }
+            break;
+        }
+        // Lanes past the last drawn again (their numbers dropped).
+        let lane = |i: usize| lanes[(at + i).min(n - 1)];
+        let four = [lane(0), lane(1), lane(2), lane(3)];
+        let k = |j: usize| keys[j].expect("a lane the table serves");
+        let d = K::draw_pairs4(
+            [k(four[0]), k(four[1]), k(four[2]), k(four[3])],
+            [sp[four[0]], sp[four[1]], sp[four[2]], sp[four[3]]],
+            [
+                sample[four[0]],
+                sample[four[1]],
+                sample[four[2]],
+                sample[four[3]],
+            ],
+        );
+        for i in 0..4.min(n - at) {
+            drawn[four[i]] = Some(d[i]);
+        }
+        at += 4;
+    }
+    drawn
 }
 
 /// The rest of `trace_ray_at` for the lanes `hit` marks, all at once: the surface, the

@@ -68,6 +68,21 @@ pub trait Forms {
         keys.draw_pairs(p, sample)
     }
 
+    /// [`Forms::draw_pairs`] of four paths, path `k` under `keys[k]` (its segment's).
+    #[inline(always)]
+    fn draw_pairs4(
+        keys: [&SegmentKeys; 4],
+        p: [SobolPixel; 4],
+        sample: [u32; 4],
+    ) -> [SegmentPairs; 4] {
+        [
+            Self::draw_pairs(keys[0], p[0], sample[0]),
+            Self::draw_pairs(keys[1], p[1], sample[1]),
+            Self::draw_pairs(keys[2], p[2], sample[2]),
+            Self::draw_pairs(keys[3], p[3], sample[3]),
+        ]
+    }
+
     /// The closest hit of `ray` in variant `F` ([`trace_closest`]).
     #[inline(always)]
     fn trace_closest<const F: u32>(bvh: &GpuBvh, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
@@ -171,6 +186,16 @@ impl Forms for Avx512Forms {
     #[inline(always)]
     fn draw_pairs(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> SegmentPairs {
         Avx2Forms::draw_pairs(keys, p, sample)
+    }
+
+    #[inline(always)]
+    fn draw_pairs4(
+        keys: [&SegmentKeys; 4],
+        p: [SobolPixel; 4],
+        sample: [u32; 4],
+    ) -> [SegmentPairs; 4] {
+        // SAFETY: used only where the CPU has x86-64-v4 (`cpu::isa` checks it).
+        unsafe { SegmentKeys::draw_pairs4_avx512(keys, p, sample) }
     }
 
     #[inline(always)]
