@@ -15,7 +15,11 @@
 //! A tree of at most [`FLAT_MAX_PRIMITIVES_AVX2`] triangles is not walked here: [`flat_hit`]
 //! tests them all, eight at a time ([`flat_hit16`]: sixteen, in AVX-512 registers, for the
 //! `_avx512` walks, up to [`FLAT_MAX_PRIMITIVES`]), and gives the ray back to the walk only where several triangles hold the
-//! closest hit, so that the walk's order picks among them as before.
+//! closest hit, so that the walk's order picks among them as before. (One difference: a hit
+//! whose distance lies within rounding of `t_max` may sit in a node whose box the walk leaves
+//! out, and the flat test, which has no boxes, finds it: a range made to end at a hit shows it
+//! (the unit tests' boundary ranges); a render's rays end at the scene's far limit or short
+//! of a lamp, where it takes a blocker within rounding of that end.)
 //!
 //! Everything here is `#[inline(always)]` and `unsafe`: it must run on a CPU with AVX2, and
 //! it is fast only where it is inlined into a function compiled with AVX2 enabled
@@ -815,7 +819,7 @@ mod tests {
             return;
         }
         let avx512 = std::arch::is_x86_feature_detected!("avx512f");
-        let mut ties = 0;
+        let (mut ties, mut boundary_hits) = (0, 0);
         for (n, copies, seed) in [(30, 6, 3u64), (40, 8, 5), (8, 2, 9), (1, 0, 11)] {
             let tris = scene(n, copies, seed);
             for quality in [BvhQuality::Fast, BvhQuality::Quality] {
@@ -861,11 +865,57 @@ mod tests {
                     let flat =
                         unsafe { flat_hit(&arrays.flat, count, &sheared, t_min, t_max, false) };
                     ties += usize::from(flat.is_none() && !arrays.flat.is_empty());
+                    if avx512 && !arrays.flat.is_empty() {
+                        // The range ending or starting at the walk's hit, or one step past or
+                        // short of it: the sixteen-lane test's answers are `flat_hit`'s (the
+                        // same values, eight lanes at a time). Not always the walk's: its
+                        // boxes may leave out a hit within rounding of `t_max`, which a test
+                        // of every triangle finds.
+                        let t = want.map_or(0.5, |h| h.t);
+                        let step =
+                            |x: f32, d: i32| f32::from_bits(x.to_bits().wrapping_add_signed(d));
+                        for (t_min, t_max) in [
+                            (t_min, t),
+                            (t_min, step(t, 1)),
+                            (t, t_max),
+                            (step(t, -1), t_max),
+                        ] {
+                            for any_hit in [false, true] {
+                                // SAFETY: this CPU has AVX-512 F and AVX2 (checked above);
+                                // `flat` is `flat_blocks`'.
+                                let (h8, h16) = unsafe {
+                                    (
+                                        flat_hit(
+                                            &arrays.flat,
+                                            count,
+                                            &sheared,
+                                            t_min,
+                                            t_max,
+                                            any_hit,
+                                        ),
+                                        flat_hit16(&arrays.flat, &sheared, t_min, t_max, any_hit),
+                                    )
+                                };
+                                assert_eq!(
+                                    bits(h16),
+                                    bits(h8),
+                                    "{ray:?} {t_min} {t_max} {any_hit}"
+                                );
+                                boundary_hits +=
+                                    usize::from(h16.is_some_and(|h| h.prim != INVALID_INDEX));
+                            }
+                        }
+                    }
                 }
             }
         }
         // The copies must have made the flat test hand some rays back to the walk.
         assert!(ties > 100, "{ties} ties");
+        // And the ranges at the hits held hits as well as misses.
+        assert!(
+            !avx512 || boundary_hits > 1000,
+            "{boundary_hits} hits at the ranges' ends"
+        );
     }
 
     /// A room (six walls, 12 triangles), a box standing on its floor turned about the
