@@ -899,8 +899,10 @@ pub fn trace_chunk<const F: u32, L: Lane, K: Forms>(
 }
 
 /// The pairs ([`SegmentKeys::draw_pairs`]) of the lanes of `live` whose segment the render's
-/// table serves ([`table_keys`]), four lanes at a time by [`Forms::draw_pairs4`] (a last
-/// lone lane by [`Forms::draw_pairs`]); `None` for the other lanes.
+/// table serves ([`table_keys`]), four lanes at a time by [`Forms::draw_pairs4`] where the
+/// form draws four for less than four one-lane draws ([`Forms::DRAWS_FOUR`]; the last two or
+/// three lanes padded to four), else a lane at a time by [`Forms::draw_pairs`]; `None` for
+/// the other lanes.
 #[inline(always)]
 fn table_pairs<K: Forms>(
     g: &Globals,
@@ -925,12 +927,13 @@ fn table_pairs<K: Forms>(
     }
     let mut at = 0;
     while at < n {
-        if n - at == 1 {
+        if n - at == 1 || !K::DRAWS_FOUR {
             let j = lanes[at];
             if let Some(k) = keys[j] {
                 drawn[j] = Some(K::draw_pairs(k, sp[j], sample[j]));
             }
-            break;
+            at += 1;
+            continue;
         }
         // Lanes past the last drawn again (their numbers dropped).
         let lane = |i: usize| lanes[(at + i).min(n - 1)];

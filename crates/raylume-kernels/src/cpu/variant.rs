@@ -68,6 +68,10 @@ pub trait Forms {
         keys.draw_pairs(p, sample)
     }
 
+    /// Whether [`Forms::draw_pairs4`] draws four paths for less than four
+    /// [`Forms::draw_pairs`] (so that a caller with two or three paths pads them to four).
+    const DRAWS_FOUR: bool = false;
+
     /// [`Forms::draw_pairs`] of four paths, path `k` under `keys[k]` (its segment's).
     #[inline(always)]
     fn draw_pairs4(
@@ -178,6 +182,8 @@ pub(crate) struct Avx512Forms;
 
 #[cfg(target_arch = "x86_64")]
 impl Forms for Avx512Forms {
+    const DRAWS_FOUR: bool = true;
+
     #[inline(always)]
     fn draw(keys: &SegmentKeys, p: SobolPixel, sample: u32) -> (Vec4, Vec4, f32) {
         Avx2Forms::draw(keys, p, sample)
