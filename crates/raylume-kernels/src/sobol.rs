@@ -455,16 +455,20 @@ pub fn sobol2_of(
     sobol2_at(shuffled, sobol_pixel(seed, pixel, spp), sample, dim)
 }
 
+/// The constant multipliers of [`fast_owen`]'s hash (pbrt-v4's), first to last: every form
+/// of it takes them from here, and `sobol.wgsl`'s `fast_owen` holds the same (tested).
+const OWEN_MULS: [u32; 3] = [0x3d20_adea, 0x0552_6c56, 0x53a2_2864];
+
 /// [`fast_owen`] between its two bit reversals, its multiplier `(seed >> 16) | 1` given, so
 /// that a reversal that another cancels can be left out ([`SegmentKeys`]).
 #[inline(always)]
 fn owen_body(v: u32, seed: u32, mul: u32) -> u32 {
     let mut v = v;
-    v ^= v.wrapping_mul(0x3d20_adea);
+    v ^= v.wrapping_mul(OWEN_MULS[0]);
     v = v.wrapping_add(seed);
     v = v.wrapping_mul(mul);
-    v ^= v.wrapping_mul(0x0552_6c56);
-    v ^= v.wrapping_mul(0x53a2_2864);
+    v ^= v.wrapping_mul(OWEN_MULS[1]);
+    v ^= v.wrapping_mul(OWEN_MULS[2]);
     v
 }
 
@@ -747,7 +751,7 @@ impl SegmentKeys {
 mod avx2 {
     use std::arch::x86_64::*;
 
-    use super::{SOBOL_ONE_MINUS_EPSILON, SobolPixel, zsobol_sample_bits};
+    use super::{OWEN_MULS, SOBOL_ONE_MINUS_EPSILON, SobolPixel, zsobol_sample_bits};
 
     /// The index hashes of pixel `p`'s `sample` under eight keys (`keys`, their `muls`:
     /// `shuffled_sample_index`, lane by lane) and their prefix XORs (`sobol_dim1` before its
@@ -796,11 +800,11 @@ mod avx2 {
         // SAFETY: the caller's CPU has AVX2.
         unsafe {
             let splat = |x: u32| _mm256_set1_epi32(x as i32);
-            let mut v = _mm256_xor_si256(v, _mm256_mullo_epi32(v, splat(0x3d20_adea)));
+            let mut v = _mm256_xor_si256(v, _mm256_mullo_epi32(v, splat(OWEN_MULS[0])));
             v = _mm256_add_epi32(v, seed);
             v = _mm256_mullo_epi32(v, mul);
-            v = _mm256_xor_si256(v, _mm256_mullo_epi32(v, splat(0x0552_6c56)));
-            _mm256_xor_si256(v, _mm256_mullo_epi32(v, splat(0x53a2_2864)))
+            v = _mm256_xor_si256(v, _mm256_mullo_epi32(v, splat(OWEN_MULS[1])));
+            _mm256_xor_si256(v, _mm256_mullo_epi32(v, splat(OWEN_MULS[2])))
         }
     }
 
@@ -983,7 +987,7 @@ impl SegmentKeys {
 mod avx512 {
     use std::arch::x86_64::*;
 
-    use super::{SOBOL_ONE_MINUS_EPSILON, SegmentKeys, SegmentPairs};
+    use super::{OWEN_MULS, SOBOL_ONE_MINUS_EPSILON, SegmentKeys, SegmentPairs};
 
     /// Four arrays of four words (16-byte aligned), one a 128-bit lane.
     #[inline(always)]
@@ -1051,11 +1055,11 @@ mod avx512 {
         // SAFETY: the caller's CPU has AVX-512 F.
         unsafe {
             let splat = |x: u32| _mm512_set1_epi32(x as i32);
-            let mut v = _mm512_xor_si512(v, _mm512_mullo_epi32(v, splat(0x3d20_adea)));
+            let mut v = _mm512_xor_si512(v, _mm512_mullo_epi32(v, splat(OWEN_MULS[0])));
             v = _mm512_add_epi32(v, seed);
             v = _mm512_mullo_epi32(v, mul);
-            v = _mm512_xor_si512(v, _mm512_mullo_epi32(v, splat(0x0552_6c56)));
-            _mm512_xor_si512(v, _mm512_mullo_epi32(v, splat(0x53a2_2864)))
+            v = _mm512_xor_si512(v, _mm512_mullo_epi32(v, splat(OWEN_MULS[1])));
+            _mm512_xor_si512(v, _mm512_mullo_epi32(v, splat(OWEN_MULS[2])))
         }
     }
 
@@ -1197,6 +1201,9 @@ mod tests {
             assert!(SOBOL_WGSL.contains(&format!("{w:#010x}u")), "{w:#010x}");
         }
         assert!(SOBOL_WGSL.contains(&format!("{SOBOL_SALT:#010x}u")));
+        for m in OWEN_MULS {
+            assert!(SOBOL_WGSL.contains(&format!("v * {m:#010x}u")), "{m:#010x}");
+        }
     }
 
     #[test]
