@@ -522,25 +522,9 @@ pub fn segment_wants(g: &Globals, depth: u32) -> (bool, bool) {
 
 /// A segment's numbers as [`segment_rands`] draws them under the `Sobol` sampler, for the
 /// paths of diffuse surfaces (`cpu::packet`), which use the first pair of its light and
-/// scatter groups and, at segment 0, the camera's pair: [`SegmentKeys::draw_pairs`] by
-/// `K::draw_pairs`, the light and roulette numbers zeroed as [`segment_rands`] zeroes them;
-/// `None` where [`segment_rands`] does not draw from the render's table (another sampler, or
-/// a segment past it).
-///
-/// [`SegmentKeys::draw_pairs`]: crate::sobol::SegmentKeys::draw_pairs
-#[inline(always)]
-pub fn segment_pairs<K: Forms>(
-    g: &Globals,
-    sp: SobolPixel,
-    sample: u32,
-    depth: u32,
-) -> Option<crate::sobol::SegmentPairs> {
-    table_keys(g, sp, depth).map(|keys| wanted_pairs(g, K::draw_pairs(keys, sp, sample), depth))
-}
-
-/// The pairs `d` drawn for segment `depth` ([`SegmentKeys::draw_pairs`]), the light and
-/// roulette numbers zeroed where the segment does not use them, as [`segment_rands`] zeroes
-/// them: what [`segment_pairs`] returns.
+/// scatter groups and, at segment 0, the camera's pair: the pairs `d` drawn for segment
+/// `depth` ([`SegmentKeys::draw_pairs`] under `table_keys`' keys), the light and roulette
+/// numbers zeroed where the segment does not use them, as [`segment_rands`] zeroes them.
 ///
 /// [`SegmentKeys::draw_pairs`]: crate::sobol::SegmentKeys::draw_pairs
 #[inline(always)]
@@ -559,8 +543,8 @@ pub fn wanted_pairs(
 
 /// Segment `depth`'s hashes from the render's table (`Globals::sobol_segments`) where the
 /// `Sobol` sampler draws from it: the pixel's seed the table's (not a tile of its own) and
-/// the segment within the table. [`segment_pairs`] draws from them; `cpu::packet` draws
-/// four lanes' at once.
+/// the segment within the table (else `None`: another sampler, a tile's seed or a segment
+/// past the table). `cpu::packet` draws four lanes' pairs from them at once.
 #[inline(always)]
 pub(crate) fn table_keys<'a>(
     g: &Globals<'a>,

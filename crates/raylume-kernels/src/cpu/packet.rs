@@ -8,7 +8,7 @@
 //! estimation, no sky, textures, spheres or other materials): a chunk of the batch's paths is
 //! traced [`LANES`] at a time, each lane taking the chunk's next path when its own ends. Per
 //! segment, the random numbers and the walks run lane by lane (the scalar functions:
-//! [`segment_pairs`](crate::shade::segment_pairs) or [`segment_rands`], the tree's walk; every
+//! [`wanted_pairs`] of `SegmentKeys::draw_pairs` or [`segment_rands`], the tree's walk; every
 //! lane's numbers drawn before the first walk, so that the draws' chains of multiplies overlap the
 //! walks, and under the `Sobol` sampler four lanes' at once, `Forms::draw_pairs4`: at x86-64-v4
 //! `SegmentKeys::draw_pairs4_avx512`, sixteen lanes an instruction; a lane whose path escapes
@@ -821,7 +821,7 @@ pub fn trace_chunk<const F: u32, L: Lane, K: Forms>(
                 live |= 1 << j;
             }
             // The segment's numbers: under the `Sobol` sampler from the render's table, four
-            // lanes at a time (`Forms::draw_pairs4`: the numbers `segment_pairs` draws).
+            // lanes at a time (`Forms::draw_pairs4`), then `wanted_pairs`.
             let drawn = table_pairs::<K>(g, &sp, &sample, &depth, live);
             let mut m = live;
             while m != 0 {
