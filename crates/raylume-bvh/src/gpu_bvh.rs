@@ -53,21 +53,28 @@ pub(crate) struct CpuWalkArrays {
     pub(crate) boxes: Vec<WideBoxes>,
     /// The nodes' leaf triangles four a block ([`TriangleBlock`]).
     pub(crate) blocks: Vec<TriangleBlock>,
-    /// A small tree's triangles, all of them, sixteen a block (the AVX2 and AVX-512 walks
-    /// test them all instead of walking: `wide_avx2::flat_hit`, `flat_hit16`); empty for a
-    /// tree of more than `FLAT_MAX_PRIMITIVES` primitives or one with a sphere. x86-64 only,
-    /// as the walks that read it.
+    /// A small tree's triangles, all of them, sixteen a block grouped by where they lie, each
+    /// block with its box (the AVX-512 walks test them all instead of walking, a block only
+    /// where the ray enters its box before the closest hit so far: `wide_avx2::flat_hit16`);
+    /// empty for a tree of more than `FLAT_MAX_PRIMITIVES` primitives or one with a sphere.
+    /// x86-64 only, as the walks that read it.
     #[cfg(target_arch = "x86_64")]
-    pub(crate) flat: Vec<crate::wide_avx2::FlatBlock>,
-    /// `flat` again for the AVX2 walks if the tree has at most `FLAT_MAX_PRIMITIVES_AVX2`
-    /// primitives, else empty. (An array of its own, not a flag or the count checked in the
-    /// walk: either made LLVM lay out `flat_hit` otherwise, its closest hits 20-30 % slower
-    /// on the Intel dev VM.)
+    pub(crate) flat: crate::wide_avx2::FlatSet,
+    /// The triangles of `flat` a segment between two points of the scene may meet (all but
+    /// the hull's faces), as `flat` groups them, for the AVX-512 walks' any-hit tests of such
+    /// segments ([`GpuBvh::trace_any_between_avx512`]).
+    #[cfg(target_arch = "x86_64")]
+    pub(crate) flat_between16: crate::wide_avx2::FlatSet,
+    /// The tree's triangles sixteen a block in the tree's order (`wide_avx2::flat_blocks`)
+    /// for the AVX2 walks (`wide_avx2::flat_hit`, eight lanes at a time) if the tree has at
+    /// most `FLAT_MAX_PRIMITIVES_AVX2` primitives, else empty. (An array of its own, not a
+    /// flag or the count checked in the walk: either made LLVM lay out `flat_hit` otherwise,
+    /// its closest hits 20-30 % slower on the Intel dev VM.)
     #[cfg(target_arch = "x86_64")]
     pub(crate) flat_avx2: Vec<crate::wide_avx2::FlatBlock>,
-    /// The triangles of `flat` a segment between two points of the scene may meet (all but
-    /// the hull's faces: `wide_avx2::flat_between_blocks`), tested by the flat walks' any-hit
-    /// tests of such segments ([`GpuBvh::trace_any_between_avx512`]), and how many.
+    /// The triangles of `flat_avx2` a segment between two points of the scene may meet (all
+    /// but the hull's faces: `wide_avx2::flat_between_blocks`), tested by the AVX2 walks'
+    /// any-hit tests of such segments ([`GpuBvh::trace_any_between_avx2`]), and how many.
     #[cfg(target_arch = "x86_64")]
     pub(crate) flat_between: (Vec<crate::wide_avx2::FlatBlock>, usize),
 }
@@ -124,11 +131,11 @@ impl GpuBvh {
     pub fn cpu_walks_flat(&self, avx512: bool) -> bool {
         let arrays = self.cpu_walk_arrays();
         let flat = if avx512 {
-            &arrays.flat
+            !arrays.flat.is_empty()
         } else {
-            &arrays.flat_avx2
+            !arrays.flat_avx2.is_empty()
         };
-        self.layout == crate::BvhLayout::Wide && !flat.is_empty()
+        self.layout == crate::BvhLayout::Wide && flat
     }
 
     pub(crate) fn cpu_walk_arrays(&self) -> &CpuWalkArrays {
@@ -136,24 +143,26 @@ impl GpuBvh {
             let mut boxes: Vec<WideBoxes> = self.wide_nodes.iter().map(wide_boxes).collect();
             let blocks = triangle_blocks(&self.wide_nodes, &mut boxes, &self.primitives);
             #[cfg(target_arch = "x86_64")]
-            let flat = crate::wide_avx2::flat_blocks(&self.primitives);
+            let (flat, flat_between16) = crate::wide_avx2::flat_sets(&self.primitives);
             #[cfg(target_arch = "x86_64")]
             let flat_avx2 = if self.primitives.len() <= crate::wide_avx2::FLAT_MAX_PRIMITIVES_AVX2 {
-                flat.clone()
+                crate::wide_avx2::flat_blocks(&self.primitives)
             } else {
                 Vec::new()
             };
             #[cfg(target_arch = "x86_64")]
-            let flat_between = crate::wide_avx2::flat_between_blocks(&self.primitives, &flat);
+            let flat_between = crate::wide_avx2::flat_between_blocks(&self.primitives, &flat_avx2);
             CpuWalkArrays {
                 boxes,
                 blocks,
                 #[cfg(target_arch = "x86_64")]
-                flat_between,
-                #[cfg(target_arch = "x86_64")]
                 flat,
                 #[cfg(target_arch = "x86_64")]
+                flat_between16,
+                #[cfg(target_arch = "x86_64")]
                 flat_avx2,
+                #[cfg(target_arch = "x86_64")]
+                flat_between,
             }
         })
     }

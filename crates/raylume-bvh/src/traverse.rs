@@ -319,7 +319,8 @@ impl GpuBvh {
 
     /// [`GpuBvh::trace_closest_avx2`] where the CPU has AVX-512 too: a tree of at most
     /// [`FLAT_MAX_PRIMITIVES`](crate::FLAT_MAX_PRIMITIVES) triangles tested sixteen at a
-    /// time instead of eight; the same hit, bit for bit. Fast where inlined into a function
+    /// time instead of eight, in blocks grouped by where they lie, a block passed over where
+    /// the ray enters its box beyond the closest hit found so far; the same hit, bit for bit. Fast where inlined into a function
     /// compiled with AVX-512 (raylume-kernels' x86-64-v4 copies of its CPU path).
     ///
     /// # Safety

@@ -935,8 +935,9 @@ impl GpuBvh {
     /// With `AVX2`, the node and triangle tests eight lanes at a time in AVX registers (the
     /// crate's `wide_avx2` module), and a tree of at most `FLAT_MAX_PRIMITIVES_AVX2`
     /// triangles not walked but tested whole (`flat_hit`; with `AVX512` sixteen lanes at a
-    /// time and up to `FLAT_MAX_PRIMITIVES`, `flat_hit16`) unless several triangles hold the
-    /// closest hit: the same hits bit for bit.
+    /// time and up to `FLAT_MAX_PRIMITIVES`, `flat_hit16`, which passes over the blocks whose
+    /// boxes begin beyond the closest hit so far) unless several triangles hold the closest
+    /// hit: the same hits bit for bit.
     ///
     /// # Safety
     /// With `AVX2`, the CPU must have AVX2, with `AVX512` AVX-512 F too (without, none).
@@ -955,29 +956,38 @@ impl GpuBvh {
         // hit (then the walk's order decides).
         #[cfg(target_arch = "x86_64")]
         if AVX2 && !SPHERES {
-            let flat = if AVX512 {
-                &arrays.flat
-            } else {
-                &arrays.flat_avx2
-            };
-            if !flat.is_empty() {
+            if AVX512 {
+                if !arrays.flat.is_empty() {
+                    let (wide, sheared) = walk_rays(ray);
+                    let t_max = t_max.min(T_MAX_LIMIT);
+                    // A segment between two points of the scene: the triangles it may meet.
+                    let set = if between {
+                        &arrays.flat_between16
+                    } else {
+                        &arrays.flat
+                    };
+                    // SAFETY: `AVX512` only from the `_avx512` methods, whose callers' CPUs
+                    // have AVX2 and AVX-512 F.
+                    let hit = unsafe {
+                        crate::wide_avx2::flat_hit16(set, &wide, &sheared, t_min, t_max, any_hit)
+                    };
+                    if let Some(hit) = hit {
+                        return hit;
+                    }
+                }
+            } else if !arrays.flat_avx2.is_empty() {
                 let sheared = crate::intersect::shear_ray(ray);
                 let t_max = t_max.min(T_MAX_LIMIT);
                 // A segment between two points of the scene: the triangles it may meet.
                 let (flat, count) = if between {
                     (&arrays.flat_between.0, arrays.flat_between.1)
                 } else {
-                    (flat, self.primitives.len())
+                    (&arrays.flat_avx2, self.primitives.len())
                 };
                 // SAFETY: `AVX2` only from the `_avx2` and `_avx512` methods, whose callers'
-                // CPUs have it, `AVX512` only from the latter, whose callers' CPUs have
-                // AVX-512 F.
+                // CPUs have it.
                 let hit = unsafe {
-                    if AVX512 {
-                        crate::wide_avx2::flat_hit16(flat, &sheared, t_min, t_max, any_hit)
-                    } else {
-                        crate::wide_avx2::flat_hit(flat, count, &sheared, t_min, t_max, any_hit)
-                    }
+                    crate::wide_avx2::flat_hit(flat, count, &sheared, t_min, t_max, any_hit)
                 };
                 if let Some(hit) = hit {
                     return hit;
