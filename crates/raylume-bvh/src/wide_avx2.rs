@@ -834,12 +834,9 @@ pub(crate) unsafe fn flat_hit16(
 ) -> Option<Hit> {
     debug_assert!(t_max <= crate::T_MAX_LIMIT, "a finite t_max: {t_max}");
     let blocks = &set.blocks[..set.blocks.len().min(FLAT_SET_MAX_BLOCKS)];
-    // SAFETY: the caller's CPU has AVX-512 F; the arrays' entries of the blocks tested are
-    // written before they are read (`done` says which).
+    // SAFETY: the caller's CPU has AVX-512 F.
     unsafe {
-        let miss = _mm512_set1_ps(T_MISS);
-        let mut tested = [MaybeUninit::<Lanes16>::uninit(); FLAT_SET_MAX_BLOCKS];
-        let (mut done, mut least) = (0u32, miss);
+        let mut kept = Kept16::new();
         // The lead block (the walls, whose box is the scene's), without its box.
         let start = usize::from(set.lead);
         if set.lead {
@@ -847,9 +844,7 @@ pub(crate) unsafe fn flat_hit16(
             if any_hit && l.hit != 0 {
                 return Some(lane_hit16(set, &l, u32::from(l.hit).trailing_zeros(), 0));
             }
-            least = _mm512_mask_min_ps(least, l.hit, least, l.t);
-            tested[0].write(l);
-            done = 1;
+            kept.keep(&l, &set.ids[0]);
         }
         // Where the ray enters each block's box, and which boxes it meets in the range.
         let o = ray.origin.to_array();
@@ -874,7 +869,7 @@ pub(crate) unsafe fn flat_hit16(
         for (i, block) in blocks.iter().enumerate().skip(start) {
             // Passed over if some lane's hit so far lies before the box (by the margin).
             let before = _mm512_cmp_ps_mask::<_CMP_LT_OQ>(
-                _mm512_mul_ps(least, _mm512_set1_ps(FLAT_T_SCALE)),
+                _mm512_mul_ps(kept.t, _mm512_set1_ps(FLAT_T_SCALE)),
                 _mm512_set1_ps(near[i]),
             );
             if met & (1 << i) == 0 || before != 0 {
@@ -887,34 +882,85 @@ pub(crate) unsafe fn flat_hit16(
                 }
                 continue;
             }
-            least = _mm512_mask_min_ps(least, l.hit, least, l.t);
-            tested[i].write(l);
-            done |= 1 << i;
+            kept.keep(&l, &set.ids[i]);
         }
-        let best = _mm512_reduce_min_ps(least);
+        let best = _mm512_reduce_min_ps(kept.t);
         if any_hit || best == T_MISS {
             return Some(flat_miss(t_max));
         }
-        // Which lanes hold it: one, the hit; more, a tie only the walk's order settles.
-        let m = _mm512_set1_ps(best);
-        let (mut n, mut at) = (0, 0);
-        let mut left = done;
-        while left != 0 {
-            let i = left.trailing_zeros() as usize;
-            left &= left - 1;
-            let l = tested[i].assume_init_ref();
-            let bits = u32::from(_mm512_mask_cmp_ps_mask::<_CMP_EQ_OQ>(l.hit, l.t, m));
-            n += bits.count_ones();
-            if bits != 0 {
-                at = i;
-            }
-        }
-        if n != 1 {
+        // Which lanes hold it: one, held by one block, the hit; more, a tie only the walk's
+        // order settles.
+        let lanes = _mm512_cmp_ps_mask::<_CMP_EQ_OQ>(kept.t, _mm512_set1_ps(best));
+        if lanes.count_ones() != 1 || lanes & kept.tie != 0 {
             return None;
         }
-        let l = tested[at].assume_init_ref();
-        let j = u32::from(_mm512_mask_cmp_ps_mask::<_CMP_EQ_OQ>(l.hit, l.t, m));
-        Some(lane_hit16(set, l, j.trailing_zeros(), at))
+        // Its values taken from the registers by permutes (written out: a closure calling
+        // intrinsics is compiled out of line).
+        let at = _mm512_set1_epi32(lanes.trailing_zeros() as i32);
+        let inv = _mm512_cvtss_f32(_mm512_permutexvar_ps(at, kept.inv_det));
+        let id = _mm512_castsi512_si128(_mm512_permutexvar_epi32(at, kept.id));
+        Some(Hit {
+            t: _mm512_cvtss_f32(_mm512_permutexvar_ps(at, kept.t)),
+            prim: _mm_cvtsi128_si32(id) as u32,
+            u: _mm512_cvtss_f32(_mm512_permutexvar_ps(at, kept.w1)) * inv,
+            v: _mm512_cvtss_f32(_mm512_permutexvar_ps(at, kept.w2)) * inv,
+        })
+    }
+}
+
+/// What [`flat_hit16`] keeps of the blocks it tested, lane by lane: the least hit `t` of
+/// that lane over the blocks (`T_MISS` for none), the edge functions, `1 / det` and the
+/// primitive of the block that holds it, and whether another block's hit in the lane ties
+/// it (`tie`).
+struct Kept16 {
+    t: __m512,
+    w1: __m512,
+    w2: __m512,
+    inv_det: __m512,
+    id: __m512i,
+    tie: __mmask16,
+}
+
+impl Kept16 {
+    /// Nothing kept.
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512 F.
+    #[inline(always)]
+    unsafe fn new() -> Kept16 {
+        // SAFETY: the caller's CPU has AVX-512 F.
+        unsafe {
+            let zero = _mm512_setzero_ps();
+            Kept16 {
+                t: _mm512_set1_ps(T_MISS),
+                w1: zero,
+                w2: zero,
+                inv_det: zero,
+                id: _mm512_setzero_si512(),
+                tie: 0,
+            }
+        }
+    }
+
+    /// A block's lanes `l` (primitives `ids`) kept where they hit before what is kept, a tie
+    /// noted where they hit at it.
+    ///
+    /// # Safety
+    /// The CPU must have AVX-512 F.
+    #[inline(always)]
+    unsafe fn keep(&mut self, l: &Lanes16, ids: &[u32; 16]) {
+        // SAFETY: the caller's CPU has AVX-512 F; the load reads the sixteen ids.
+        unsafe {
+            let nearer = _mm512_mask_cmp_ps_mask::<_CMP_LT_OQ>(l.hit, l.t, self.t);
+            let at = _mm512_mask_cmp_ps_mask::<_CMP_EQ_OQ>(l.hit, l.t, self.t);
+            self.tie = (self.tie & !nearer) | at;
+            self.t = _mm512_mask_mov_ps(self.t, nearer, l.t);
+            self.w1 = _mm512_mask_mov_ps(self.w1, nearer, l.w1);
+            self.w2 = _mm512_mask_mov_ps(self.w2, nearer, l.w2);
+            self.inv_det = _mm512_mask_mov_ps(self.inv_det, nearer, l.inv_det);
+            let ids = _mm512_loadu_si512(ids.as_ptr().cast());
+            self.id = _mm512_mask_mov_epi32(self.id, nearer, ids);
+        }
     }
 }
 
