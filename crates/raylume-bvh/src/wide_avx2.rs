@@ -58,9 +58,34 @@ pub(crate) unsafe fn wide_boxes_hits(
     // SAFETY: the caller's CPU has AVX2; the loads read the node's own rows (eight f32s each,
     // unaligned loads) and its eight leaf words.
     unsafe {
+        let (t_near, hit) = slab_hits(&boxes.planes, r, t_min, t_max);
+        let bits = _mm256_movemask_ps(hit) as u32;
+        let words = _mm256_loadu_si256(boxes.leaf_prims.as_ptr().cast());
+        let v = _mm256_and_si256(_mm256_castps_si256(hit), words);
+        let v = _mm_or_si128(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
+        let v = _mm_or_si128(v, _mm_shuffle_epi32::<0b01_00_11_10>(v));
+        let v = _mm_or_si128(v, _mm_shuffle_epi32::<0b10_11_00_01>(v));
+        let prims = _mm_cvtsi128_si32(v) as u32;
+        let near = [
+            Vec4::from(_mm256_castps256_ps128(t_near)),
+            Vec4::from(_mm256_extractf128_ps::<1>(t_near)),
+        ];
+        (bits, prims, near)
+    }
+}
+
+/// The slab test of eight boxes (`rows`: `lo.x, lo.y, lo.z, hi.x, hi.y, hi.z`, a box a lane)
+/// against the ray in `[t_min, t_max]`: where the ray enters each box, and the lanes whose box
+/// it meets (`t_near <= t_far * WIDE_T_FAR_SCALE`, all bits set).
+///
+/// # Safety
+/// The CPU must have AVX.
+#[inline(always)]
+unsafe fn slab_hits(rows: &[[f32; 8]; 6], r: &WideRay, t_min: f32, t_max: f32) -> (__m256, __m256) {
+    // SAFETY: the caller's CPU has AVX; `axis_distances` reads the rows.
+    unsafe {
         let o = r.origin.to_array();
         let inv = r.inv_dir.to_array();
-        let rows = &boxes.planes;
         // Per axis both planes' distances, the nearer the smaller (`axis_distances`).
         let (nx, fx) = axis_distances(rows, o[0], inv[0], 0);
         let (ny, fy) = axis_distances(rows, o[1], inv[1], 1);
@@ -78,18 +103,7 @@ pub(crate) unsafe fn wide_boxes_hits(
             t_near,
             _mm256_mul_ps(t_far, _mm256_set1_ps(WIDE_T_FAR_SCALE)),
         );
-        let bits = _mm256_movemask_ps(hit) as u32;
-        let words = _mm256_loadu_si256(boxes.leaf_prims.as_ptr().cast());
-        let v = _mm256_and_si256(_mm256_castps_si256(hit), words);
-        let v = _mm_or_si128(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
-        let v = _mm_or_si128(v, _mm_shuffle_epi32::<0b01_00_11_10>(v));
-        let v = _mm_or_si128(v, _mm_shuffle_epi32::<0b10_11_00_01>(v));
-        let prims = _mm_cvtsi128_si32(v) as u32;
-        let near = [
-            Vec4::from(_mm256_castps256_ps128(t_near)),
-            Vec4::from(_mm256_extractf128_ps::<1>(t_near)),
-        ];
-        (bits, prims, near)
+        (t_near, hit)
     }
 }
 
@@ -847,23 +861,8 @@ pub(crate) unsafe fn flat_hit16(
             kept.keep(&l, &set.ids[0]);
         }
         // Where the ray enters each block's box, and which boxes it meets in the range.
-        let o = ray.origin.to_array();
-        let inv = ray.inv_dir.to_array();
-        let (nx, fx) = axis_distances(&set.boxes, o[0], inv[0], 0);
-        let (ny, fy) = axis_distances(&set.boxes, o[1], inv[1], 1);
-        let (nz, fz) = axis_distances(&set.boxes, o[2], inv[2], 2);
-        let t_near = _mm256_max_ps(
-            _mm256_max_ps(nx, ny),
-            _mm256_max_ps(nz, _mm256_set1_ps(t_min)),
-        );
-        let t_far = _mm256_min_ps(
-            _mm256_min_ps(fx, fy),
-            _mm256_min_ps(fz, _mm256_set1_ps(t_max)),
-        );
-        let met = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(
-            t_near,
-            _mm256_mul_ps(t_far, _mm256_set1_ps(FLAT_T_SCALE)),
-        )) as u32;
+        let (t_near, met) = slab_hits(&set.boxes, ray, t_min, t_max);
+        let met = _mm256_movemask_ps(met) as u32;
         let mut near = [0f32; 8];
         _mm256_storeu_ps(near.as_mut_ptr(), t_near);
         for (i, block) in blocks.iter().enumerate().skip(start) {
