@@ -405,16 +405,17 @@ pub(crate) fn flat_blocks(primitives: &[crate::Primitive]) -> Vec<FlatBlock> {
     {
         return Vec::new();
     }
-    let zero = FlatBlock { v: [[0.0; 16]; 9] };
-    let mut blocks = vec![zero; primitives.len().div_ceil(16)];
-    for (i, p) in primitives.iter().enumerate() {
-        for (vertex, v) in [&p.a, &p.b, &p.c].into_iter().enumerate() {
-            for (axis, &x) in v[..3].iter().enumerate() {
-                blocks[i / 16].v[3 * axis + vertex][i % 16] = x;
-            }
-        }
-    }
-    blocks
+    FlatSet::new(primitives, &in_order(primitives.len()), false).blocks
+}
+
+/// Primitives `0..n` sixteen a group, in order (at most [`FLAT_MAX_PRIMITIVES`]: at most
+/// four groups).
+fn in_order(n: usize) -> Vec<Vec<u32>> {
+    (0..n as u32)
+        .collect::<Vec<_>>()
+        .chunks(16)
+        .map(<[u32]>::to_vec)
+        .collect()
 }
 
 /// Blocks of a flat set at most: [`FlatSet::boxes`]' lanes.
@@ -614,8 +615,8 @@ pub(crate) fn flat_sets(primitives: &[crate::Primitive]) -> (FlatSet, FlatSet) {
     let mut all: Vec<Vec<u32>> = hull.chunks(16).map(<[u32]>::to_vec).collect();
     let mut lead = !hull.is_empty();
     let inner_groups = flat_groups(primitives, inner.clone(), FLAT_SET_MAX_BLOCKS - all.len());
-    let in_order = |ids: &[u32]| ids.chunks(16).map(<[u32]>::to_vec).collect::<Vec<_>>();
-    let between = inner_groups.clone().unwrap_or_else(|| in_order(&inner));
+    let chunks = |ids: &[u32]| ids.chunks(16).map(<[u32]>::to_vec).collect::<Vec<_>>();
+    let between = inner_groups.clone().unwrap_or_else(|| chunks(&inner));
     match inner_groups {
         Some(mut rest) => {
             // The last hull block's spare lanes take whole groups, the largest boxes first
@@ -638,7 +639,7 @@ pub(crate) fn flat_sets(primitives: &[crate::Primitive]) -> (FlatSet, FlatSet) {
             all.extend(rest);
         }
         None => {
-            all = in_order(&(0..primitives.len() as u32).collect::<Vec<_>>());
+            all = in_order(primitives.len());
             lead = false;
         }
     }
