@@ -50,8 +50,12 @@ stage() {
   cd "$root"
   [ -d .gl ] || ../shared/gpu/prepare.sh
   mkdir -p .gpu
-  cargo build --release -p raylume --example bench --example render --example make_grid --example merge --example compare --example shader_stats
-  for b in bench render make_grid merge compare shader_stats; do
+  # T1_STAGE_BINS: the binaries to stage (all by default); the parts' needs are in the check
+  # at the end. A binary left out is removed from .gpu, so a stale one is not carried.
+  local bins=${T1_STAGE_BINS:-bench render make_grid merge compare shader_stats} b
+  for b in bench render make_grid merge compare shader_stats; do rm -f .gpu/$b.xz; done
+  cargo build --release -p raylume $(for b in $bins; do printf -- '--example %s ' "$b"; done)
+  for b in $bins; do
     cp target/release/examples/$b .gpu/$b && strip .gpu/$b && xz -f -T2 .gpu/$b
   done
   [ -f .gpu/mitsuba-trim.tar.xz ] || ../shared/peers/mitsuba/pack.sh
@@ -61,6 +65,19 @@ stage() {
   git rev-parse --short HEAD > .gpu/commit.txt
   git status --porcelain --untracked-files=no | grep -q . && echo "(uncommitted changes)" >> .gpu/commit.txt
   du -sh .gpu
+  # The device tool carries the working tree's tracked files with .gl and .gpu: 64 MiB at most.
+  local tracked carried
+  tracked=$(git ls-files -z | xargs -0 du -cb 2>/dev/null | tail -1 | cut -f1)
+  carried=$(du -sb .gl .gpu | awk '{s += $1} END {print s}')
+  if [ $((tracked + carried)) -gt $((64 * 1024 * 1024)) ]; then
+    echo "table1 stage: $(awk -v b=$((tracked + carried)) 'BEGIN { printf "%.2f", b / 1048576 }')" \
+      "MiB with the tracked files: over the device" \
+      "tool's 64 MiB. Stage only what the call's parts run, e.g. T1_STAGE_BINS=\"bench render\"" \
+      "(plain, nee, mitsuba, race, crossing, ab; + compare and shader_stats for stages," \
+      "+ compare for two-gpus, + make_grid for large, + merge for parts), or remove" \
+      ".gpu/mitsuba-trim.tar.xz" \
+      "for a call without Mitsuba" >&2
+  fi
 }
 
 device() {
