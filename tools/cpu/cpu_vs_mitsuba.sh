@@ -74,9 +74,15 @@ raylume() {
   "$R" --backend cpu --size "$2" --spp "$3" --bounces 10 -q -o "$OUT/$1.png" "${@:4}" 2>&1 |
     sed -n 's/^raylume: trace \([0-9.]*\) s.*/\1/p'
 }
-# The best of BEST such renders (the protocol Mitsuba's side runs: best of 3 after a warm-up).
+# The best of N such renders: N NAME SIZE SPP ARGS...
+best_of() {
+  local n=$1
+  shift
+  for _ in $(seq "$n"); do raylume "$@"; done | sort -n | head -1
+}
+# The equal-spp criterion's rows: the best of BEST (Mitsuba's side: best of 3 after a warm-up).
 raylume_best() {
-  for _ in $(seq "$BEST"); do raylume "$@"; done | sort -n | head -1
+  best_of "$BEST" "$@"
 }
 mitsuba_cb() {
   PYTHONPATH=$MITSUBA "$PY" ../shared/peers/mitsuba/tungsten.py "$CB" "$OUT" llvm_ad_rgb \
@@ -112,8 +118,8 @@ for r in $(seq "$ROUNDS"); do
       printf "round %d: with the independent sampler (Mitsuba'"'"'s): Cornell box %.2f s (%.2fx slower), living room guide off %.2f s (%.2fx)\n",
         r, cbi, cbi / mcb, lri, lri / mlr }' | tee -a "$OUT/summary.md"
   fi
-  eq=$(for i in 1 2 3; do raylume cornell-128 128x128 "$EQ_SPP" "$CB/scene.json"; done | sort -n | head -1)
-  eqd=$(for i in 1 2 3; do raylume cornell-128-default 128x128 "$EQ_SPP_DEFAULT" "$CB/scene.json"; done | sort -n | head -1)
+  eq=$(best_of 3 cornell-128 128x128 "$EQ_SPP" "$CB/scene.json")
+  eqd=$(best_of 3 cornell-128-default 128x128 "$EQ_SPP_DEFAULT" "$CB/scene.json")
   rm -rf "$OUT/mi"
   PYTHONPATH=$MITSUBA "$PY" tools/study/mitsuba_series.py "$CB" "$OUT/mi" --size 128x128 --spp 64 \
     --samplers multijitter,independent --depth 11 --variant llvm_ad_rgb \

@@ -67,7 +67,8 @@ stage() {
   du -sh .gpu
   # The device tool carries the working tree's tracked files with .gl and .gpu: 64 MiB at most.
   local tracked carried
-  tracked=$(git ls-files -z | xargs -0 du -cb 2>/dev/null | tail -1 | cut -f1)
+  # (summed by awk: xargs may split a long list over several `du -c`, each with its own total)
+  tracked=$(git ls-files -z | xargs -0 stat -c %s | awk '{s += $1} END {print s}')
   carried=$(du -sb .gl .gpu | awk '{s += $1} END {print s}')
   if [ $((tracked + carried)) -gt $((64 * 1024 * 1024)) ]; then
     echo "table1 stage: $(awk -v b=$((tracked + carried)) 'BEGIN { printf "%.2f", b / 1048576 }')" \
