@@ -234,9 +234,10 @@ pub fn trace_paths<const F: u32>(
     )
 }
 
-/// [`packet::trace_chunk`](super::packet::trace_chunk) at instruction-set level `isa`: on
-/// AVX lanes (the crate's `packet::Avx`) at x86-64-v3 and v4, on SSE lanes at the
-/// build's level (unless the build targets AVX2 itself).
+/// [`packet::trace_chunk`](super::packet::trace_chunk) at instruction-set level `isa`: sixteen
+/// paths at a time on AVX-512 lanes (the crate's `packet::Avx512`) at x86-64-v4, eight on AVX
+/// lanes (`packet::Avx`) at x86-64-v3, eight on SSE lanes at the build's level (unless the
+/// build targets AVX2 or AVX-512 itself).
 #[inline(always)]
 pub fn trace_chunk<const F: u32>(
     isa: CpuIsa,
@@ -248,14 +249,17 @@ pub fn trace_chunk<const F: u32>(
     use super::packet;
     #[cfg(target_arch = "x86_64")]
     if avx512_forms(isa) {
-        // AVX lanes, and the AVX-512 forms where the level has them.
+        // AVX-512 lanes (sixteen paths at a time), and the AVX-512 forms.
         return with_isa(
             isa,
             #[inline(always)]
             || {
-                packet::trace_chunk::<F, packet::Avx, super::variant::Avx512Forms>(
-                    g, bvh, r0, slots,
-                )
+                packet::trace_chunk::<
+                    F,
+                    { packet::LANES_AVX512 },
+                    packet::Avx512,
+                    super::variant::Avx512Forms,
+                >(g, bvh, r0, slots)
             },
         );
     }
@@ -266,13 +270,21 @@ pub fn trace_chunk<const F: u32>(
         return with_isa(
             isa,
             #[inline(always)]
-            || packet::trace_chunk::<F, packet::Avx, super::variant::Avx2Forms>(g, bvh, r0, slots),
+            || {
+                packet::trace_chunk::<F, { packet::LANES }, packet::Avx, super::variant::Avx2Forms>(
+                    g, bvh, r0, slots,
+                )
+            },
         );
     }
     with_isa(
         isa,
         #[inline(always)]
-        || packet::trace_chunk::<F, packet::Sse, super::variant::BuildForms>(g, bvh, r0, slots),
+        || {
+            packet::trace_chunk::<F, { packet::LANES }, packet::Sse, super::variant::BuildForms>(
+                g, bvh, r0, slots,
+            )
+        },
     )
 }
 

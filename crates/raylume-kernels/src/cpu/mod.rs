@@ -1,7 +1,7 @@
 //! The CPU mirror: the same functions as the WGSL kernels, run with rayon. It traces the same
 //! paths as the GPU (same random-number keys, same arithmetic), so images agree closely, and
 //! it is the reference the GPU tests compare against. Like the paper's CPU path, it never
-//! sorts rays. Scenes of diffuse triangles are traced eight paths at a time ([`packet`]),
+//! sorts rays. Scenes of diffuse triangles are traced 8 or 16 paths at a time ([`packet`]),
 //! the same image bit for bit.
 
 pub mod isa;
@@ -27,7 +27,8 @@ use variant::{ForVariant, run_variant, variant_of};
 /// Rays per batch on the CPU: bounds the wavefront's ray states to 256 MiB.
 pub const CPU_MAX_RAYS_PER_BATCH: u64 = 1 << 22;
 
-/// Paths per rayon task of [`packet`]'s schedule, which traces them `packet::LANES` at a time.
+/// Paths per rayon task of [`packet`]'s schedule, which traces them `packet::LANES` (or
+/// `packet::LANES_AVX512`) at a time.
 const PACKET_CHUNK: usize = 2048;
 
 /// Renders a scene on the CPU with rayon, through the same stage functions as the GPU.
@@ -103,7 +104,8 @@ impl CpuTracer {
         self.isa
     }
 
-    /// Whether scenes of diffuse triangles are traced [`packet::LANES`] paths at a time
+    /// Whether scenes of diffuse triangles are traced [`packet::LANES`] (at x86-64-v4
+    /// [`packet::LANES_AVX512`]) paths at a time
     /// ([`packet`], default `true`) or one at a time, as every other scene: the same image
     /// bit for bit either way, in less time with packets.
     pub fn set_packets(&mut self, on: bool) {

@@ -1,4 +1,5 @@
-//! The CPU path of scenes of diffuse triangles, [`LANES`] paths at a time.
+//! The CPU path of scenes of diffuse triangles, several paths at a time ([`LANES`], or
+//! [`LANES_AVX512`] on AVX-512 lanes).
 //!
 //! One path at a time, a segment of Bitterli's Cornell box costs about 2,000 instructions
 //! (cachegrind, issue 15 in `docs/RESULTS.md`): some 1,000 in its two walks, ~250 in the sampler,
@@ -6,7 +7,7 @@
 //! Mitsuba 3's LLVM backend runs those stages over 8 or 16 paths an instruction. This module does
 //! so for the variant without any feature group ([`runs`]: diffuse triangles, emission, next-event
 //! estimation, no sky, textures, spheres or other materials): a chunk of the batch's paths is
-//! traced [`LANES`] at a time, each lane taking the chunk's next path when its own ends. Per
+//! traced `N` at a time (a [`Lanes<N>`] type's lanes), each lane taking the chunk's next path when its own ends. Per
 //! segment, the random numbers and the walks run lane by lane (the scalar functions:
 //! [`wanted_pairs`] of `SegmentKeys::draw_pairs` or [`segment_rands`], the tree's walk; every
 //! lane's numbers drawn before the first walk, so that the draws' chains of multiplies overlap the
@@ -15,8 +16,10 @@
 //! takes the next one and walks again, so that the shading finds every lane with a hit), and
 //! everything between them (the surface, the emission's weight, next-event estimation's light
 //! sample, the scattered direction, Russian roulette) runs on all lanes at once, on a [`Lane`]
-//! type: one AVX register in `cpu::isa`'s x86-64-v3 and v4 copies (`Avx`, crate-private), two glam
-//! `Vec4`s (SSE, which every x86-64 level has) at the build's level ([`Sse`]); the paths are held a
+//! type: sixteen lanes in one AVX-512 register, their truths in a mask register, in `cpu::isa`'s
+//! x86-64-v4 copy (`Avx512`, crate-private), eight in one AVX register in its x86-64-v3 copy
+//! (`Avx`), eight as two glam `Vec4`s (SSE, which every x86-64 level has) at the build's level
+//! ([`Sse`]); the paths are held a
 //! field's lanes side by side (`Paths`), and the AVX copies draw the sampler's numbers and walk the
 //! tree in the AVX2 forms (the [`Forms`] that [`trace_chunk`] takes:
 //! `SegmentKeys::draw_pairs_avx2`, `GpuBvh::trace_closest_avx2`; at x86-64-v4
@@ -33,6 +36,7 @@
 //! instruction-set level, and compares the images bit for bit (reassociating one sum of the
 //! scattered direction fails it).
 
+use std::mem::MaybeUninit;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 use glam::{BVec4A, Vec3, Vec4};
@@ -53,8 +57,14 @@ use crate::shade::{
 use crate::sobol::{SegmentKeys, SegmentPairs, SobolPixel};
 use crate::surface::{Globals, OFFSET_BACK_ULPS, OFFSET_HIT_ULPS, OFFSET_T_ULPS, UNIT_ROUNDOFF};
 
-/// Paths traced together.
+/// Paths traced together on [`Sse`] lanes and AVX lanes (`Avx`, crate-private: x86-64-v3).
 pub const LANES: usize = 8;
+
+/// Paths traced together on AVX-512 lanes (`Avx512`, crate-private: x86-64-v4): Bitterli's
+/// Cornell box's render 5-6 % faster than eight lanes in an AVX register there (the Intel dev
+/// VM, session 43); sixteen lanes as two AVX registers measured no faster than eight, and as
+/// four SSE registers ~10 % slower (`docs/RESULTS.md`, issue 15).
+pub const LANES_AVX512: usize = 16;
 
 /// Whether variant `f` (`cpu::variant`) is traced by this module: the variant of no feature
 /// group, [`ALWAYS`].
@@ -62,9 +72,10 @@ pub const fn runs(f: u32) -> bool {
     f == ALWAYS
 }
 
-/// The arithmetic of [`LANES`] numbers at once that the packets run on: [`Sse`] at every
-/// level, `Avx` (crate-private) where the CPU has AVX (`cpu::isa`'s x86-64-v3 and v4
-/// copies). Each operation is the IEEE one of `f32` lane by lane.
+/// The arithmetic of several numbers at once that the packets run on: [`Sse`] at every
+/// level, `Avx` (crate-private) where the CPU has AVX2 (`cpu::isa`'s x86-64-v3 copy), `Avx512`
+/// (crate-private) in the x86-64-v4 copy. Each operation is the IEEE one of `f32` lane by lane.
+/// How many lanes, and the arrays they load and store, is [`Lanes`]'.
 pub trait Lane:
     Copy
     + Add<Output = Self>
@@ -76,8 +87,6 @@ pub trait Lane:
     /// A truth per lane.
     type M: Mask<Self>;
     fn splat(x: f32) -> Self;
-    fn from_array(a: [f32; LANES]) -> Self;
-    fn to_array(self) -> [f32; LANES];
     fn sqrt(self) -> Self;
     fn abs(self) -> Self;
     /// `f32::max` (IEEE maxNum: a NaN operand gives the other).
@@ -87,12 +96,19 @@ pub trait Lane:
     fn lt(self, o: Self) -> Self::M;
     fn gt(self, o: Self) -> Self::M;
     fn ge(self, o: Self) -> Self::M;
+}
 
-    /// Eight four-word records' words side by side: result `k`'s lane `j` is `rows[j][k]`
-    /// (a record's x, y, z and w: the gathers of the lanes' triangles, materials and lights).
+/// A [`Lane`] type of `N` lanes (at most 32: its [`Mask`]'s bits): the packets trace `N` paths
+/// at a time on it ([`trace_chunk`]).
+pub trait Lanes<const N: usize>: Lane {
+    fn from_array(a: [f32; N]) -> Self;
+    fn to_array(self) -> [f32; N];
+
+    /// `N` four-word records' words side by side: result `k`'s lane `j` is `rows[j][k]` (a
+    /// record's x, y, z and w: the gathers of the lanes' triangles, materials and lights).
     #[inline(always)]
-    fn transpose(rows: [&[f32; 4]; LANES]) -> [Self; 4] {
-        let mut a = [[0.0; LANES]; 4];
+    fn transpose(rows: [&[f32; 4]; N]) -> [Self; 4] {
+        let mut a = [[0.0; N]; 4];
         for (j, row) in rows.iter().enumerate() {
             for k in 0..4 {
                 a[k][j] = row[k];
@@ -102,20 +118,17 @@ pub trait Lane:
     }
 }
 
-/// `a.map(f)` written out: the array's `map` (`try_map`) was compiled out of line, a call
-/// from `cpu::isa`'s AVX copies for each gather.
+/// `a.map(f)` as a loop the compiler unrolls: the array's `map` (`try_map`) was compiled
+/// out of line, a call from `cpu::isa`'s AVX copies for each gather.
 #[inline(always)]
-fn each<T: Copy, U>(a: [T; LANES], f: impl Fn(T) -> U) -> [U; LANES] {
-    [
-        f(a[0]),
-        f(a[1]),
-        f(a[2]),
-        f(a[3]),
-        f(a[4]),
-        f(a[5]),
-        f(a[6]),
-        f(a[7]),
-    ]
+fn each<T: Copy, U: Copy, const N: usize>(a: [T; N], f: impl Fn(T) -> U) -> [U; N] {
+    let mut out = [const { MaybeUninit::<U>::uninit() }; N];
+    for j in 0..N {
+        out[j] = MaybeUninit::new(f(a[j]));
+    }
+    // SAFETY: every element was written above; `[MaybeUninit<U>; N]` and `[U; N]` have the
+    // same layout.
+    unsafe { std::mem::transmute_copy(&out) }
 }
 
 /// Words `4 * i..4 * i + 4` of `record` (a GPU record of four-word groups) as four `f32`s.
@@ -126,15 +139,6 @@ fn quad<T: bytemuck::Pod>(record: &T, i: usize) -> &[f32; 4] {
 
 /// A truth per lane of [`Lane`] `L`.
 pub trait Mask<L: Lane>: Copy {
-    /// Lane `i` true where `a[i]` is.
-    #[inline(always)]
-    fn from_array(a: [bool; LANES]) -> Self {
-        let mut bits = 0;
-        for (j, &b) in a.iter().enumerate() {
-            bits |= u32::from(b) << j;
-        }
-        Self::from_bits(bits)
-    }
     /// Lane `i` true where bit `i` of `bits` is set.
     fn from_bits(bits: u32) -> Self;
     fn and(self, o: Self) -> Self;
@@ -163,14 +167,7 @@ pub struct Sse([Vec4; 2]);
 #[derive(Clone, Copy, Debug)]
 pub struct SseMask([BVec4A; 2]);
 
-impl Lane for Sse {
-    type M = SseMask;
-
-    #[inline(always)]
-    fn splat(x: f32) -> Sse {
-        Sse([Vec4::splat(x); 2])
-    }
-
+impl Lanes<LANES> for Sse {
     #[inline(always)]
     fn from_array(a: [f32; LANES]) -> Sse {
         Sse([Vec4::from_slice(&a[..4]), Vec4::from_slice(&a[4..])])
@@ -182,6 +179,15 @@ impl Lane for Sse {
         self.0[0].write_to_slice(&mut a[..4]);
         self.0[1].write_to_slice(&mut a[4..]);
         a
+    }
+}
+
+impl Lane for Sse {
+    type M = SseMask;
+
+    #[inline(always)]
+    fn splat(x: f32) -> Sse {
+        Sse([Vec4::splat(x); 2])
     }
 
     #[inline(always)]
@@ -264,14 +270,6 @@ impl Neg for Sse {
 
 impl Mask<Sse> for SseMask {
     #[inline(always)]
-    fn from_array(a: [bool; LANES]) -> SseMask {
-        SseMask([
-            BVec4A::new(a[0], a[1], a[2], a[3]),
-            BVec4A::new(a[4], a[5], a[6], a[7]),
-        ])
-    }
-
-    #[inline(always)]
     fn from_bits(bits: u32) -> SseMask {
         let b = |j: u32| bits >> j & 1 != 0;
         SseMask([
@@ -323,7 +321,7 @@ mod avx {
     use std::arch::x86_64::*;
     use std::ops::{Add, Div, Mul, Neg, Sub};
 
-    use super::{LANES, Lane, Mask};
+    use super::{LANES, Lane, Lanes, Mask};
 
     #[derive(Clone, Copy, Debug)]
     pub(crate) struct Avx(__m256);
@@ -376,20 +374,6 @@ mod avx {
         }
 
         #[inline(always)]
-        fn from_array(a: [f32; LANES]) -> Avx {
-            // SAFETY: see the module's docs; `a` holds 8 floats.
-            Avx(unsafe { _mm256_loadu_ps(a.as_ptr()) })
-        }
-
-        #[inline(always)]
-        fn to_array(self) -> [f32; LANES] {
-            let mut a = [0.0; LANES];
-            // SAFETY: see the module's docs; `a` holds 8 floats.
-            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) };
-            a
-        }
-
-        #[inline(always)]
         fn sqrt(self) -> Avx {
             // SAFETY: see the module's docs.
             Avx(unsafe { _mm256_sqrt_ps(self.0) })
@@ -426,6 +410,22 @@ mod avx {
         #[inline(always)]
         fn ge(self, o: Avx) -> AvxMask {
             self.cmp::<_CMP_GE_OQ>(o)
+        }
+    }
+
+    impl Lanes<LANES> for Avx {
+        #[inline(always)]
+        fn from_array(a: [f32; LANES]) -> Avx {
+            // SAFETY: see the module's docs; `a` holds 8 floats.
+            Avx(unsafe { _mm256_loadu_ps(a.as_ptr()) })
+        }
+
+        #[inline(always)]
+        fn to_array(self) -> [f32; LANES] {
+            let mut a = [0.0; LANES];
+            // SAFETY: see the module's docs; `a` holds 8 floats.
+            unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) };
+            a
         }
 
         #[inline(always)]
@@ -505,6 +505,203 @@ mod avx {
     }
 }
 
+#[cfg(target_arch = "x86_64")]
+pub(crate) use avx512::Avx512;
+
+/// [`LANES_AVX512`] numbers in one AVX-512 register and their truths in a mask register, for
+/// the x86-64-v4 copy of `cpu::isa`.
+///
+/// The intrinsics are `unsafe` to call where the CPU may lack AVX-512; these lanes are built
+/// only in [`trace_chunk`]'s instances that `cpu::isa::trace_chunk` runs inside its v4 copy,
+/// which runs only on CPUs with that level (`with_isa` asserts it), or in a build whose target
+/// has AVX-512 F. That is the safety argument of every `unsafe` block here.
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use std::arch::x86_64::*;
+    use std::ops::{Add, Div, Mul, Neg, Sub};
+
+    use super::{LANES_AVX512, Lane, Lanes, Mask};
+
+    #[derive(Clone, Copy, Debug)]
+    pub(crate) struct Avx512(__m512);
+
+    /// [`Avx512`]'s truths: a bit a lane.
+    #[derive(Clone, Copy, Debug)]
+    pub(crate) struct Avx512Mask(__mmask16);
+
+    macro_rules! avx512_op {
+        ($trait:ident, $f:ident, $intrinsic:ident) => {
+            impl $trait for Avx512 {
+                type Output = Avx512;
+                #[inline(always)]
+                fn $f(self, o: Avx512) -> Avx512 {
+                    // SAFETY: see the module's docs.
+                    Avx512(unsafe { $intrinsic(self.0, o.0) })
+                }
+            }
+        };
+    }
+    avx512_op!(Add, add, _mm512_add_ps);
+    avx512_op!(Sub, sub, _mm512_sub_ps);
+    avx512_op!(Mul, mul, _mm512_mul_ps);
+    avx512_op!(Div, div, _mm512_div_ps);
+
+    impl Neg for Avx512 {
+        type Output = Avx512;
+        #[inline(always)]
+        fn neg(self) -> Avx512 {
+            // The sign bit flipped as an integer (AVX-512 F's `xor`; the float one is DQ's).
+            // SAFETY: see the module's docs.
+            Avx512(unsafe {
+                let a = _mm512_castps_si512(self.0);
+                _mm512_castsi512_ps(_mm512_xor_si512(a, _mm512_set1_epi32(i32::MIN)))
+            })
+        }
+    }
+
+    impl Avx512 {
+        #[inline(always)]
+        fn cmp<const P: i32>(self, o: Avx512) -> Avx512Mask {
+            // SAFETY: see the module's docs.
+            Avx512Mask(unsafe { _mm512_cmp_ps_mask::<P>(self.0, o.0) })
+        }
+    }
+
+    impl Lane for Avx512 {
+        type M = Avx512Mask;
+
+        #[inline(always)]
+        fn splat(x: f32) -> Avx512 {
+            // SAFETY: see the module's docs.
+            Avx512(unsafe { _mm512_set1_ps(x) })
+        }
+
+        #[inline(always)]
+        fn sqrt(self) -> Avx512 {
+            // SAFETY: see the module's docs.
+            Avx512(unsafe { _mm512_sqrt_ps(self.0) })
+        }
+
+        #[inline(always)]
+        fn abs(self) -> Avx512 {
+            // The sign bit cleared as an integer (as `neg`).
+            // SAFETY: see the module's docs.
+            Avx512(unsafe {
+                let a = _mm512_castps_si512(self.0);
+                _mm512_castsi512_ps(_mm512_and_si512(a, _mm512_set1_epi32(i32::MAX)))
+            })
+        }
+
+        #[inline(always)]
+        fn fmax(self, o: Avx512) -> Avx512 {
+            let bigger = o.gt(self).pick(o, self);
+            self.cmp::<_CMP_UNORD_Q>(self).pick(o, bigger)
+        }
+
+        #[inline(always)]
+        fn fmin(self, o: Avx512) -> Avx512 {
+            let smaller = o.lt(self).pick(o, self);
+            self.cmp::<_CMP_UNORD_Q>(self).pick(o, smaller)
+        }
+
+        #[inline(always)]
+        fn lt(self, o: Avx512) -> Avx512Mask {
+            self.cmp::<_CMP_LT_OQ>(o)
+        }
+
+        #[inline(always)]
+        fn gt(self, o: Avx512) -> Avx512Mask {
+            self.cmp::<_CMP_GT_OQ>(o)
+        }
+
+        #[inline(always)]
+        fn ge(self, o: Avx512) -> Avx512Mask {
+            self.cmp::<_CMP_GE_OQ>(o)
+        }
+    }
+
+    impl Lanes<LANES_AVX512> for Avx512 {
+        #[inline(always)]
+        fn from_array(a: [f32; LANES_AVX512]) -> Avx512 {
+            // SAFETY: see the module's docs; `a` holds 16 floats.
+            Avx512(unsafe { _mm512_loadu_ps(a.as_ptr()) })
+        }
+
+        #[inline(always)]
+        fn to_array(self) -> [f32; LANES_AVX512] {
+            let mut a = [0.0; LANES_AVX512];
+            // SAFETY: see the module's docs; `a` holds 16 floats.
+            unsafe { _mm512_storeu_ps(a.as_mut_ptr(), self.0) };
+            a
+        }
+
+        #[inline(always)]
+        fn transpose(rows: [&[f32; 4]; LANES_AVX512]) -> [Avx512; 4] {
+            // SAFETY: see the module's docs; each row is four floats, read unaligned.
+            unsafe {
+                // Rows j, j + 4, j + 8 and j + 12 in the four quarters, then the 4x4
+                // transpose of each quarter (as `Avx`'s halves; no closures: see there).
+                macro_rules! four {
+                    ($j:expr) => {{
+                        let v = _mm512_castps128_ps512(_mm_loadu_ps(rows[$j].as_ptr()));
+                        let v = _mm512_insertf32x4::<1>(v, _mm_loadu_ps(rows[$j + 4].as_ptr()));
+                        let v = _mm512_insertf32x4::<2>(v, _mm_loadu_ps(rows[$j + 8].as_ptr()));
+                        _mm512_insertf32x4::<3>(v, _mm_loadu_ps(rows[$j + 12].as_ptr()))
+                    }};
+                }
+                let r = [four!(0), four!(1), four!(2), four!(3)];
+                let (t0, t1) = (
+                    _mm512_unpacklo_ps(r[0], r[1]),
+                    _mm512_unpackhi_ps(r[0], r[1]),
+                );
+                let (t2, t3) = (
+                    _mm512_unpacklo_ps(r[2], r[3]),
+                    _mm512_unpackhi_ps(r[2], r[3]),
+                );
+                [
+                    Avx512(_mm512_shuffle_ps::<0b01_00_01_00>(t0, t2)),
+                    Avx512(_mm512_shuffle_ps::<0b11_10_11_10>(t0, t2)),
+                    Avx512(_mm512_shuffle_ps::<0b01_00_01_00>(t1, t3)),
+                    Avx512(_mm512_shuffle_ps::<0b11_10_11_10>(t1, t3)),
+                ]
+            }
+        }
+    }
+
+    impl Mask<Avx512> for Avx512Mask {
+        #[inline(always)]
+        fn from_bits(bits: u32) -> Avx512Mask {
+            Avx512Mask(bits as __mmask16)
+        }
+
+        #[inline(always)]
+        fn and(self, o: Avx512Mask) -> Avx512Mask {
+            Avx512Mask(self.0 & o.0)
+        }
+
+        #[inline(always)]
+        fn or(self, o: Avx512Mask) -> Avx512Mask {
+            Avx512Mask(self.0 | o.0)
+        }
+
+        #[inline(always)]
+        fn not(self) -> Avx512Mask {
+            Avx512Mask(!self.0)
+        }
+
+        #[inline(always)]
+        fn bits(self) -> u32 {
+            u32::from(self.0)
+        }
+
+        #[inline(always)]
+        fn pick(self, a: Avx512, b: Avx512) -> Avx512 {
+            // SAFETY: see the module's docs.
+            Avx512(unsafe { _mm512_mask_blend_ps(self.0, b.0, a.0) })
+        }
+    }
+}
+
 /// A `Vec3` per lane, with glam's `Vec3` arithmetic (the same operations in the same order).
 #[derive(Clone, Copy, Debug)]
 pub struct V3<L> {
@@ -515,7 +712,10 @@ pub struct V3<L> {
 
 impl<L: Lane> V3<L> {
     #[inline(always)]
-    fn from_arrays(v: &[[f32; LANES]; 3]) -> V3<L> {
+    fn from_arrays<const N: usize>(v: &[[f32; N]; 3]) -> V3<L>
+    where
+        L: Lanes<N>,
+    {
         V3 {
             x: L::from_array(v[0]),
             y: L::from_array(v[1]),
@@ -524,7 +724,10 @@ impl<L: Lane> V3<L> {
     }
 
     #[inline(always)]
-    fn to_arrays(self) -> [[f32; LANES]; 3] {
+    fn to_arrays<const N: usize>(self) -> [[f32; N]; 3]
+    where
+        L: Lanes<N>,
+    {
         [self.x.to_array(), self.y.to_array(), self.z.to_array()]
     }
 
@@ -648,21 +851,21 @@ impl<L: Lane> Neg for V3<L> {
     }
 }
 
-/// The lanes' paths, a field's lanes side by side (what [`PathState`] holds per path).
+/// The `N` lanes' paths, a field's lanes side by side (what [`PathState`] holds per path).
 #[derive(Clone, Copy)]
-struct Paths {
-    origin: [[f32; LANES]; 3],
-    dir: [[f32; LANES]; 3],
-    throughput: [[f32; LANES]; 3],
-    radiance: [[f32; LANES]; 3],
-    mis_pdf: [f32; LANES],
-    alive: [bool; LANES],
+struct Paths<const N: usize> {
+    origin: [[f32; N]; 3],
+    dir: [[f32; N]; 3],
+    throughput: [[f32; N]; 3],
+    radiance: [[f32; N]; 3],
+    mis_pdf: [f32; N],
+    alive: [bool; N],
 }
 
-impl Paths {
+impl<const N: usize> Paths<N> {
     #[inline(always)]
     fn get(&self, j: usize) -> PathState {
-        let v = |a: &[[f32; LANES]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
+        let v = |a: &[[f32; N]; 3]| Vec3::new(a[0][j], a[1][j], a[2][j]);
         PathState {
             origin: v(&self.origin),
             dir: v(&self.dir),
@@ -685,19 +888,35 @@ impl Paths {
     }
 }
 
-/// What a lane's walk found and the numbers its shading draws from.
-#[derive(Clone, Copy, Default)]
-struct Found {
-    prim: [u32; LANES],
-    t: [f32; LANES],
-    u: [f32; LANES],
-    v: [f32; LANES],
+/// What each of `N` lanes' walks found and the numbers its shading draws from.
+#[derive(Clone, Copy)]
+struct Found<const N: usize> {
+    prim: [u32; N],
+    t: [f32; N],
+    u: [f32; N],
+    v: [f32; N],
     /// The light's x and y, the scattered direction's x and y, the roulette's.
-    light_x: [f32; LANES],
-    light_y: [f32; LANES],
-    scatter_x: [f32; LANES],
-    scatter_y: [f32; LANES],
-    roulette: [f32; LANES],
+    light_x: [f32; N],
+    light_y: [f32; N],
+    scatter_x: [f32; N],
+    scatter_y: [f32; N],
+    roulette: [f32; N],
+}
+
+impl<const N: usize> Default for Found<N> {
+    fn default() -> Self {
+        Found {
+            prim: [0; N],
+            t: [0.0; N],
+            u: [0.0; N],
+            v: [0.0; N],
+            light_x: [0.0; N],
+            light_y: [0.0; N],
+            scatter_x: [0.0; N],
+            scatter_y: [0.0; N],
+            roulette: [0.0; N],
+        }
+    }
 }
 
 /// `math::sin_cos_turns` lane by lane, the same operations: the quadrant `q mod 4` by float
@@ -767,7 +986,7 @@ fn offset_ray_origin<L: Lane>(s: &Surface<L>, dir_in: V3<L>, n: V3<L>) -> V3<L> 
 /// the samples dropped, on lanes `L`, drawing and walking in the forms `K` (the same numbers
 /// and hits in each). Only for a variant that [`runs`].
 #[inline(always)]
-pub fn trace_chunk<const F: u32, L: Lane, K: Forms>(
+pub fn trace_chunk<const F: u32, const N: usize, L: Lanes<N>, K: Forms>(
     g: &Globals,
     bvh: &GpuBvh,
     r0: u32,
@@ -776,30 +995,30 @@ pub fn trace_chunk<const F: u32, L: Lane, K: Forms>(
     debug_assert!(runs(F));
     let scene = g.scene;
     let mut paths = Paths {
-        origin: [[0.0; LANES]; 3],
-        dir: [[0.0; LANES]; 3],
-        throughput: [[0.0; LANES]; 3],
-        radiance: [[0.0; LANES]; 3],
-        mis_pdf: [0.0; LANES],
-        alive: [false; LANES],
+        origin: [[0.0; N]; 3],
+        dir: [[0.0; N]; 3],
+        throughput: [[0.0; N]; 3],
+        radiance: [[0.0; N]; 3],
+        mis_pdf: [0.0; N],
+        alive: [false; N],
     };
     // The slot each lane traces (`usize::MAX`: none), its pixel, sample, sampler setup and
     // segment number.
-    let mut slot = [usize::MAX; LANES];
-    let mut pixel = [0u32; LANES];
-    let mut sample = [0u32; LANES];
-    let mut sp = [SobolPixel::default(); LANES];
-    let mut depth = [0u32; LANES];
+    let mut slot = [usize::MAX; N];
+    let mut pixel = [0u32; N];
+    let mut sample = [0u32; N];
+    let mut sp = [SobolPixel::default(); N];
+    let mut depth = [0u32; N];
     let mut next = 0usize;
     let (mut rays, mut dropped) = (0u64, 0u64);
-    let mut found = Found::default();
+    let mut found = Found::<N>::default();
     loop {
         // Every lane walks until its path hits something: a path that escapes ends there,
         // and the lane takes the chunk's next path, so that the shading below finds every
         // lane busy but at the chunk's end. All the lanes' numbers are drawn before their
         // walks, so that the draws' long chains of multiplies run beside the walks.
-        let mut hit = [false; LANES];
-        let mut todo = (1u32 << LANES) - 1;
+        let mut hit = [false; N];
+        let mut todo = (1u32 << N) - 1;
         while todo != 0 {
             // The lanes' paths: a lane without one takes the chunk's next.
             let (mut live, mut fresh) = (0u32, 0u32);
@@ -822,7 +1041,7 @@ pub fn trace_chunk<const F: u32, L: Lane, K: Forms>(
             }
             // The segment's numbers: under the `Sobol` sampler from the render's table, four
             // lanes at a time (`Forms::draw_pairs4`), then `wanted_pairs`.
-            let drawn = table_pairs::<K>(g, &sp, &sample, &depth, live);
+            let drawn = table_pairs::<K, N>(g, &sp, &sample, &depth, live);
             let mut m = live;
             while m != 0 {
                 let j = m.trailing_zeros() as usize;
@@ -881,8 +1100,8 @@ pub fn trace_chunk<const F: u32, L: Lane, K: Forms>(
         if !hit.iter().any(|&h| h) {
             return (rays, dropped);
         }
-        shade::<F, L, K>(g, bvh, &mut paths, &hit, &found, &depth);
-        for j in 0..LANES {
+        shade::<F, N, L, K>(g, bvh, &mut paths, &hit, &found, &depth);
+        for j in 0..N {
             if !hit[j] {
                 continue;
             }
@@ -904,17 +1123,17 @@ pub fn trace_chunk<const F: u32, L: Lane, K: Forms>(
 /// three lanes padded to four), else a lane at a time by [`Forms::draw_pairs`]; `None` for
 /// the other lanes.
 #[inline(always)]
-fn table_pairs<K: Forms>(
+fn table_pairs<K: Forms, const N: usize>(
     g: &Globals,
-    sp: &[SobolPixel; LANES],
-    sample: &[u32; LANES],
-    depth: &[u32; LANES],
+    sp: &[SobolPixel; N],
+    sample: &[u32; N],
+    depth: &[u32; N],
     live: u32,
-) -> [Option<SegmentPairs>; LANES] {
-    let mut drawn = [None; LANES];
-    let mut keys: [Option<&SegmentKeys>; LANES] = [None; LANES];
+) -> [Option<SegmentPairs>; N] {
+    let mut drawn = [None; N];
+    let mut keys: [Option<&SegmentKeys>; N] = [None; N];
     // The lanes the table serves, in order.
-    let (mut lanes, mut n) = ([0usize; LANES], 0usize);
+    let (mut lanes, mut n) = ([0usize; N], 0usize);
     let mut m = live;
     while m != 0 {
         let j = m.trailing_zeros() as usize;
@@ -961,25 +1180,25 @@ fn table_pairs<K: Forms>(
 /// emission's weight, the light sample, the scattered direction and the roulette, then the
 /// shadow rays lane by lane, then the radiance.
 #[inline(always)]
-fn shade<const F: u32, L: Lane, K: Forms>(
+fn shade<const F: u32, const N: usize, L: Lanes<N>, K: Forms>(
     g: &Globals,
     bvh: &GpuBvh,
-    paths: &mut Paths,
-    hit: &[bool; LANES],
-    found: &Found,
-    depth: &[u32; LANES],
+    paths: &mut Paths<N>,
+    hit: &[bool; N],
+    found: &Found<N>,
+    depth: &[u32; N],
 ) {
     let scene = g.scene;
     // Gathered: the hit's triangle and material (a lane without a hit reads the first hit
     // lane's triangle, and its results are not stored), four-word groups of eight records
     // transposed into lanes (`Lane::transpose`); the flags as bits.
-    let first = (0..LANES).find(|&j| hit[j]).unwrap_or(0);
-    let prims: [usize; LANES] =
+    let first = (0..N).find(|&j| hit[j]).unwrap_or(0);
+    let prims: [usize; N] =
         std::array::from_fn(|j| found.prim[if hit[j] { j } else { first }] as usize);
     let tris = each(prims, |i| &g.primitives[i]);
     let mats = each(prims, |i| &g.materials[g.prim_materials[i] as usize]);
     let (mut two_sided, mut hit_bits, mut last, mut roulette) = (0u32, 0u32, 0u32, 0u32);
-    for j in 0..LANES {
+    for j in 0..N {
         let bit = |b: bool| u32::from(b) << j;
         two_sided |= bit(mats[j].flags & MATERIAL_TWO_SIDED != 0);
         hit_bits |= bit(hit[j]);
@@ -987,10 +1206,10 @@ fn shade<const F: u32, L: Lane, K: Forms>(
         roulette |= bit(depth[j] >= scene.rr_depth);
     }
     debug_assert!(
-        (0..LANES).all(|j| !hit[j] || mats[j].kind == MATERIAL_DIFFUSE),
+        (0..N).all(|j| !hit[j] || mats[j].kind == MATERIAL_DIFFUSE),
         "a variant of diffuse surfaces"
     );
-    let xyz = |rows: [&[f32; 4]; LANES]| {
+    let xyz = |rows: [&[f32; 4]; N]| {
         let [x, y, z, _] = L::transpose(rows);
         V3 { x, y, z }
     };
@@ -1063,7 +1282,7 @@ fn shade<const F: u32, L: Lane, K: Forms>(
         // Every hit lane's surface is diffuse (the variant's).
         last.not()
     } else {
-        L::M::from_array([false; LANES])
+        L::M::from_bits(0)
     }
     .and(hit_mask);
 
@@ -1073,11 +1292,10 @@ fn shade<const F: u32, L: Lane, K: Forms>(
     let ns_facing = ng_facing;
     // The lanes' lights (a lane that samples none reads light 0, or zeros in a scene
     // without lights; its results are unused: its `p_select` is 0, so `query` is false).
-    let (mut light_index, mut fp_select, mut fx) =
-        ([0usize; LANES], [0.0f32; LANES], [0.0f32; LANES]);
+    let (mut light_index, mut fp_select, mut fx) = ([0usize; N], [0.0f32; N], [0.0f32; N]);
     let mut light_two_sided = 0u32;
     let sample_bits = sample_here.bits();
-    for j in 0..LANES {
+    for j in 0..N {
         if sample_bits >> j & 1 == 0 {
             continue;
         }
@@ -1233,7 +1451,7 @@ mod tests {
     /// `fmax`/`fmin` are `f32::max`/`min` lane by lane where an operand is NaN (the other
     /// comes back) and wherever the two differ (zeros of both signs, equal to each other,
     /// are left out: which of them `f32::max` returns is the compiler's choice).
-    fn min_max_follow_f32<L: Lane>() {
+    fn min_max_follow_f32<const N: usize, L: Lanes<N>>() {
         let values = [
             f32::NAN,
             -1.5,
@@ -1244,14 +1462,14 @@ mod tests {
             7.0,
             -0.5,
         ];
-        for shift in 0..LANES {
-            let a: [f32; LANES] = values;
-            let b: [f32; LANES] = std::array::from_fn(|i| values[(i + shift) % LANES]);
+        for shift in 0..N {
+            let a: [f32; N] = std::array::from_fn(|i| values[i % values.len()]);
+            let b: [f32; N] = std::array::from_fn(|i| values[(i + shift) % values.len()]);
             let (max, min) = (
                 L::from_array(a).fmax(L::from_array(b)).to_array(),
                 L::from_array(a).fmin(L::from_array(b)).to_array(),
             );
-            for i in 0..LANES {
+            for i in 0..N {
                 let (x, y) = (a[i], b[i]);
                 assert_eq!(max[i].to_bits(), x.max(y).to_bits(), "max({x}, {y})");
                 assert_eq!(min[i].to_bits(), x.min(y).to_bits(), "min({x}, {y})");
@@ -1260,8 +1478,8 @@ mod tests {
     }
 
     /// `transpose`'s lane `j` of result `k` is word `k` of row `j`.
-    fn transpose_puts_row_j_in_lane_j<L: Lane>() {
-        let rows: [[f32; 4]; LANES] =
+    fn transpose_puts_row_j_in_lane_j<const N: usize, L: Lanes<N>>() {
+        let rows: [[f32; 4]; N] =
             std::array::from_fn(|j| std::array::from_fn(|k| (10 * j + k) as f32));
         let t = L::transpose(std::array::from_fn(|j| &rows[j]));
         for (k, lanes) in t.iter().enumerate() {
@@ -1275,7 +1493,7 @@ mod tests {
 
     #[test]
     fn sse_transpose_puts_row_j_in_lane_j() {
-        transpose_puts_row_j_in_lane_j::<Sse>();
+        transpose_puts_row_j_in_lane_j::<LANES, Sse>();
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -1286,7 +1504,7 @@ mod tests {
         }
         #[target_feature(enable = "avx2")]
         fn with_avx() {
-            transpose_puts_row_j_in_lane_j::<Avx>();
+            transpose_puts_row_j_in_lane_j::<LANES, Avx>();
         }
         // SAFETY: AVX2 detected above.
         unsafe { with_avx() };
@@ -1294,7 +1512,7 @@ mod tests {
 
     #[test]
     fn sse_min_max_follow_f32() {
-        min_max_follow_f32::<Sse>();
+        min_max_follow_f32::<LANES, Sse>();
     }
 
     #[cfg(target_arch = "x86_64")]
@@ -1306,9 +1524,97 @@ mod tests {
         // The lanes' intrinsics run inside a function compiled for AVX2.
         #[target_feature(enable = "avx2")]
         fn with_avx() {
-            min_max_follow_f32::<Avx>();
+            min_max_follow_f32::<LANES, Avx>();
         }
         // SAFETY: AVX2 detected above.
         unsafe { with_avx() };
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx512_transpose_puts_row_j_in_lane_j() {
+        if !std::arch::is_x86_feature_detected!("avx512f") {
+            return;
+        }
+        #[target_feature(enable = "avx512f")]
+        fn with_avx512() {
+            transpose_puts_row_j_in_lane_j::<LANES_AVX512, Avx512>();
+        }
+        // SAFETY: AVX-512 F detected above.
+        unsafe { with_avx512() };
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx512_min_max_follow_f32() {
+        if !std::arch::is_x86_feature_detected!("avx512f") {
+            return;
+        }
+        #[target_feature(enable = "avx512f")]
+        fn with_avx512() {
+            min_max_follow_f32::<LANES_AVX512, Avx512>();
+        }
+        // SAFETY: AVX-512 F detected above.
+        unsafe { with_avx512() };
+    }
+
+    /// The masks' bits and picks, lane by lane: `from_bits` then `bits` gives the bits back,
+    /// `pick` takes `a` exactly where the bit is set, and `and`, `or`, `not` are the bits'.
+    fn masks_follow_their_bits<const N: usize, L: Lanes<N>>() {
+        let a: [f32; N] = std::array::from_fn(|i| i as f32 + 0.5);
+        let b: [f32; N] = std::array::from_fn(|i| -(i as f32) - 0.25);
+        let all = if N == 32 { u32::MAX } else { (1u32 << N) - 1 };
+        for (x, y) in [
+            (0u32, 0u32),
+            (all, 0),
+            (0xa5a5_a5a5 & all, 0x0ff0_0ff0 & all),
+            (1, 1 << (N - 1)),
+        ] {
+            let (mx, my) = (L::M::from_bits(x), L::M::from_bits(y));
+            assert_eq!(mx.bits(), x);
+            assert_eq!(mx.and(my).bits(), x & y);
+            assert_eq!(mx.or(my).bits(), x | y);
+            assert_eq!(mx.not().bits(), !x & all);
+            let picked = mx.pick(L::from_array(a), L::from_array(b)).to_array();
+            for i in 0..N {
+                let want = if x >> i & 1 == 1 { a[i] } else { b[i] };
+                assert_eq!(picked[i].to_bits(), want.to_bits(), "lane {i} of {x:#x}");
+            }
+            // A comparison's truths land in the lane's bit.
+            assert_eq!(L::from_array(a).gt(L::splat(7.0)).bits(), all & !0x7f);
+        }
+    }
+
+    #[test]
+    fn sse_masks_follow_their_bits() {
+        masks_follow_their_bits::<LANES, Sse>();
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx_masks_follow_their_bits() {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        #[target_feature(enable = "avx2")]
+        fn with_avx() {
+            masks_follow_their_bits::<LANES, Avx>();
+        }
+        // SAFETY: AVX2 detected above.
+        unsafe { with_avx() };
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx512_masks_follow_their_bits() {
+        if !std::arch::is_x86_feature_detected!("avx512f") {
+            return;
+        }
+        #[target_feature(enable = "avx512f")]
+        fn with_avx512() {
+            masks_follow_their_bits::<LANES_AVX512, Avx512>();
+        }
+        // SAFETY: AVX-512 F detected above.
+        unsafe { with_avx512() };
     }
 }
