@@ -307,6 +307,41 @@ impl Mask<Sse> for SseMask {
     }
 }
 
+/// [`Lane`]'s comparisons and `f32::max`/`min` lane by lane, for the x86 lane types, from
+/// their `cmp::<P>` (an AVX comparison predicate, `_CMP_*`): `fmax`/`fmin` pick the other
+/// operand where `self` is NaN, else by `>`/`<`, as x86 lowers `f32::max`/`min`.
+#[cfg(target_arch = "x86_64")]
+macro_rules! compare_ops {
+    ($t:ty, $m:ty) => {
+        #[inline(always)]
+        fn fmax(self, o: $t) -> $t {
+            let bigger = o.gt(self).pick(o, self);
+            self.cmp::<_CMP_UNORD_Q>(self).pick(o, bigger)
+        }
+
+        #[inline(always)]
+        fn fmin(self, o: $t) -> $t {
+            let smaller = o.lt(self).pick(o, self);
+            self.cmp::<_CMP_UNORD_Q>(self).pick(o, smaller)
+        }
+
+        #[inline(always)]
+        fn lt(self, o: $t) -> $m {
+            self.cmp::<_CMP_LT_OQ>(o)
+        }
+
+        #[inline(always)]
+        fn gt(self, o: $t) -> $m {
+            self.cmp::<_CMP_GT_OQ>(o)
+        }
+
+        #[inline(always)]
+        fn ge(self, o: $t) -> $m {
+            self.cmp::<_CMP_GE_OQ>(o)
+        }
+    };
+}
+
 #[cfg(target_arch = "x86_64")]
 pub(crate) use avx::Avx;
 
@@ -385,32 +420,7 @@ mod avx {
             Avx(unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0) })
         }
 
-        #[inline(always)]
-        fn fmax(self, o: Avx) -> Avx {
-            let bigger = o.gt(self).pick(o, self);
-            self.cmp::<_CMP_UNORD_Q>(self).pick(o, bigger)
-        }
-
-        #[inline(always)]
-        fn fmin(self, o: Avx) -> Avx {
-            let smaller = o.lt(self).pick(o, self);
-            self.cmp::<_CMP_UNORD_Q>(self).pick(o, smaller)
-        }
-
-        #[inline(always)]
-        fn lt(self, o: Avx) -> AvxMask {
-            self.cmp::<_CMP_LT_OQ>(o)
-        }
-
-        #[inline(always)]
-        fn gt(self, o: Avx) -> AvxMask {
-            self.cmp::<_CMP_GT_OQ>(o)
-        }
-
-        #[inline(always)]
-        fn ge(self, o: Avx) -> AvxMask {
-            self.cmp::<_CMP_GE_OQ>(o)
-        }
+        compare_ops!(Avx, AvxMask);
     }
 
     impl Lanes<LANES> for Avx {
@@ -592,32 +602,7 @@ mod avx512 {
             })
         }
 
-        #[inline(always)]
-        fn fmax(self, o: Avx512) -> Avx512 {
-            let bigger = o.gt(self).pick(o, self);
-            self.cmp::<_CMP_UNORD_Q>(self).pick(o, bigger)
-        }
-
-        #[inline(always)]
-        fn fmin(self, o: Avx512) -> Avx512 {
-            let smaller = o.lt(self).pick(o, self);
-            self.cmp::<_CMP_UNORD_Q>(self).pick(o, smaller)
-        }
-
-        #[inline(always)]
-        fn lt(self, o: Avx512) -> Avx512Mask {
-            self.cmp::<_CMP_LT_OQ>(o)
-        }
-
-        #[inline(always)]
-        fn gt(self, o: Avx512) -> Avx512Mask {
-            self.cmp::<_CMP_GT_OQ>(o)
-        }
-
-        #[inline(always)]
-        fn ge(self, o: Avx512) -> Avx512Mask {
-            self.cmp::<_CMP_GE_OQ>(o)
-        }
+        compare_ops!(Avx512, Avx512Mask);
     }
 
     impl Lanes<LANES_AVX512> for Avx512 {
