@@ -7,8 +7,8 @@
 //! Mitsuba 3's LLVM backend runs those stages over 8 or 16 paths an instruction. This module does
 //! so for the variant without any feature group ([`runs`]: diffuse triangles, emission, next-event
 //! estimation, no sky, textures, spheres or other materials): a chunk of the batch's paths is
-//! traced `N` at a time (a [`Lanes<N>`] type's lanes), each lane taking the chunk's next path when its own ends. Per
-//! segment, the random numbers and the walks run lane by lane (the scalar functions:
+//! traced `N` at a time (the lanes of a [`Lanes`]`<N>` type), each lane taking the chunk's next
+//! path when its own ends. Per segment, the random numbers and the walks run lane by lane (the scalar functions:
 //! [`wanted_pairs`] of `SegmentKeys::draw_pairs` or [`segment_rands`], the tree's walk; every
 //! lane's numbers drawn before the first walk, so that the draws' chains of multiplies overlap the
 //! walks, and under the `Sobol` sampler four lanes' at once, `Forms::draw_pairs4`: at x86-64-v4
@@ -19,9 +19,9 @@
 //! type: sixteen lanes in one AVX-512 register, their truths in a mask register, in `cpu::isa`'s
 //! x86-64-v4 copy (`Avx512`, crate-private), eight in one AVX register in its x86-64-v3 copy
 //! (`Avx`), eight as two glam `Vec4`s (SSE, which every x86-64 level has) at the build's level
-//! ([`Sse`]); the paths are held a
-//! field's lanes side by side (`Paths`), and the AVX copies draw the sampler's numbers and walk the
-//! tree in the AVX2 forms (the [`Forms`] that [`trace_chunk`] takes:
+//! ([`Sse`]); the paths are held a field's lanes side by side (`Paths`), and the AVX copies
+//! draw the sampler's numbers and walk the tree in the AVX2 forms (the [`Forms`] that
+//! [`trace_chunk`] takes:
 //! `SegmentKeys::draw_pairs_avx2`, `GpuBvh::trace_closest_avx2`; at x86-64-v4
 //! `GpuBvh::trace_closest_avx512`). Bitterli's Cornell box on the AMD EPYC dev VM: 400x400, 24 spp,
 //! 1.70 -> 1.46 s (median) against one path at a time with the scalar draw, then 1.445 -> 1.365 s
@@ -118,8 +118,8 @@ pub trait Lanes<const N: usize>: Lane {
     }
 }
 
-/// `a.map(f)` as a loop the compiler unrolls: the array's `map` (`try_map`) was compiled
-/// out of line, a call from `cpu::isa`'s AVX copies for each gather.
+/// `a.map(f)` as a plain loop: the array's `map` (`try_map`) was compiled out of line, a call
+/// from `cpu::isa`'s AVX copies for each gather.
 #[inline(always)]
 fn each<T: Copy, U: Copy, const N: usize>(a: [T; N], f: impl Fn(T) -> U) -> [U; N] {
     let mut out = [const { MaybeUninit::<U>::uninit() }; N];
@@ -345,12 +345,13 @@ macro_rules! compare_ops {
 #[cfg(target_arch = "x86_64")]
 pub(crate) use avx::Avx;
 
-/// [`LANES`] numbers in one AVX register, for the x86-64-v3 and v4 copies of `cpu::isa`.
+/// [`LANES`] numbers in one AVX register, for the x86-64-v3 copy of `cpu::isa` (the v4 copy
+/// runs [`Avx512`]).
 ///
 /// The intrinsics are `unsafe` to call where the CPU may lack AVX; these lanes are built only
-/// in [`trace_chunk`]'s instances that `cpu::isa::trace_chunk` runs inside its v3 and v4
-/// copies, which run only on CPUs with those levels (`with_isa` asserts it), or in a build
-/// whose target has AVX2. That is the safety argument of every `unsafe` block here.
+/// in [`trace_chunk`]'s instances that `cpu::isa::trace_chunk` runs inside its v3 copy, which
+/// runs only on CPUs with that level (`with_isa` asserts it), or in a build whose target has
+/// AVX2. That is the safety argument of every `unsafe` block here.
 #[cfg(target_arch = "x86_64")]
 mod avx {
     use std::arch::x86_64::*;
