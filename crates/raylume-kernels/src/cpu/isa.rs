@@ -22,7 +22,8 @@
 //! paths on AVX lanes there. The x86-64-v4 copies take the AVX-512 forms (`Avx512Forms`):
 //! the AVX2 ones, but a tree of at most `raylume_bvh::FLAT_MAX_PRIMITIVES` triangles tested
 //! sixteen at a time (`GpuBvh::trace_closest_avx512`, the same hits; Bitterli's Cornell box
-//! ~10 % faster on the Intel dev VM).
+//! ~10 % faster on the Intel dev VM); their [`trace_chunk`] runs sixteen paths at a time on
+//! AVX-512 lanes (another 6 % there).
 //!
 //! **The same image bit for bit** at every level: Rust never fuses `a * b + c` on its own
 //! (only `mul_add`, which is exactly rounded on every level: an instruction or libm's `fmaf`),
@@ -175,7 +176,8 @@ fn avx512_forms(isa: CpuIsa) -> bool {
     isa >= CpuIsa::X86_64V4 || cfg!(target_feature = "avx512f")
 }
 
-/// Whether the path at level `isa` runs at least the AVX2 forms (`Avx2Forms`, AVX lanes):
+/// Whether the path at level `isa` runs at least the AVX2 forms (`Avx2Forms`; the packets on
+/// AVX lanes, or AVX-512 lanes where [`avx512_forms`]):
 /// where `with_isa` runs x86-64-v3 or v4, or the build's own target has AVX2.
 #[cfg(target_arch = "x86_64")]
 fn avx2_forms(isa: CpuIsa) -> bool {
