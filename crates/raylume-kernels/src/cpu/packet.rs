@@ -1004,7 +1004,7 @@ pub fn trace_chunk<const F: u32, const N: usize, L: Lanes<N>, K: Forms>(
         // lane busy but at the chunk's end. All the lanes' numbers are drawn before their
         // walks, so that the draws' long chains of multiplies run beside the walks.
         let mut hit = [false; N];
-        let mut todo = (1u32 << N) - 1;
+        let mut todo = u32::MAX >> (32 - N); // every lane (N <= 32)
         while todo != 0 {
             // The lanes' paths: a lane without one takes the chunk's next.
             let (mut live, mut fresh) = (0u32, 0u32);
