@@ -25,13 +25,14 @@
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 use std::time::Instant;
 
 use clap::Parser;
 use raylume::Scene;
 use raylume::glam::{Vec2, Vec3};
 use raylume_bvh::{BvhLayout, BvhQuality, GpuBvh, Hit, Primitive, Ray};
-use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, wgpu};
+use raylume_gpu::{AdapterChoice, ContextOptions, GpuContext, GpuError, wgpu};
 use raylume_kernels::CpuIsa;
 use raylume_kernels::cpu::isa::with_isa;
 use rayon::prelude::*;
@@ -117,9 +118,18 @@ fn any(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 "#;
 
-fn parse_size(s: &str) -> (u32, u32) {
-    let (w, h) = s.split_once('x').expect("--size WxH");
-    (w.parse().expect("width"), h.parse().expect("height"))
+/// At most this many rays a set: one dispatch of 65,535 workgroups of 64 (`gpu_rate`).
+const MAX_RAYS: u64 = 65_535 * 64;
+
+/// `--size WxH`: both at least 1, at most [`MAX_RAYS`] together.
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("--size {s}: expected WxH of 1 to {MAX_RAYS} rays, e.g. 500x500");
+    let (w, h) = s.split_once('x').ok_or_else(bad)?;
+    let (w, h): (u32, u32) = (w.parse().map_err(|_| bad())?, h.parse().map_err(|_| bad())?);
+    if w == 0 || h == 0 || u64::from(w) * u64::from(h) > MAX_RAYS {
+        return Err(bad());
+    }
+    Ok((w, h))
 }
 
 /// The unit geometric normal of leaf primitive `p` at `point`.
@@ -250,7 +260,7 @@ fn gpu_rate(
     entry: &str,
     repeat: u32,
     passes: u32,
-) -> (f64, u32) {
+) -> Result<(f64, u32), String> {
     let source = format!("{}\n{KERNEL}", bvh.traverse_wgsl());
     // As the renders' kernels are made (`GpuContext::shader_module`: on Vulkan without naga's
     // bounds checks and loop bounding), so that the rate is the traversal they run.
@@ -266,17 +276,18 @@ fn gpu_rate(
             cache: None,
         });
     let none = wgpu::BufferUsages::empty();
+    let gpu = |e: GpuError| format!("GPU: {e}");
     let nodes = ctx
         .storage_buffer("bvh_nodes", bvh.node_bytes(), none)
-        .unwrap();
+        .map_err(gpu)?;
     let prims = ctx
         .storage_buffer("bvh_primitives", &bvh.primitives, none)
-        .unwrap();
-    let qbuf = ctx.storage_buffer("queries", queries, none).unwrap();
+        .map_err(gpu)?;
+    let qbuf = ctx.storage_buffer("queries", queries, none).map_err(gpu)?;
     let n = queries.len();
     let count = ctx
         .storage_buffer_zeroed("hit", 4 * n as u64, wgpu::BufferUsages::COPY_SRC)
-        .unwrap();
+        .map_err(gpu)?;
     let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some("trace_rate"),
         layout: &pipeline.get_bind_group_layout(0),
@@ -299,20 +310,20 @@ fn gpu_rate(
             pass.set_bind_group(0, &bind_group, &[]);
             // Dispatches of at most 65,535 workgroups (4.2 M rays) each.
             let groups = (queries.len() as u32).div_ceil(64);
-            assert!(groups <= 65_535, "at most 4.2 M rays a set");
+            debug_assert!(groups <= 65_535, "parse_size allows at most MAX_RAYS");
             for _ in 0..passes {
                 pass.dispatch_workgroups(groups, 1, 1);
             }
         }
         ctx.queue.submit([enc.finish()]);
-        ctx.wait("tracing").unwrap();
+        ctx.wait("tracing").map_err(gpu)?;
         let secs = t.elapsed().as_secs_f64() / f64::from(passes);
         if run > 0 {
             best = best.min(secs);
         }
-        hits = ctx.read_buffer::<u32>(&count, n).unwrap().iter().sum();
+        hits = ctx.read_buffer::<u32>(&count, n).map_err(gpu)?.iter().sum();
     }
-    (best, hits)
+    Ok((best, hits))
 }
 
 /// Best-of-`repeat` seconds and hit count of `queries` on the CPU (every core), each walk as
@@ -418,16 +429,29 @@ fn cpu_walk<const SPHERES: bool>(
     }
 }
 
-fn main() {
-    let args = Args::parse();
-    let (w, h) = parse_size(&args.size);
-    let ctx = args.backend.iter().any(|b| b == "gpu").then(|| {
-        GpuContext::new(&ContextOptions {
+fn main() -> ExitCode {
+    match run(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("trace_rate: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(args: Args) -> Result<(), String> {
+    let (w, h) = parse_size(&args.size)?;
+    let ctx = if args.backend.iter().any(|b| b == "gpu") {
+        let options = ContextOptions {
             choice: AdapterChoice::Any,
             adapter_name: None,
-        })
-        .expect("a GPU adapter (lavapipe counts)")
-    });
+        };
+        Some(GpuContext::new(&options).map_err(|e| {
+            format!("--backend gpu: {e} (lavapipe counts: see README.md; or --backend cpu)")
+        })?)
+    } else {
+        None
+    };
     if let Some(ctx) = &ctx {
         println!("GPU: {}", ctx.describe());
     }
@@ -442,25 +466,25 @@ fn main() {
     println!("| scene | prims | layout | backend | rays | closest Mrays/s | any Mrays/s | hit |");
     println!("|---|---:|---|---|---|---:|---:|---:|");
     for path in &args.scenes {
-        let scene = Scene::load(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let scene = Scene::load(path).map_err(|e| format!("{}: {e}", path.display()))?;
         for &layout in &args.bvh {
-            let bvh =
-                GpuBvh::from_scene_with_layout(&scene, BvhQuality::Quality, layout).expect("BVH");
+            let bvh = GpuBvh::from_scene_with_layout(&scene, BvhQuality::Quality, layout)
+                .map_err(|e| format!("{}: the BVH: {e}", path.display()))?;
             // The CPU walk's float node boxes, made before the parallel loops.
             bvh.wide_boxes();
             let (primary, diffuse) = rays(&scene, &bvh, w, h);
             if let (Some(root), true) = (&args.dump, layout == args.bvh[0]) {
                 let dir = root.join(scene_name(path));
                 let n = dump(&dir, &bvh, [("primary", &primary), ("diffuse", &diffuse)])
-                    .unwrap_or_else(|e| panic!("writing {}: {e}", dir.display()));
+                    .map_err(|e| format!("writing {}: {e}", dir.display()))?;
                 println!("wrote {} ({n} triangles)", dir.display());
             }
             for (kind, qs) in [("primary", &primary), ("diffuse", &diffuse)] {
                 for backend in &args.backend {
                     let ((tc, hc), (ta, ha)) = match (backend.as_str(), &ctx) {
                         ("gpu", Some(ctx)) => (
-                            gpu_rate(ctx, &bvh, qs, "closest", args.repeat, args.passes),
-                            gpu_rate(ctx, &bvh, qs, "any", args.repeat, args.passes),
+                            gpu_rate(ctx, &bvh, qs, "closest", args.repeat, args.passes)?,
+                            gpu_rate(ctx, &bvh, qs, "any", args.repeat, args.passes)?,
                         ),
                         _ => (
                             cpu_rate(&bvh, qs, false, args.repeat, isa),
@@ -482,4 +506,5 @@ fn main() {
             }
         }
     }
+    Ok(())
 }

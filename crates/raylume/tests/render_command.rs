@@ -228,6 +228,80 @@ fn bad_flags_are_rejected() {
     );
 }
 
+/// The `trace_rate` measuring tool names what is wrong with its input, in one line, and exits
+/// with a failure: no panic and backtrace (it panicked on a scene file it could not load and
+/// on a malformed `--size`).
+#[test]
+fn trace_rate_reports_bad_input_without_a_panic() {
+    let trace_rate = |args: &[&str]| {
+        Command::new(common::trace_rate_exe())
+            .args(args)
+            .current_dir(repo())
+            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+            .output()
+            .expect("run trace_rate")
+    };
+    for (args, wanted) in [
+        (
+            &["scenes/no-such-scene.toml", "--backend", "cpu"][..],
+            "no-such-scene.toml",
+        ),
+        (
+            &[
+                "scenes/cornell-box.toml",
+                "--backend",
+                "cpu",
+                "--size",
+                "12by12",
+            ][..],
+            "--size 12by12",
+        ),
+        (
+            &[
+                "scenes/cornell-box.toml",
+                "--backend",
+                "cpu",
+                "--size",
+                "0x8",
+            ][..],
+            "--size 0x8",
+        ),
+        (
+            &[
+                "scenes/cornell-box.toml",
+                "--backend",
+                "cpu",
+                "--size",
+                "2048x2048",
+            ][..],
+            "--size 2048x2048",
+        ),
+    ] {
+        let o = trace_rate(args);
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{args:?} succeeded");
+        assert!(
+            err.starts_with("trace_rate: ") && err.contains(wanted),
+            "{args:?}: {err}"
+        );
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+    }
+    // And a small set still measures.
+    let o = trace_rate(&[
+        "scenes/cornell-box.toml",
+        "--backend",
+        "cpu",
+        "--bvh",
+        "wide",
+        "--size",
+        "8x8",
+        "--repeat",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("| cpu | primary (64) |"));
+}
+
 #[test]
 fn absurd_sizes_are_rejected_before_rendering() {
     let out = tmp("sizes").join("out.png");

@@ -22,6 +22,11 @@ pub fn compare_exe() -> PathBuf {
     example_exe("compare")
 }
 
+/// The `trace_rate` example binary (see [`render_exe`]).
+pub fn trace_rate_exe() -> PathBuf {
+    example_exe("trace_rate")
+}
+
 fn example_exe(name: &str) -> PathBuf {
     let exe = std::env::current_exe().expect("test binary path");
     let profile_dir = exe
