@@ -28,7 +28,7 @@
 //! light through it.
 
 use glam::{Vec2, Vec3, Vec4};
-use raylume_bvh::{GpuBvh, PRIM_SPHERE, PRIM_TRIANGLE, Ray};
+use raylume_bvh::{GpuBvh, Hit, PRIM_SPHERE, PRIM_TRIANGLE, Ray};
 use raylume_scene::Feature;
 
 use crate::bsdf::{
@@ -344,11 +344,30 @@ pub fn trace_ray_at<const F: u32, K: Forms>(
     // eight lanes at a time, with `sampler_pixel` once a path in `trace_path`: the Cornell
     // box 10-12 % faster in the default build, 5-10 % built native, the living room 2-5 %;
     // `docs/RESULTS.md`, issue 15).
-    let (rnd_light, rnd_scatter, rnd_roulette) = segment_rands::<K>(g, sp, pixel, sample, depth);
+    let rnd = segment_rands::<K>(g, sp, pixel, sample, depth);
     let Some(hit) = K::trace_closest::<F>(bvh, &ray, 0.0, T_MAX) else {
         escape::<F>(g, path);
         return;
     };
+    shade_segment::<F, K>(g, bvh, path, &hit, rnd, depth);
+}
+
+/// The rest of [`trace_ray_at`]'s segment `depth` once its walk found `hit`: the surface, the
+/// light sample and its shadow ray, the emission, the scattered ray and the roulette, from the
+/// segment's numbers `rnd` ([`segment_rands`]'s). `cpu::packet` finishes through it the
+/// segments of the lanes it does not shade on lanes (other materials, spheres, other lights),
+/// so that one code computes them either way.
+#[inline(always)]
+pub fn shade_segment<const F: u32, K: Forms>(
+    g: &Globals,
+    bvh: &GpuBvh,
+    path: &mut PathState,
+    hit: &Hit,
+    rnd: (Vec4, Vec4, f32),
+    depth: u32,
+) {
+    let (rnd_light, rnd_scatter, rnd_roulette) = rnd;
+    let hit = *hit;
     let surface = surface_at::<F>(g, &hit, path.origin, path.dir);
     // The material's record, untextured: what the light sample and the emission's weight
     // read. Its texels are asked for now, and read by `material_at` below.

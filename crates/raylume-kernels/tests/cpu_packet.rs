@@ -1,13 +1,15 @@
 //! The CPU path's packets (`raylume_kernels::cpu::packet`): scenes of diffuse triangles traced
-//! eight paths at a time render the image of one path at a time bit for bit, at every
-//! instruction-set level this CPU executes, with each estimator and sampler, over chunks that
-//! end part-way through a lane group; other scenes never take the packets.
+//! eight or sixteen paths at a time, and scenes that add other materials and spheres (whose
+//! other hits the packets finish one lane at a time), render the image of one path at a time
+//! bit for bit, at every instruction-set level this CPU executes, with each estimator and
+//! sampler, over chunks that end part-way through a lane group; scenes with textures, shading
+//! normals or a sky never take the packets.
 
 mod support;
 
 use glam::Vec3;
 use raylume_kernels::{CpuIsa, CpuTracer, Estimator, Sampler, Schedule, TraceSettings};
-use raylume_scene::{Material, Scene};
+use raylume_scene::{Material, Scene, Sphere};
 use support::*;
 
 /// The Cornell box with its light emitting from both faces, a one-sided light facing the
@@ -82,6 +84,51 @@ fn lit_box() -> Scene {
     scene
 }
 
+/// The lit box with what the packets shade one lane at a time: spheres of every material the
+/// variant adds (a mirror, rough metal, smooth and rough glass, plastic), a metal triangle, and
+/// an emissive sphere (a sphere light: a lane whose light sample falls on it is finished
+/// alone, whatever its surface).
+fn cornell_plus() -> Scene {
+    let mut scene = lit_box();
+    let first = scene.materials.len() as u32;
+    scene.materials.extend([
+        Material::metal("mirror", Vec3::new(0.95, 0.9, 0.8), 0.0),
+        Material::metal("brushed", Vec3::new(0.9, 0.6, 0.3), 0.3),
+        Material::glass("glass", 1.5, Vec3::ONE),
+        Material {
+            roughness: 0.3,
+            ..Material::glass("frosted", 1.5, Vec3::new(0.9, 1.0, 0.9))
+        },
+        Material::plastic("plastic", Vec3::new(0.8, 0.2, 0.1), 1.5, 0.2),
+        Material::emissive("orb", Vec3::new(3.0, 2.0, 1.0)),
+    ]);
+    let sphere = |x: f32, y: f32, z: f32, radius: f32, m: u32| Sphere {
+        center: Vec3::new(x, y, z),
+        radius,
+        material: first + m,
+    };
+    scene.spheres = vec![
+        sphere(-0.45, 0.3, 0.5, 0.25, 0),
+        sphere(0.4, 0.25, 0.55, 0.2, 1),
+        sphere(0.0, 0.9, 0.3, 0.22, 2),
+        sphere(-0.5, 1.4, -0.3, 0.2, 3),
+        sphere(0.55, 1.3, -0.2, 0.18, 4),
+        sphere(0.0, 1.6, 0.6, 0.08, 5),
+    ];
+    // A metal triangle beside the diffuse ones.
+    scene.triangles.push(raylume_scene::Triangle {
+        positions: [
+            Vec3::new(-0.95, 0.2, -0.8),
+            Vec3::new(-0.95, 1.2, -0.2),
+            Vec3::new(-0.95, 0.3, 0.4),
+        ],
+        normals: None,
+        uvs: None,
+        material: first,
+    });
+    scene
+}
+
 fn bits(out: &raylume_kernels::TraceOutput) -> Vec<[u32; 3]> {
     out.radiance.iter().map(|p| p.map(f32::to_bits)).collect()
 }
@@ -101,12 +148,16 @@ fn packets_render_the_one_path_image_bit_for_bit_at_every_level() {
         settings(45, 28, 2, 5, Schedule::Persistent),
         settings(13, 7, 3, 0, Schedule::Megakernel),
     ];
-    for (name, scene) in [("cornell", cornell_box()), ("lit box", lit_box())] {
+    for (name, scene) in [
+        ("cornell", cornell_box()),
+        ("lit box", lit_box()),
+        ("cornell plus", cornell_plus()),
+    ] {
         let bvh = bvh(&scene);
         let mut tracer = CpuTracer::new(&scene, &bvh).unwrap();
         assert!(
             tracer.packets(),
-            "{name}: a scene of diffuse triangles takes the packets"
+            "{name}: a scene of triangles and spheres, without textures or sky, takes the packets"
         );
         // A tree of a few dozen triangles is tested flat wherever the walks have AVX.
         #[cfg(target_arch = "x86_64")]

@@ -1,12 +1,20 @@
 //! The CPU path of scenes of diffuse triangles, several paths at a time ([`LANES`], or
-//! [`LANES_AVX512`] on AVX-512 lanes).
+//! [`LANES_AVX512`] on AVX-512 lanes), and of scenes that add other materials or spheres, their
+//! diffuse triangles' hits on the lanes and their other hits one lane at a time.
 //!
 //! One path at a time, a segment of Bitterli's Cornell box costs about 2,000 instructions
 //! (cachegrind, issue 15 in `docs/RESULTS.md`): some 1,000 in its two walks, ~250 in the sampler,
 //! the rest in the shading and the light sample, scalar code whose every operation serves one path.
 //! Mitsuba 3's LLVM backend runs those stages over 8 or 16 paths an instruction. This module does
 //! so for the variant without any feature group ([`runs`]: diffuse triangles, emission, next-event
-//! estimation, no sky, textures, spheres or other materials): a chunk of the batch's paths is
+//! estimation, no sky, textures, spheres or other materials), and for the variants that add
+//! other materials or spheres: there a lane whose hit is not a diffuse triangle lit by triangle
+//! lights finishes its segment alone through [`shade_segment`] (the one-path code after its
+//! walk, from the segment's full numbers) while the lanes shade the others. Bitterli's Cornell
+//! box with its two boxes made metal (a mirror and a rough one): 500x500, 10 spp, 1.124 / 1.153
+//! -> 0.844 / 0.847 s (min / median, three rounds, session 44), the same image; Cornell plus
+//! (two spheres, whose walk tests primitives one at a time and takes most of its time) within
+//! noise. A chunk of the batch's paths is
 //! traced `N` at a time (the lanes of a [`Lanes`]`<N>` type), each lane taking the chunk's next
 //! path when its own ends. Per segment, the random numbers and the walks run lane by lane (the scalar functions:
 //! [`wanted_pairs`] of `SegmentKeys::draw_pairs` or [`segment_rands`], the tree's walk; every
@@ -40,19 +48,21 @@ use std::mem::MaybeUninit;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 use glam::{BVec4A, Vec3, Vec4};
-use raylume_bvh::{GpuBvh, Ray};
+use raylume_bvh::{GpuBvh, Hit, PRIM_TRIANGLE, Ray};
 use raylume_scene::Feature;
 
 use super::stages::{batch_ray, camera_path_at, camera_path_from, write_sample};
-use super::variant::{ALWAYS, Forms, has};
+use super::variant::{ALWAYS, Forms, GROUPS, has};
 use crate::gpu_types::{
-    LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_TWO_SIDED, RR_MAX_SURVIVAL, SHADOW_T_SCALE, T_MAX,
+    LIGHT_TRIANGLE, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_TWO_SIDED, RR_MAX_SURVIVAL,
+    SHADOW_T_SCALE, T_MAX,
 };
 use crate::math::{
     INV_PI, SIN_COS_C1, SIN_COS_C2, SIN_COS_C3, SIN_COS_ROUND, SIN_COS_S1, SIN_COS_S2, SIN_COS_S3,
 };
 use crate::shade::{
-    PathState, choose_light, escape, sampler_pixel, segment_rands, table_keys, wanted_pairs,
+    PathState, choose_light, escape, sampler_pixel, segment_rands, shade_segment, table_keys,
+    wanted_pairs,
 };
 use crate::sobol::{SegmentKeys, SegmentPairs, SobolPixel};
 use crate::surface::{Globals, OFFSET_BACK_ULPS, OFFSET_HIT_ULPS, OFFSET_T_ULPS, UNIT_ROUNDOFF};
@@ -67,9 +77,40 @@ pub const LANES: usize = 8;
 pub const LANES_AVX512: usize = 16;
 
 /// Whether variant `f` (`cpu::variant`) is traced by this module: the variant of no feature
-/// group, [`ALWAYS`].
+/// group, [`ALWAYS`], and those that add only the materials beyond diffuse or spheres (the
+/// first two of `cpu::variant::GROUPS`). In those, the lanes whose hit is a diffuse triangle
+/// lit by triangle lights are shaded on lanes, and each other lane (a sphere, another
+/// material, a light sample on an emissive sphere) finishes its segment alone through
+/// [`shade_segment`], the one-path code. Not the variants with textures, shading normals or
+/// a sky: their diffuse hits need those on lanes first.
 pub const fn runs(f: u32) -> bool {
-    f == ALWAYS
+    f & !(ALWAYS | GROUPS[0] | GROUPS[1]) == 0
+}
+
+/// Whether lane `j`'s hit (its walk's, in `found`) is shaded on the lanes in variant `F`: a
+/// diffuse triangle, and, where the scene has lights other than triangles
+/// (`other_lights`), a light sample that falls on a triangle light. Always in [`ALWAYS`].
+#[inline(always)]
+fn lane_shaded<const F: u32, const N: usize>(
+    g: &Globals,
+    found: &Found<N>,
+    j: usize,
+    other_lights: bool,
+) -> bool {
+    if F == ALWAYS {
+        return true;
+    }
+    let i = found.prim[j] as usize;
+    if has(F, Feature::Spheres) && g.primitives[i].kind() != PRIM_TRIANGLE {
+        return false;
+    }
+    if g.materials[g.prim_materials[i] as usize].kind != MATERIAL_DIFFUSE {
+        return false;
+    }
+    // The light its sample would take (the packet samples triangle lights alone).
+    !other_lights
+        || g.scene.light_count == 0
+        || g.lights[choose_light(g, found.light_x[j]).0 as usize].kind == LIGHT_TRIANGLE
 }
 
 /// The arithmetic of several numbers at once that the packets run on: [`Sse`] at every
@@ -998,6 +1039,11 @@ pub fn trace_chunk<const F: u32, const N: usize, L: Lanes<N>, K: Forms>(
     let mut next = 0usize;
     let (mut rays, mut dropped) = (0u64, 0u64);
     let mut found = Found::<N>::default();
+    // Lights the packet's shading does not sample (emissive spheres): a lane whose light
+    // sample falls on one is finished alone (`lane_shaded`).
+    let other_lights = F != ALWAYS
+        && has(F, Feature::Spheres)
+        && g.lights.iter().any(|l| l.kind != LIGHT_TRIANGLE);
     loop {
         // Every lane walks until its path hits something: a path that escapes ends there,
         // and the lane takes the chunk's next path, so that the shading below finds every
@@ -1086,7 +1132,31 @@ pub fn trace_chunk<const F: u32, const N: usize, L: Lanes<N>, K: Forms>(
         if !hit.iter().any(|&h| h) {
             return (rays, dropped);
         }
-        shade::<F, N, L, K>(g, bvh, &mut paths, &hit, &found, &depth);
+        // The lanes the packet's shading serves; each other one finishes its segment alone
+        // through the one-path code, from the segment's full numbers (the pairs drawn above
+        // are theirs too: the same numbers).
+        let mut lanes = hit;
+        if F != ALWAYS {
+            for j in 0..N {
+                if !hit[j] || lane_shaded::<F, N>(g, &found, j, other_lights) {
+                    continue;
+                }
+                lanes[j] = false;
+                let mut path = paths.get(j);
+                let rnd = segment_rands::<K>(g, sp[j], pixel[j], sample[j], depth[j]);
+                let h = Hit {
+                    t: found.t[j],
+                    prim: found.prim[j],
+                    u: found.u[j],
+                    v: found.v[j],
+                };
+                shade_segment::<F, K>(g, bvh, &mut path, &h, rnd, depth[j]);
+                paths.set(j, &path);
+            }
+        }
+        if lanes.iter().any(|&l| l) {
+            shade::<F, N, L, K>(g, bvh, &mut paths, &lanes, &found, &depth);
+        }
         for j in 0..N {
             if !hit[j] {
                 continue;
