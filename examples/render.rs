@@ -135,10 +135,10 @@ struct Args {
     /// ran.
     #[arg(long, default_value = "x86-64-v4", value_parser = parse_cpu_isa)]
     cpu_isa: raylume::CpuIsa,
-    /// Whether the CPU path traces scenes without textures, shading normals or sky eight paths
-    /// at a time (sixteen on AVX-512), their diffuse triangles' shading in vector instructions
-    /// (on, the default), or one at a time (off). The same image; the stats line says `packets`
-    /// when they ran.
+    /// Whether the CPU path traces scenes of triangles without textures, shading normals or sky
+    /// eight paths at a time (sixteen on AVX-512), their diffuse hits' shading in vector
+    /// instructions (on, the default), or one at a time (off). The same image; the stats line
+    /// says `packets` when they ran.
     #[arg(long, default_value = "on", value_parser = parse_on_off, action = clap::ArgAction::Set)]
     cpu_packets: bool,
     /// Skip the scene's bloom pass.

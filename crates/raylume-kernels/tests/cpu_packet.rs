@@ -1,9 +1,9 @@
 //! The CPU path's packets (`raylume_kernels::cpu::packet`): scenes of diffuse triangles traced
-//! eight or sixteen paths at a time, and scenes that add other materials and spheres (whose
+//! eight or sixteen paths at a time, and scenes of triangles that add other materials (whose
 //! other hits the packets finish one lane at a time), render the image of one path at a time
 //! bit for bit, at every instruction-set level this CPU executes, with each estimator and
-//! sampler, over chunks that end part-way through a lane group; scenes with textures, shading
-//! normals or a sky never take the packets.
+//! sampler, over chunks that end part-way through a lane group; scenes with spheres, textures,
+//! shading normals or a sky never take the packets.
 
 mod support;
 
@@ -84,11 +84,10 @@ fn lit_box() -> Scene {
     scene
 }
 
-/// The lit box with what the packets shade one lane at a time: spheres of every material the
-/// variant adds (a mirror, rough metal, smooth and rough glass, plastic), a metal triangle, and
-/// an emissive sphere (a sphere light: a lane whose light sample falls on it is finished
-/// alone, whatever its surface).
-fn cornell_plus() -> Scene {
+/// The lit box with what the packets shade one lane at a time: triangles of every material
+/// the variant adds (a mirror, rough metal, smooth and rough glass, smooth and rough plastic)
+/// among its diffuse ones.
+fn lit_box_of_materials() -> Scene {
     let mut scene = lit_box();
     let first = scene.materials.len() as u32;
     scene.materials.extend([
@@ -100,32 +99,24 @@ fn cornell_plus() -> Scene {
             ..Material::glass("frosted", 1.5, Vec3::new(0.9, 1.0, 0.9))
         },
         Material::plastic("plastic", Vec3::new(0.8, 0.2, 0.1), 1.5, 0.2),
-        Material::emissive("orb", Vec3::new(3.0, 2.0, 1.0)),
+        Material::plastic("lacquer", Vec3::new(0.1, 0.5, 0.2), 1.5, 0.0),
     ]);
-    let sphere = |x: f32, y: f32, z: f32, radius: f32, m: u32| Sphere {
-        center: Vec3::new(x, y, z),
-        radius,
-        material: first + m,
-    };
-    scene.spheres = vec![
-        sphere(-0.45, 0.3, 0.5, 0.25, 0),
-        sphere(0.4, 0.25, 0.55, 0.2, 1),
-        sphere(0.0, 0.9, 0.3, 0.22, 2),
-        sphere(-0.5, 1.4, -0.3, 0.2, 3),
-        sphere(0.55, 1.3, -0.2, 0.18, 4),
-        sphere(0.0, 1.6, 0.6, 0.08, 5),
-    ];
-    // A metal triangle beside the diffuse ones.
-    scene.triangles.push(raylume_scene::Triangle {
-        positions: [
-            Vec3::new(-0.95, 0.2, -0.8),
-            Vec3::new(-0.95, 1.2, -0.2),
-            Vec3::new(-0.95, 0.3, 0.4),
-        ],
-        normals: None,
-        uvs: None,
-        material: first,
-    });
+    // A mirror quad on the left wall, and a tilted quad of each other material in the room.
+    scene.triangles.extend(quad(
+        Vec3::new(-0.98, 0.3, -0.7),
+        Vec3::new(0.0, 0.9, 0.0),
+        Vec3::new(0.0, 0.0, 0.9),
+        first,
+    ));
+    for (k, m) in (1..6).enumerate() {
+        let x = -0.7 + 0.32 * k as f32;
+        scene.triangles.extend(quad(
+            Vec3::new(x, 0.2 + 0.25 * k as f32, 0.3),
+            Vec3::new(0.25, 0.05, -0.1),
+            Vec3::new(0.02, 0.3, 0.2),
+            first + m,
+        ));
+    }
     scene
 }
 
@@ -151,13 +142,13 @@ fn packets_render_the_one_path_image_bit_for_bit_at_every_level() {
     for (name, scene) in [
         ("cornell", cornell_box()),
         ("lit box", lit_box()),
-        ("cornell plus", cornell_plus()),
+        ("lit box of materials", lit_box_of_materials()),
     ] {
         let bvh = bvh(&scene);
         let mut tracer = CpuTracer::new(&scene, &bvh).unwrap();
         assert!(
             tracer.packets(),
-            "{name}: a scene of triangles and spheres, without textures or sky, takes the packets"
+            "{name}: a scene of triangles without textures or sky takes the packets"
         );
         // A tree of a few dozen triangles is tested flat wherever the walks have AVX.
         #[cfg(target_arch = "x86_64")]
@@ -220,12 +211,21 @@ fn a_render_part_through_packets_is_the_same_part() {
 }
 
 #[test]
-fn scenes_with_other_features_are_traced_one_path_at_a_time() {
+fn scenes_with_spheres_textures_or_a_sky_are_traced_one_path_at_a_time() {
     for (name, scene) in [
         ("spheres", spheres()),
         ("materials", materials()),
         ("textured", textured()),
         ("environment", environment_lit()),
+        ("lit box and a sphere", {
+            let mut scene = lit_box();
+            scene.spheres.push(Sphere {
+                center: Vec3::new(0.3, 0.3, 0.4),
+                radius: 0.2,
+                material: 1,
+            });
+            scene
+        }),
     ] {
         let tracer = CpuTracer::new(&scene, &bvh(&scene)).unwrap();
         assert!(!tracer.packets(), "{name}");

@@ -630,9 +630,9 @@ pub struct Tracer {
     /// the same image bit for bit at every level. [`RenderStats::adapter`] says which ran.
     /// For measuring what the wider instructions give (`render --cpu-isa`).
     pub cpu_isa: CpuIsa,
-    /// Whether the CPU path traces scenes without textures, shading normals or a sky eight
-    /// paths at a time (sixteen on AVX-512), the shading of their hits on diffuse triangles in
-    /// vector instructions and their other hits (other materials, spheres) one lane at a time
+    /// Whether the CPU path traces scenes of triangles without textures, shading normals or a
+    /// sky eight paths at a time (sixteen on AVX-512), the shading of their diffuse hits in
+    /// vector instructions and their other hits (other materials) one lane at a time
     /// (`raylume_kernels::cpu::packet`; default `true`), or one path at a time as every other
     /// scene. The same image bit for bit; [`RenderStats::adapter`] says `packets` when they
     /// ran. For measuring what they give (`render --cpu-packets`).

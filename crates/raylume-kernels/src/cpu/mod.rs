@@ -104,11 +104,11 @@ impl CpuTracer {
         self.isa
     }
 
-    /// Whether scenes without textures, shading normals or a sky ([`packet::runs`]) are
-    /// traced [`packet::LANES`] (at x86-64-v4 [`packet::LANES_AVX512`]) paths at a time, their
-    /// hits on diffuse triangles shaded on lanes ([`packet`], default `true`), or one at a
-    /// time, as every other scene: the same image bit for bit either way, in less time with
-    /// packets where diffuse triangles take most hits.
+    /// Whether scenes of triangles without textures, shading normals or a sky
+    /// ([`packet::runs`]) are traced [`packet::LANES`] (at x86-64-v4 [`packet::LANES_AVX512`])
+    /// paths at a time, their diffuse hits shaded on lanes ([`packet`], default `true`), or one
+    /// at a time, as every other scene: the same image bit for bit either way, in less time
+    /// with packets.
     pub fn set_packets(&mut self, on: bool) {
         self.packets = on;
     }

@@ -1,20 +1,23 @@
 //! The CPU path of scenes of diffuse triangles, several paths at a time ([`LANES`], or
-//! [`LANES_AVX512`] on AVX-512 lanes), and of scenes that add other materials or spheres, their
-//! diffuse triangles' hits on the lanes and their other hits one lane at a time.
+//! [`LANES_AVX512`] on AVX-512 lanes), and of scenes of triangles that add other materials,
+//! their diffuse hits on the lanes and their other hits one lane at a time.
 //!
 //! One path at a time, a segment of Bitterli's Cornell box costs about 2,000 instructions
 //! (cachegrind, issue 15 in `docs/RESULTS.md`): some 1,000 in its two walks, ~250 in the sampler,
 //! the rest in the shading and the light sample, scalar code whose every operation serves one path.
 //! Mitsuba 3's LLVM backend runs those stages over 8 or 16 paths an instruction. This module does
 //! so for the variant without any feature group ([`runs`]: diffuse triangles, emission, next-event
-//! estimation, no sky, textures, spheres or other materials), and for the variants that add
-//! other materials or spheres: there a lane whose hit is not a diffuse triangle lit by triangle
-//! lights finishes its segment alone through [`shade_segment`] (the one-path code after its
-//! walk, from the segment's full numbers) while the lanes shade the others. Bitterli's Cornell
-//! box with its two boxes made metal (a mirror and a rough one): 500x500, 10 spp, 1.124 / 1.153
-//! -> 0.844 / 0.847 s (min / median, three rounds, session 44), the same image; Cornell plus
-//! (two spheres, whose walk tests primitives one at a time and takes most of its time) within
-//! noise. A chunk of the batch's paths is
+//! estimation, no sky, textures, spheres or other materials), and for the variant that adds the
+//! other materials: there a lane whose hit is not diffuse finishes its segment alone through
+//! [`shade_segment`] (the one-path code after its walk, from the segment's full numbers) while
+//! the lanes shade the others. Bitterli's Cornell box with its two boxes made metal (a mirror
+//! and a rough one): 500x500, 10 spp, 1.124 / 1.153 -> 0.844 / 0.847 s (min / median, three
+//! rounds, session 44), the same image. Not with spheres (Cornell plus: within noise of one
+//! path at a time, its walk, which tests primitives one at a time, takes most of its time),
+//! nor with textures, shading normals or a sky: the living room so, its diffuse hits (54 %)
+//! on lanes with shading normals and the sky's light sample, the others alone, rendered the
+//! same image 9 % slower (2.27 -> 2.48 s at 400x400, 10 spp): the lanes' gains on cheap
+//! diffuse hits do not repay the packets' cost on the rest. A chunk of the batch's paths is
 //! traced `N` at a time (the lanes of a [`Lanes`]`<N>` type), each lane taking the chunk's next
 //! path when its own ends. Per segment, the random numbers and the walks run lane by lane (the scalar functions:
 //! [`wanted_pairs`] of `SegmentKeys::draw_pairs` or [`segment_rands`], the tree's walk; every
@@ -48,14 +51,13 @@ use std::mem::MaybeUninit;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 use glam::{BVec4A, Vec3, Vec4};
-use raylume_bvh::{GpuBvh, Hit, PRIM_TRIANGLE, Ray};
+use raylume_bvh::{GpuBvh, Hit, Ray};
 use raylume_scene::Feature;
 
 use super::stages::{batch_ray, camera_path_at, camera_path_from, write_sample};
 use super::variant::{ALWAYS, Forms, GROUPS, has};
 use crate::gpu_types::{
-    LIGHT_TRIANGLE, LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_TWO_SIDED, RR_MAX_SURVIVAL,
-    SHADOW_T_SCALE, T_MAX,
+    LUMINANCE, MATERIAL_DIFFUSE, MATERIAL_TWO_SIDED, RR_MAX_SURVIVAL, SHADOW_T_SCALE, T_MAX,
 };
 use crate::math::{
     INV_PI, SIN_COS_C1, SIN_COS_C2, SIN_COS_C3, SIN_COS_ROUND, SIN_COS_S1, SIN_COS_S2, SIN_COS_S3,
@@ -77,40 +79,20 @@ pub const LANES: usize = 8;
 pub const LANES_AVX512: usize = 16;
 
 /// Whether variant `f` (`cpu::variant`) is traced by this module: the variant of no feature
-/// group, [`ALWAYS`], and those that add only the materials beyond diffuse or spheres (the
-/// first two of `cpu::variant::GROUPS`). In those, the lanes whose hit is a diffuse triangle
-/// lit by triangle lights are shaded on lanes, and each other lane (a sphere, another
-/// material, a light sample on an emissive sphere) finishes its segment alone through
-/// [`shade_segment`], the one-path code. Not the variants with textures, shading normals or
-/// a sky: their diffuse hits need those on lanes first.
+/// group, [`ALWAYS`], and the one that adds the materials beyond diffuse (the first of
+/// `cpu::variant::GROUPS`), whose lanes with a diffuse hit are shaded on the lanes and each
+/// other lane finishes its segment alone through [`shade_segment`], the one-path code. Not
+/// spheres, textures, shading normals or a sky (see the module docs: no gain measured).
 pub const fn runs(f: u32) -> bool {
-    f & !(ALWAYS | GROUPS[0] | GROUPS[1]) == 0
+    f & !(ALWAYS | GROUPS[0]) == 0
 }
 
 /// Whether lane `j`'s hit (its walk's, in `found`) is shaded on the lanes in variant `F`: a
-/// diffuse triangle, and, where the scene has lights other than triangles
-/// (`other_lights`), a light sample that falls on a triangle light. Always in [`ALWAYS`].
+/// diffuse surface (the variants [`runs`] takes have triangles alone). Always in [`ALWAYS`].
 #[inline(always)]
-fn lane_shaded<const F: u32, const N: usize>(
-    g: &Globals,
-    found: &Found<N>,
-    j: usize,
-    other_lights: bool,
-) -> bool {
-    if F == ALWAYS {
-        return true;
-    }
-    let i = found.prim[j] as usize;
-    if has(F, Feature::Spheres) && g.primitives[i].kind() != PRIM_TRIANGLE {
-        return false;
-    }
-    if g.materials[g.prim_materials[i] as usize].kind != MATERIAL_DIFFUSE {
-        return false;
-    }
-    // The light its sample would take (the packet samples triangle lights alone).
-    !other_lights
-        || g.scene.light_count == 0
-        || g.lights[choose_light(g, found.light_x[j]).0 as usize].kind == LIGHT_TRIANGLE
+fn lane_shaded<const F: u32, const N: usize>(g: &Globals, found: &Found<N>, j: usize) -> bool {
+    F == ALWAYS
+        || g.materials[g.prim_materials[found.prim[j] as usize] as usize].kind == MATERIAL_DIFFUSE
 }
 
 /// The arithmetic of several numbers at once that the packets run on: [`Sse`] at every
@@ -1039,11 +1021,6 @@ pub fn trace_chunk<const F: u32, const N: usize, L: Lanes<N>, K: Forms>(
     let mut next = 0usize;
     let (mut rays, mut dropped) = (0u64, 0u64);
     let mut found = Found::<N>::default();
-    // Lights the packet's shading does not sample (emissive spheres): a lane whose light
-    // sample falls on one is finished alone (`lane_shaded`).
-    let other_lights = F != ALWAYS
-        && has(F, Feature::Spheres)
-        && g.lights.iter().any(|l| l.kind != LIGHT_TRIANGLE);
     loop {
         // Every lane walks until its path hits something: a path that escapes ends there,
         // and the lane takes the chunk's next path, so that the shading below finds every
@@ -1138,7 +1115,7 @@ pub fn trace_chunk<const F: u32, const N: usize, L: Lanes<N>, K: Forms>(
         let mut lanes = hit;
         if F != ALWAYS {
             for j in 0..N {
-                if !hit[j] || lane_shaded::<F, N>(g, &found, j, other_lights) {
+                if !hit[j] || lane_shaded::<F, N>(g, &found, j) {
                     continue;
                 }
                 lanes[j] = false;
