@@ -349,25 +349,24 @@ pub fn trace_ray_at<const F: u32, K: Forms>(
         escape::<F>(g, path);
         return;
     };
-    shade_segment::<F, K>(g, bvh, path, &hit, rnd, depth);
+    shade_segment::<F, K>(g, bvh, path, hit, rnd, depth);
 }
 
 /// The rest of [`trace_ray_at`]'s segment `depth` once its walk found `hit`: the surface, the
 /// light sample and its shadow ray, the emission, the scattered ray and the roulette, from the
 /// segment's numbers `rnd` ([`segment_rands`]'s). `cpu::packet` finishes through it the
-/// segments of the lanes it does not shade on lanes (other materials, spheres, other lights),
-/// so that one code computes them either way.
+/// segments of the lanes it does not shade on lanes (other materials than diffuse), so that
+/// one code computes them either way.
 #[inline(always)]
 pub fn shade_segment<const F: u32, K: Forms>(
     g: &Globals,
     bvh: &GpuBvh,
     path: &mut PathState,
-    hit: &Hit,
+    hit: Hit,
     rnd: (Vec4, Vec4, f32),
     depth: u32,
 ) {
     let (rnd_light, rnd_scatter, rnd_roulette) = rnd;
-    let hit = *hit;
     let surface = surface_at::<F>(g, &hit, path.origin, path.dir);
     // The material's record, untextured: what the light sample and the emission's weight
     // read. Its texels are asked for now, and read by `material_at` below.

@@ -11,7 +11,7 @@
 //! other materials: there a lane whose hit is not diffuse finishes its segment alone through
 //! [`shade_segment`] (the one-path code after its walk, from the segment's full numbers) while
 //! the lanes shade the others. Bitterli's Cornell box with its two boxes made metal (a mirror
-//! and a rough one): 500x500, 10 spp, 1.124 / 1.153 -> 0.844 / 0.847 s (min / median, three
+//! and a rough one): 500x500, 10 spp, 1.122 / 1.122 -> 0.842 / 0.847 s (min / median, three
 //! rounds, session 44), the same image. Not with spheres (Cornell plus: within noise of one
 //! path at a time, its walk, which tests primitives one at a time, takes most of its time),
 //! nor with textures, shading normals or a sky: the living room so, its diffuse hits (54 %)
@@ -1127,7 +1127,7 @@ pub fn trace_chunk<const F: u32, const N: usize, L: Lanes<N>, K: Forms>(
                     u: found.u[j],
                     v: found.v[j],
                 };
-                shade_segment::<F, K>(g, bvh, &mut path, &h, rnd, depth[j]);
+                shade_segment::<F, K>(g, bvh, &mut path, h, rnd, depth[j]);
                 paths.set(j, &path);
             }
         }
