@@ -12,12 +12,17 @@ fn repo() -> PathBuf {
 }
 
 fn run(args: &[&str]) -> Output {
-    Command::new(common::render_exe())
+    run_example(common::render_exe(), args)
+}
+
+/// The example `exe` with `args`, from the repository's root.
+fn run_example(exe: PathBuf, args: &[&str]) -> Output {
+    Command::new(&exe)
         .args(args)
         .current_dir(repo())
         .env("XDG_RUNTIME_DIR", std::env::temp_dir())
         .output()
-        .expect("run render")
+        .unwrap_or_else(|e| panic!("run {}: {e}", exe.display()))
 }
 
 fn tmp(name: &str) -> PathBuf {
@@ -233,14 +238,7 @@ fn bad_flags_are_rejected() {
 /// on a malformed `--size`).
 #[test]
 fn trace_rate_reports_bad_input_without_a_panic() {
-    let trace_rate = |args: &[&str]| {
-        Command::new(common::trace_rate_exe())
-            .args(args)
-            .current_dir(repo())
-            .env("XDG_RUNTIME_DIR", std::env::temp_dir())
-            .output()
-            .expect("run trace_rate")
-    };
+    let trace_rate = |args: &[&str]| run_example(common::trace_rate_exe(), args);
     for (args, wanted) in [
         (
             &["scenes/no-such-scene.toml", "--backend", "cpu"][..],
