@@ -425,9 +425,14 @@ pub fn shade_segment<const F: u32, K: Forms>(
     let early = has(F, Feature::Textures) && shadowed::<F, K>(bvh, &query);
     let mat = material_at::<F>(g, &surface);
     let throughput_in = path.throughput;
+    // A sample whose shadow ray was walked first and found blocked adds zero whatever its
+    // contribution: that (the BSDF's value toward the light, its pdf, the weight) is not
+    // computed. The living room's sky samples are 97 % blocked (a counter, session 45): its
+    // render's instructions -2.9 % (cachegrind). The same values (the sum below adds
+    // `throughput_in * 0` as before).
     let light_in = match &query {
-        Some(q) => light_contribution::<F>(g, q, &mat, path.dir),
-        None => Vec3::ZERO,
+        Some(q) if !early => light_contribution::<F>(g, q, &mat, path.dir),
+        _ => Vec3::ZERO,
     };
     let emission = emitted::<F>(path, &surface, &mat, emission_weight);
     let pdf = shade_hit::<F>(g, path, &surface, &mat, rnd_scatter, last);

@@ -171,9 +171,25 @@ pub fn texel(g: &Globals, offset: u32, width: u32, format: u32, x: u32, y: u32) 
     )
 }
 
-#[inline]
+/// `i` wrapped into `0..n`: `((i % n) + n) % n`, the WGSL's. Bilinear lookups ask for
+/// `-1..=n` (a texel's neighbours across the seam), which one addition or subtraction
+/// wraps: the CPU takes that path and leaves the two integer divisions (a few dozen cycles
+/// of latency on the texel's address, eight of them a lookup) to any other `i`. The same
+/// value for every `i` (for `n > 0`; `n = 0` panics as the division does).
+#[inline(always)]
 fn wrap_index(i: i32, n: i32) -> i32 {
-    ((i % n) + n) % n
+    let r = if i < 0 {
+        i.wrapping_add(n)
+    } else if i >= n {
+        i.wrapping_sub(n)
+    } else {
+        i
+    };
+    if 0 <= r && r < n {
+        r
+    } else {
+        ((i % n) + n) % n
+    }
 }
 
 /// Bilinear lookup at `uv` in a `width x height` texture of texels in `format` starting at
@@ -267,7 +283,10 @@ pub fn prefetch_texture<const F: u32>(g: &Globals, m: &GpuMaterial, uv: Vec2) {
     let x = ((u * h.width as f32) as u32).min(h.width - 1);
     let y = ((v * h.height as f32) as u32).min(h.height - 1);
     let words = if h.format == TEXELS_SRGB8 { 1 } else { 3 };
-    for row in [(y + h.height - 1) % h.height, y, (y + 1) % h.height] {
+    // The rows above and below, wrapped (`y` is in `0..height`): no division.
+    let above = if y == 0 { h.height - 1 } else { y - 1 };
+    let below = if y + 1 == h.height { 0 } else { y + 1 };
+    for row in [above, y, below] {
         let i = h.offset as usize + (row as usize * h.width as usize + x as usize) * words;
         if let Some(word) = g.texels.get(i) {
             prefetch(word);
@@ -346,6 +365,11 @@ fn cdf_step(g: &Globals, base: u32, i: u32) -> (f32, f32) {
 #[inline(always)]
 pub fn environment_cell(g: &Globals, p: Vec3) -> u32 {
     let s = &g.scene;
+    // Without a spatial guide every point is in cell 0 (the clamps below give 0 for any
+    // `p`, NaN included): the CPU skips them (every light sample of a sky asks).
+    if s.environment_grid.iter().all(|&n| n <= 1) {
+        return 0;
+    }
     let q = (p - Vec3::from(s.scene_min)) * Vec3::from(s.environment_grid_scale);
     let [nx, ny, nz] = s.environment_grid;
     let c = |v: f32, n: u32| v.max(0.0).min(n.max(1) as f32 - 1.0) as u32;
@@ -893,6 +917,84 @@ mod tests {
             }
             assert!(cases > 3000, "{cases}");
             assert_eq!(escapes, 0, "{escapes} of {cases} escaped at {t}");
+        }
+    }
+
+    #[test]
+    fn wrap_index_is_the_wgsl_modulo_for_every_index() {
+        // The CPU's wrap takes an addition where the WGSL divides twice: the same value for
+        // every i, the bilinear lookups' -1..=n and far beyond (both ends of i32), for every
+        // size up to 2^30 (past it the modulo's own `+ n` could overflow; no texture is
+        // that wide).
+        let modulo = |i: i32, n: i32| ((i % n) + n) % n;
+        for n in [1, 2, 3, 7, 64, 1000, 4096, 65_537, 1 << 30] {
+            let near =
+                (-3 * n.min(1 << 20)..=3 * n.min(1 << 20)).step_by((n / 500).max(1) as usize);
+            let edges = [
+                i32::MIN,
+                i32::MIN + 1,
+                -n,
+                -n - 1,
+                n - 1,
+                n,
+                n + 1,
+                i32::MAX - 1,
+                i32::MAX,
+            ];
+            for i in near.chain(edges) {
+                assert_eq!(wrap_index(i, n), modulo(i, n), "i = {i}, n = {n}");
+            }
+        }
+    }
+
+    #[test]
+    fn environment_cell_without_a_guide_is_zero_and_with_one_the_clamped_grid_cell() {
+        // The shortcut for a render without a spatial guide (grid of ones, or of zeros as a
+        // scene without any environment leaves it) against the clamped grid formula the WGSL
+        // computes, at points inside, outside and not numbers.
+        let reference = |s: &SceneUniforms, p: Vec3| {
+            let q = (p - Vec3::from(s.scene_min)) * Vec3::from(s.environment_grid_scale);
+            let [nx, ny, nz] = s.environment_grid.map(|n| n.max(1));
+            let c = |v: f32, n: u32| v.max(0.0).min(n as f32 - 1.0) as u32;
+            (c(q.z, nz) * ny + c(q.y, ny)) * nx + c(q.x, nx)
+        };
+        let points = [
+            Vec3::new(0.5, 0.5, 0.5),
+            Vec3::new(-3.0, 9.0, 0.25),
+            Vec3::new(0.99, 0.01, 0.6),
+            Vec3::new(f32::NAN, 0.3, f32::INFINITY),
+            Vec3::splat(1e30),
+        ];
+        for (grid, scale) in [
+            ([1, 1, 1], [0.0; 3]),
+            ([0, 0, 0], [0.0; 3]),
+            ([4, 2, 3], [4.0, 2.0, 3.0]),
+        ] {
+            let scene = SceneUniforms {
+                scene_min: [0.0; 3],
+                environment_grid: grid,
+                environment_grid_scale: scale,
+                ..Default::default()
+            };
+            let g = Globals {
+                scene: &scene,
+                primitives: &[],
+                materials: &[],
+                prim_materials: &[],
+                triangle_shading: &[],
+                texture_headers: &[],
+                texels: &[],
+                lights: &[],
+                plastic_tables: &[],
+                sobol_segments: &[],
+            };
+            for p in points {
+                assert_eq!(
+                    environment_cell(&g, p),
+                    reference(&scene, p),
+                    "grid {grid:?}, p {p}"
+                );
+            }
         }
     }
 
