@@ -175,7 +175,8 @@ pub fn texel(g: &Globals, offset: u32, width: u32, format: u32, x: u32, y: u32) 
 /// `-1..=n` (a texel's neighbours across the seam), which one addition or subtraction
 /// wraps: the CPU takes that path and leaves the two integer divisions (a few dozen cycles
 /// of latency on the texel's address, eight of them a lookup) to any other `i`. The same
-/// value for every `i` (for `n > 0`; `n = 0` panics as the division does).
+/// value for every `i` where `0 < n <= 2^30` (beyond, the modulo's own `+ n` can overflow,
+/// and this is the right one; `n = 0` panics as the division does).
 #[inline(always)]
 fn wrap_index(i: i32, n: i32) -> i32 {
     let r = if i < 0 {
@@ -592,21 +593,27 @@ mod tests {
         (buffer, scene, p)
     }
 
-    #[test]
-    fn environment_samples_follow_the_luminance_and_their_pdf_integrates_to_one() {
-        let (texels, scene, expected) = environment_fixture();
-        let g = Globals {
-            scene: &scene,
+    /// Bindings of `scene` and `texels` alone (no geometry, materials or lights): what the
+    /// environment's functions read.
+    fn environment_globals<'a>(scene: &'a SceneUniforms, texels: &'a [u32]) -> Globals<'a> {
+        Globals {
+            scene,
             primitives: &[],
             materials: &[],
             prim_materials: &[],
             triangle_shading: &[],
             texture_headers: &[],
-            texels: &texels,
+            texels,
             lights: &[],
             plastic_tables: &[],
             sobol_segments: &[],
-        };
+        }
+    }
+
+    #[test]
+    fn environment_samples_follow_the_luminance_and_their_pdf_integrates_to_one() {
+        let (texels, scene, expected) = environment_fixture();
+        let g = environment_globals(&scene, &texels);
         let (w, h) = (scene.environment_width, scene.environment_height);
         // 1. Texel frequencies: n = 256² stratified samples; each texel's count is binomial
         // (less variable when stratified), so 5 binomial standard deviations bound it.
@@ -976,18 +983,7 @@ mod tests {
                 environment_grid_scale: scale,
                 ..Default::default()
             };
-            let g = Globals {
-                scene: &scene,
-                primitives: &[],
-                materials: &[],
-                prim_materials: &[],
-                triangle_shading: &[],
-                texture_headers: &[],
-                texels: &[],
-                lights: &[],
-                plastic_tables: &[],
-                sobol_segments: &[],
-            };
+            let g = environment_globals(&scene, &[]);
             for p in points {
                 assert_eq!(
                     environment_cell(&g, p),
