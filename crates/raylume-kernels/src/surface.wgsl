@@ -85,7 +85,13 @@ fn texel(offset: u32, width: u32, format: u32, x: u32, y: u32) -> vec3<f32> {
 //#endif
 
 //#if textures|environment_map
+// surface.rs `wrap_index`: `((i % n) + n) % n`, with the -1..=n a bilinear lookup asks
+// wrapped by one addition or subtraction (the same values).
 fn wrap_index(i: i32, n: i32) -> i32 {
+    let r = select(select(i, i - n, i >= n), i + n, i < 0);
+    if (0 <= r && r < n) {
+        return r;
+    }
     return ((i % n) + n) % n;
 }
 //#endif
