@@ -367,7 +367,7 @@ fn cdf_step(g: &Globals, base: u32, i: u32) -> (f32, f32) {
 pub fn environment_cell(g: &Globals, p: Vec3) -> u32 {
     let s = &g.scene;
     // Without a spatial guide every point is in cell 0 (the clamps below give 0 for any
-    // `p`, NaN included): the CPU skips them (every light sample of a sky asks).
+    // `p`, NaN included): they are skipped (every light sample of a sky asks).
     if s.environment_grid.iter().all(|&n| n <= 1) {
         return 0;
     }

@@ -196,6 +196,10 @@ fn cdf_step(base: u32, i: u32) -> vec2<f32> {
 
 // surface.rs `environment_cell`: the guide cell of point p.
 fn environment_cell(p: vec3<f32>) -> u32 {
+    // Without a spatial guide every point is in cell 0 (the clamps below give 0).
+    if (all(scene.environment_grid <= vec3<u32>(1u))) {
+        return 0u;
+    }
     let q = (p - scene.scene_min) * scene.environment_grid_scale;
     let n = max(scene.environment_grid, vec3<u32>(1u));
     let top = vec3<f32>(n) - vec3<f32>(1.0);
