@@ -422,7 +422,8 @@ fn run(args: Args) -> Result<(), String> {
     let mut tracer = Tracer::new(args.backend);
     // The paper's estimator (plain, independent numbers, no Russian roulette), not the
     // library's defaults: Table 1 compares with the paper. `--estimator`, `--sampler` and
-    // `--rr-depth` change one part each (Mitsuba's `path`: nee, independent, 5).
+    // `--rr-depth` change one part each (Mitsuba's `path`: nee, independent, 4: its default
+    // rr_depth 5 counts hits from 1, this segments from 0).
     tracer.paper_estimator();
     tracer.estimator = args.estimator;
     tracer.sampler = args.sampler;

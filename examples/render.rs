@@ -120,7 +120,9 @@ struct Args {
     /// `Tracer::shadow_stage`.
     #[arg(long, value_parser = parse_on_off)]
     shadow_stage: Option<bool>,
-    /// Russian roulette from this path segment on (default 5, as Mitsuba 3's `path`), or off.
+    /// Russian roulette from this path segment on (segments count from 0, the camera ray's;
+    /// default 5), or off. Mitsuba 3's `path` at its default rr_depth 5 counts hits from 1:
+    /// its roulette is `--rr-depth 4` here.
     #[arg(long, default_value = "5", value_parser = parse_rr_depth)]
     rr_depth: RrDepth,
     /// Environment sampling for nee: on (shadow rays toward the sky go where short diffuse

@@ -11,7 +11,8 @@
 # the default target, what a dependent's release build gets, whose CPU path runs at the CPU's
 # best instruction-set level since 7e661ca (`raylume_kernels::cpu::isa`); `native`: raylume
 # built with `-C target-cpu=native`, as Mitsuba's JIT compiles for the host); 10 bounces
-# (Mitsuba's max_depth 11); BEST (3): the equal-spp criterion's two raylume renders (the
+# (Mitsuba's max_depth 11); RR (4): the segment where the equal-spp rows begin Russian
+# roulette (below); BEST (3): the equal-spp criterion's two raylume renders (the
 # Cornell box, the living room with the guide off) are each the best of BEST renders, as
 # Mitsuba's are the best of 3 after a warm-up (`tungsten.py`, `mitsuba_table1.py`; until
 # session 42 raylume's were one render, set against Mitsuba's best of 3); the other rows (guide
@@ -31,8 +32,15 @@
 #
 # The scenes: Bitterli's Cornell box (`tungsten.py` on Mitsuba's side) and raylume's copy of
 # the living room (`tools/table1/mitsuba_table1.py`: its constant sky as a `constant` emitter).
-# raylume renders with its library defaults (NEE + MIS, roulette from segment 5, the `sobol`
-# sampler); Mitsuba's `path` (NEE + MIS, roulette from depth 5, its independent sampler). The
+# raylume renders with its library defaults (NEE + MIS, the `sobol` sampler) but for where
+# Russian roulette begins: at equal spp from segment RR (default 4), which is where Mitsuba's
+# `path` (NEE + MIS, its default rr_depth 5, its independent sampler) begins it. Mitsuba counts
+# a path's hits from 1 and tests `depth >= rr_depth` after incrementing (path.cpp; its docs:
+# with rr_depth 1 a path "may randomly cease after encountering directly visible surfaces"),
+# so its first roulette follows its 5th hit, raylume's segment 4 (segments count from 0, the
+# camera ray's). Until session 46 raylume's rows took its default, 5: a segment later than
+# Mitsuba, 10-14 % more segments in the living room. The equal-error rows keep the default
+# (raylume's best error per second, docs/ACCURACY.md). The
 # living room twice: with `--environment-guide off`, the estimator that matches Mitsuba's (the
 # sky sampled by its radiance alone: for a constant sky, uniformly), and with `on` (what `auto`
 # picks for a render this size: shadow rays aimed where the sky is visible, fewer of them
@@ -47,6 +55,7 @@ ROUNDS=${ROUNDS:-2}
 EQ_SPP=${EQ_SPP:-65}
 EQ_SPP_DEFAULT=${EQ_SPP_DEFAULT:-40}
 BEST=${BEST:-3}
+RR=${RR:-4}
 CORNELL_ONLY=${CORNELL_ONLY:-0}
 MITSUBA=${MITSUBA:-/tmp/mitsuba}
 export DRJIT_LIBLLVM_PATH=${DRJIT_LIBLLVM_PATH:-/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1}
@@ -67,7 +76,7 @@ else
 fi
 echo "# $(date -u +%FT%TZ) commit $(git rev-parse --short HEAD)$(git diff --quiet || echo '+dirty')," \
   "$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //'), $(nproc) CPUs;" \
-  "$SIZE, $SPP spp, 10 bounces; raylume's equal-spp rows best of $BEST; raylume built for ${TARGET_CPU:-the default target (x86-64)}" | tee "$OUT/summary.md"
+  "$SIZE, $SPP spp, 10 bounces; raylume's equal-spp rows best of $BEST, roulette from segment $RR; raylume built for ${TARGET_CPU:-the default target (x86-64)}" | tee "$OUT/summary.md"
 
 # raylume's trace seconds of one render (its closing line): NAME SIZE SPP ARGS...
 raylume() {
@@ -94,18 +103,18 @@ mi64() {
     "$OUT/mi/$(basename "$CB")-mi-series-$1.json"
 }
 for r in $(seq "$ROUNDS"); do
-  cb=$(raylume_best cornell "$SIZE" "$SPP" "$CB/scene.json")
+  cb=$(raylume_best cornell "$SIZE" "$SPP" --rr-depth "$RR" "$CB/scene.json")
   if [ "$CORNELL_ONLY" = 1 ]; then
     mcb=$(mitsuba_cb "$SIZE" "$SPP")
     awk -v r="$r" -v cb="$cb" -v mcb="$mcb" 'BEGIN {
       printf "round %d: Cornell box raylume %.2f s, Mitsuba %.2f s (%.2fx its time)\n", r, cb, mcb, cb / mcb }' |
       tee -a "$OUT/summary.md"
   else
-    lr_off=$(raylume_best living-room-guide-off "$SIZE" "$SPP" --environment-guide off "$LR/scene.json")
-    lr_on=$(raylume living-room-guide-on "$SIZE" "$SPP" --environment-guide on "$LR/scene.json")
+    lr_off=$(raylume_best living-room-guide-off "$SIZE" "$SPP" --rr-depth "$RR" --environment-guide off "$LR/scene.json")
+    lr_on=$(raylume living-room-guide-on "$SIZE" "$SPP" --rr-depth "$RR" --environment-guide on "$LR/scene.json")
     # Mitsuba's own random numbers too (its `independent` sampler): the estimator exactly.
-    cb_ind=$(raylume cornell-independent "$SIZE" "$SPP" --sampler independent "$CB/scene.json")
-    lr_ind=$(raylume living-room-independent "$SIZE" "$SPP" --environment-guide off --sampler independent "$LR/scene.json")
+    cb_ind=$(raylume cornell-independent "$SIZE" "$SPP" --rr-depth "$RR" --sampler independent "$CB/scene.json")
+    lr_ind=$(raylume living-room-independent "$SIZE" "$SPP" --rr-depth "$RR" --environment-guide off --sampler independent "$LR/scene.json")
     mcb=$(mitsuba_cb "$SIZE" "$SPP")
     mlr=$(PYTHONPATH=$MITSUBA "$PY" tools/table1/mitsuba_table1.py "$LR" "$OUT" \
       --tungsten ../shared/peers/mitsuba/tungsten.py --variant llvm_ad_rgb --size "$SIZE" \

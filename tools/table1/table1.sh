@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The GPU-speed measurements of issue 13 in one device call: the paper's Table 1 (plain
 # estimator) and the equal-spp comparison with Mitsuba 3 (raylume with NEE + MIS + Russian roulette
-# from segment 5, Mitsuba's `path`), every schedule x BVH layout x reorder, and the living room
+# from segment T1_RR, default 4: Mitsuba's `path` at its rr_depth 5), every schedule x BVH layout x reorder, and the living room
 # from file to a 10-spp PNG (raylume's `render`, Mitsuba's load + first render). See
 # tools/table1/README.md.
 #
@@ -83,7 +83,14 @@ stage() {
 
 device() {
   cd "$(dirname "$0")/.."
-  local R m S
+  local R m S rr
+  # Where raylume's NEE runs begin Russian roulette: segment 4 is Mitsuba's `path` at its
+  # default rr_depth 5. Mitsuba counts a path's hits from 1 and tests `depth >= rr_depth` after
+  # incrementing (src/integrators/path.cpp; its docs: rr_depth 1 "may randomly cease after
+  # encountering directly visible surfaces"), so its first roulette follows its 5th hit;
+  # raylume counts segments from 0, the camera ray's, and rolls after each segment >= the
+  # start (until session 46 these runs took 5, a segment later than Mitsuba's).
+  rr=${T1_RR:-4}
   T0=$(date +%s)
   el() { echo $(($(date +%s) - T0)); }
   R=/tmp/t1; rm -rf $R; mkdir -p $R
@@ -103,8 +110,8 @@ device() {
   awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/plain.md
   fi
   if [[ $parts == *" nee "* ]]; then
-  echo "== NEE + MIS + roulette from 5, independent sampler (at $(el) s)"
-  timeout 200 /tmp/bench $common --estimator nee --rr-depth 5 --json $R/nee.json \
+  echo "== NEE + MIS + roulette from $rr, independent sampler (at $(el) s)"
+  timeout 200 /tmp/bench $common --estimator nee --rr-depth $rr --json $R/nee.json \
     scenes/cornell-box.toml scenes/living-room/scene.json > $R/nee.md 2> $R/nee.log || echo "bench nee: exit $?"
   awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/nee.md
   fi
@@ -113,7 +120,7 @@ device() {
   local th
   for th in ${T1_PERSISTENT_THREADS:-131072 262144 2097152}; do
     RAYLUME_PERSISTENT_THREADS=$th timeout 60 /tmp/bench --backend gpu --spp 100 --repeat 3 \
-      --schedule persistent --reorder off --bvh wide --estimator nee --rr-depth 5 \
+      --schedule persistent --reorder off --bvh wide --estimator nee --rr-depth $rr \
       --json $R/persistent-$th.json scenes/cornell-box.toml scenes/living-room/scene.json \
       > $R/persistent-$th.md 2>/dev/null || echo "bench persistent $th: exit $?"
     echo "threads $th:"; grep -E '^\| scenes.* \| 100 \| [0-9.]+ \|$' $R/persistent-$th.md || true
@@ -152,8 +159,8 @@ device() {
   timeout 200 /tmp/bench $one --spp 10,100 --specialise composed,overrides,generic \
     --json $R/specialise-plain.json $S6 > $R/specialise-plain.md 2> $R/specialise-plain.log || echo "bench: exit $?"
   awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/specialise-plain.md
-  echo "== the same, NEE + MIS + roulette from 5 (at $(el) s)"
-  timeout 150 /tmp/bench $one --spp 100 --specialise composed,overrides,generic --estimator nee --rr-depth 5 \
+  echo "== the same, NEE + MIS + roulette from $rr (at $(el) s)"
+  timeout 150 /tmp/bench $one --spp 100 --specialise composed,overrides,generic --estimator nee --rr-depth $rr \
     --json $R/specialise-nee.json $S6 > $R/specialise-nee.md 2> $R/specialise-nee.log || echo "bench: exit $?"
   awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/specialise-nee.md
   if [ "${T1_SPECIALISE_EXTRA:-1}" = 1 ]; then
@@ -171,7 +178,7 @@ device() {
   local est opts
   for est in plain nee; do
     opts="--estimator plain"
-    [ $est = nee ] && opts="--estimator nee --sampler sobol --rr-depth 5"
+    [ $est = nee ] && opts="--estimator nee --sampler sobol --rr-depth $rr"
     echo "== feature cost, GPU, $est (at $(el) s)"
     timeout 150 /tmp/bench --backend gpu --spp 100 --repeat 3 --schedule megakernel --reorder off \
       --bvh wide $opts --json $R/feature-cost-gpu-$est.json $V > $R/feature-cost-gpu-$est.md \
@@ -191,7 +198,7 @@ device() {
   for est in plain nee; do
     echo "== issue 14 on the CPU ($(nproc) threads): specialised and generic, $est (at $(el) s)"
     local opts="--estimator plain"
-    [ $est = nee ] && opts="--estimator nee --sampler sobol --rr-depth 5"
+    [ $est = nee ] && opts="--estimator nee --sampler sobol --rr-depth $rr"
     timeout 200 /tmp/bench --backend cpu --size ${T1_CPU_SIZE:-600x600} --spp 4 --repeat 5 \
       --specialise composed,generic $opts --json $R/cpu-specialise-$est.json $S6 \
       > $R/cpu-specialise-$est.md 2> $R/cpu-specialise-$est.log || echo "bench: exit $?"
@@ -210,7 +217,7 @@ device() {
       for b in bench-base bench; do
         echo "== A/B round $r, $est, $b (at $(el) s)"
         timeout 120 /tmp/$b --backend gpu --spp 100 --repeat 3 --schedule wavefront --reorder off \
-          --bvh wide --walk-stage on --estimator $est $([ $est = nee ] && echo --rr-depth 5) \
+          --bvh wide --walk-stage on --estimator $est $([ $est = nee ] && echo --rr-depth $rr) \
           ${T1_AB_ARGS:-} --json $R/ab-$r-$est-$b.json $ab_scenes > $R/ab-$r-$est-$b.md \
           2> $R/ab-$r-$est-$b.log || echo "bench: exit $?"
         grep -E '^\| scenes.* \| 100 \| [0-9.]+ \|$' $R/ab-$r-$est-$b.md || true
@@ -226,7 +233,7 @@ device() {
     for est in nee plain; do
       echo "== batch spp $bs, $est (at $(el) s)"
       timeout 120 /tmp/bench --backend gpu --spp 100 --repeat 3 --schedule wavefront --reorder off \
-        --bvh wide --walk-stage on --estimator $est $([ $est = nee ] && echo --rr-depth 5) \
+        --bvh wide --walk-stage on --estimator $est $([ $est = nee ] && echo --rr-depth $rr) \
         --batch-spp $bs --json $R/batch-$bs-$est.json scenes/living-room/scene.json scenes/teapot.toml \
         > $R/batch-$bs-$est.md 2> $R/batch-$bs-$est.log || echo "bench: exit $?"
       grep -E '^\| scenes.* \| 100 \| [0-9.]+ \|$' $R/batch-$bs-$est.md || true
@@ -245,7 +252,7 @@ device() {
     for est in plain nee; do
       echo "== stage knobs: $kn, $est (at $(el) s)"
       env "$kn" timeout 120 /tmp/bench --backend gpu --spp 100 --repeat 3 --schedule wavefront \
-        --reorder off --bvh wide --walk-stage on --estimator $est $([ $est = nee ] && echo --rr-depth 5) \
+        --reorder off --bvh wide --walk-stage on --estimator $est $([ $est = nee ] && echo --rr-depth $rr) \
         --json $R/knob-$kn-$est.json $ks > $R/knob-$kn-$est.md 2> $R/knob-$kn-$est.log || echo "bench: exit $?"
       grep -E '^\| scenes.* \| 100 \|' $R/knob-$kn-$est.md || true
     done
@@ -257,7 +264,7 @@ device() {
     for est in plain nee; do
       echo "== workgroup size $wg, $est (at $(el) s)"
       RAYLUME_WORKGROUP_SIZE=$wg timeout 120 /tmp/bench --backend gpu --spp 100 --repeat 3 \
-        --schedule megakernel,persistent --reorder off --bvh wide --estimator $est --rr-depth 5 \
+        --schedule megakernel,persistent --reorder off --bvh wide --estimator $est --rr-depth $rr \
         --json $R/wg-$wg-$est.json scenes/cornell-box.toml scenes/living-room/scene.json \
         > $R/wg-$wg-$est.md 2> $R/wg-$wg-$est.log || echo "bench: exit $?"
       grep -E '^\| scenes.* \| 100 \|' $R/wg-$wg-$est.md || true
@@ -304,7 +311,7 @@ print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_tra
     local shadow="--shadow-stage $v"
     echo "== stages: NEE + roulette 5, shadow stage $v (at $(el) s)"
     /tmp/render $lr/scene.json -o /tmp/nee-shadow-$v.exr --backend gpu --schedule wavefront --walk-stage on \
-      $shadow --estimator nee --rr-depth 5 --sampler independent --environment-guide off \
+      $shadow --estimator nee --rr-depth $rr --sampler independent --environment-guide off \
       --bvh-preset quality --spp $sp --bounces 10 --size $ss -q --no-bloom \
       --stats $R/stages-nee-$v.json > /dev/null 2>&1 || echo "render: exit $?"
     kernels $R/stages-nee-$v.json "nee, shadow stage $v" || true
@@ -320,14 +327,14 @@ print(sys.argv[2], 'trace %.4f' % d['seconds']['trace'], 'rays %d' % d['rays_tra
   # independent numbers) costs in each pass.
   echo "== stages: NEE + roulette 5, the Sobol' sampler (at $(el) s)"
   /tmp/render $lr/scene.json -o /tmp/x.png --backend gpu --schedule wavefront --walk-stage on \
-    --estimator nee --rr-depth 5 --sampler sobol --environment-guide off \
+    --estimator nee --rr-depth $rr --sampler sobol --environment-guide off \
     --bvh-preset quality --spp $sp --bounces 10 --size $ss -q --no-bloom \
     --stats $R/stages-nee-sobol.json > /dev/null 2>&1 || echo "render: exit $?"
   kernels $R/stages-nee-sobol.json "nee, sobol sampler" || true
   for r in 1 2; do
     echo "== shadow stage off/on, NEE + roulette 5, round $r (at $(el) s)"
     timeout 200 /tmp/bench --backend gpu --spp $sp --size $ss --repeat 3 --schedule wavefront --reorder off \
-      --bvh wide --walk-stage on --shadow-stage off,on --estimator nee --rr-depth 5 \
+      --bvh wide --walk-stage on --shadow-stage off,on --estimator nee --rr-depth $rr \
       --json $R/shadow-$r.json $lr/scene.json scenes/teapot.toml scenes/cornell-box.toml \
       > $R/shadow-$r.md 2> $R/shadow-$r.log || echo "bench: exit $?"
     awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/shadow-$r.md
@@ -441,7 +448,7 @@ EOP
     echo "== crossing, $est (at $(el) s)"
     timeout 240 /tmp/bench --backend gpu --spp ${T1_CROSSING_SPP:-1,2,3,4,6,10,100} --repeat 3 \
       --schedule persistent,wavefront --reorder off --bvh wide --walk-stage on --estimator $est \
-      $([ $est = nee ] && echo --rr-depth 5) --json $R/crossing-$est.json \
+      $([ $est = nee ] && echo --rr-depth $rr) --json $R/crossing-$est.json \
       ${T1_CROSSING_SCENES:-scenes/living-room/scene.json scenes/teapot.toml scenes/glass-teapot.toml} \
       > $R/crossing-$est.md 2> $R/crossing-$est.log || echo "bench: exit $?"
     awk '/^\| scene \| prims \| spp/{p=1} /^$/{p=0} p' $R/crossing-$est.md

@@ -547,8 +547,9 @@ pub struct Tracer {
     /// pixels, more arithmetic per number) or [`Sampler::Independent`] (the paper's
     /// independent `pcg4d` numbers).
     pub sampler: Sampler,
-    /// The segment from which Russian roulette may end a path (`Some(5)`, the default, as
-    /// Mitsuba 3's `path`; `None`: off, every path runs to `max_bounces` or until it escapes).
+    /// The segment from which Russian roulette may end a path (`Some(5)`, the default,
+    /// [`Tracer::DEFAULT_RUSSIAN_ROULETTE`]; `Some(4)` is Mitsuba 3's `path` at its default
+    /// `rr_depth` 5, which counts hits from 1; `None`: off, every path runs to `max_bounces` or until it escapes).
     /// After each hit of a segment `>= start` the path goes on with probability
     /// `min(max throughput, 0.95)` and its throughput is divided by it: unbiased, fewer rays.
     pub russian_roulette: Option<u32>,
@@ -1035,7 +1036,12 @@ impl Tracer {
     /// for the living room's on the H200, 2026-12-02, docs/RESULTS.md).
     pub const GUIDE_REPAY_FACTOR: f64 = 10.0;
 
-    /// The Russian-roulette start of [`Tracer::new`]: segment 5, as Mitsuba 3's `path`.
+    /// The Russian-roulette start of [`Tracer::new`]: segment 5, as good an error per second
+    /// as any start measured on the Cornell box (2, 8 and off in `docs/ACCURACY.md`; 4 2-3 %
+    /// and 1 17-24 % worse in `docs/RESULTS.md`, issue 15). A segment later than Mitsuba
+    /// 3's `path` at its default `rr_depth` 5: Mitsuba counts a path's hits from 1 and rolls
+    /// after hit `>= rr_depth`, so its first roulette follows segment 4 here (segments count
+    /// from 0, the camera ray's); `Some(4)` is its estimator.
     pub const DEFAULT_RUSSIAN_ROULETTE: u32 = 5;
 
     /// A tracer with the defaults a user expects of a path tracer: next-event estimation with
