@@ -470,3 +470,40 @@ fn russian_roulette_keeps_the_furnace_answer_and_ends_paths_early() {
         full.rays_traced
     );
 }
+
+#[test]
+fn russian_roulette_from_segment_k_first_decides_segment_k_plus_one() {
+    // Segments count from 0 (the camera ray's); roulette from segment k rolls after each hit
+    // of a segment >= k, so its first roll decides whether segment k + 1 is traced. With n
+    // bounces (segments 0..=n) a start of n can act only after the last segment, which ends
+    // the path anyway: the render is bit for bit the one without roulette. A start of n - 1
+    // decides segment n: another image, fewer rays. (Mitsuba 3's `path` counts hits from 1:
+    // its `rr_depth` k is this start k - 1, its default 5 is 4 here;
+    // tools/study/rr_depth_convention.sh. The comparisons with it rely on this.) Seen failing
+    // with the roulette's test made `depth + 1 >= rr_depth`.
+    let (a, e, n) = (0.6f32, Vec3::new(0.5, 1.0, 2.0), 3u32);
+    let scene = inside_emitting_sphere(a, e);
+    let s = settings(16, 16, 4, n, Schedule::Megakernel);
+    let bvh = support::bvh(&scene);
+    let mut tracer = CpuTracer::new(&scene, &bvh).unwrap();
+    let off = tracer.render(&s, &mut |_, _| {}).unwrap();
+    tracer.set_russian_roulette(Some(n));
+    let at_last = tracer.render(&s, &mut |_, _| {}).unwrap();
+    tracer.set_russian_roulette(Some(n - 1));
+    let before_last = tracer.render(&s, &mut |_, _| {}).unwrap();
+    assert_eq!(at_last.rays_traced, off.rays_traced);
+    assert!(
+        at_last.radiance == off.radiance,
+        "roulette from the last segment changed the image"
+    );
+    // Every path runs n + 1 segments without roulette (the sphere is closed); rolled with
+    // q = min(a^n, 0.95) < 1 before the last, some end one short.
+    assert_eq!(off.rays_traced, u64::from(16 * 16 * 4 * (n + 1)));
+    assert!(
+        before_last.rays_traced < off.rays_traced,
+        "{} vs {}",
+        before_last.rays_traced,
+        off.rays_traced
+    );
+    assert!(before_last.radiance != off.radiance);
+}
