@@ -143,6 +143,12 @@ struct Args {
     /// says `packets` when they ran.
     #[arg(long, default_value = "on", value_parser = parse_on_off, action = clap::ArgAction::Set)]
     cpu_packets: bool,
+    /// Whether the CPU path traces the other scenes two paths at a time, a segment of each in
+    /// turn, a hit's records fetched while the other path's segment runs (on), one at a time
+    /// (off), or in pairs where those records exceed a core's L2 cache (auto, the default).
+    /// The same image; the stats line says `paths in pairs` when they ran.
+    #[arg(long, default_value = "auto", value_parser = parse_on_off_auto, action = clap::ArgAction::Set)]
+    cpu_pairs: OnOffAuto,
     /// Skip the scene's bloom pass.
     #[arg(long)]
     no_bloom: bool,
@@ -308,6 +314,7 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
     tracer.environment_guide = args.environment_guide.0;
     tracer.cpu_isa = args.cpu_isa;
     tracer.cpu_packets = args.cpu_packets;
+    tracer.cpu_pairs = args.cpu_pairs.0;
     tracer.target_error = args.target_error;
     tracer.schedule = args.schedule;
     if let Some(l) = args.bvh {

@@ -328,6 +328,29 @@ pub fn trace_ray_at<const F: u32, K: Forms>(
     sample: u32,
     depth: u32,
 ) {
+    if let Some((hit, rnd)) = walk_segment::<F, K>(g, bvh, path, pixel, sp, sample, depth) {
+        shade_segment::<F, K>(g, bvh, path, hit, rnd, depth);
+    }
+}
+
+/// The numbers a segment draws before its walk, [`segment_rands`]'s: the light's four, the
+/// scattered direction's four and the roulette's.
+pub type SegmentRands = (Vec4, Vec4, f32);
+
+/// The first half of [`trace_ray_at`]: the segment's random numbers and its walk. A ray that
+/// escapes takes the environment ([`escape`], which ends the path) and gives `None`; a hit
+/// comes back with the numbers [`shade_segment`] finishes the segment with.
+/// `cpu::stages::trace_paths_in_pairs` runs the two halves of two paths' segments in turn.
+#[inline(always)]
+pub fn walk_segment<const F: u32, K: Forms>(
+    g: &Globals,
+    bvh: &GpuBvh,
+    path: &mut PathState,
+    pixel: u32,
+    sp: SobolPixel,
+    sample: u32,
+    depth: u32,
+) -> Option<(Hit, SegmentRands)> {
     let ray = Ray {
         origin: path.origin,
         dir: path.dir,
@@ -347,9 +370,9 @@ pub fn trace_ray_at<const F: u32, K: Forms>(
     let rnd = segment_rands::<K>(g, sp, pixel, sample, depth);
     let Some(hit) = K::trace_closest::<F>(bvh, &ray, 0.0, T_MAX) else {
         escape::<F>(g, path);
-        return;
+        return None;
     };
-    shade_segment::<F, K>(g, bvh, path, hit, rnd, depth);
+    Some((hit, rnd))
 }
 
 /// The rest of [`trace_ray_at`]'s segment `depth` once its walk found `hit`: the surface, the
@@ -363,7 +386,7 @@ pub fn shade_segment<const F: u32, K: Forms>(
     bvh: &GpuBvh,
     path: &mut PathState,
     hit: Hit,
-    rnd: (Vec4, Vec4, f32),
+    rnd: SegmentRands,
     depth: u32,
 ) {
     let (rnd_light, rnd_scatter, rnd_roulette) = rnd;

@@ -308,6 +308,28 @@ fn prefetch<T>(x: &T) {
     let _ = x;
 }
 
+/// Asks for the records [`surface_at`] reads for a hit on primitive `prim`: its primitive
+/// record, its material's index and, where the variant reads them, its shading normals and
+/// texture coordinates (64 bytes, on at most two cache lines: its first and its last word
+/// asked for). `cpu::stages::trace_paths_in_pairs` asks right
+/// after the walk and shades the hit after another path's segment, by when they have arrived.
+#[inline(always)]
+pub fn prefetch_hit<const F: u32>(g: &Globals, prim: u32) {
+    let i = prim as usize;
+    if let Some(p) = g.primitives.get(i) {
+        prefetch(p);
+    }
+    if let Some(m) = g.prim_materials.get(i) {
+        prefetch(m);
+    }
+    if (has(F, Feature::ShadingNormals) || has(F, Feature::Textures))
+        && let Some(sh) = g.triangle_shading.get(i)
+    {
+        prefetch(sh);
+        prefetch(&sh.flags);
+    }
+}
+
 /// Radiance arriving from the environment along the unit direction `dir`.
 #[inline(always)]
 pub fn environment_radiance<const F: u32>(g: &Globals, dir: Vec3) -> Vec3 {

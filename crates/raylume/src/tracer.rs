@@ -638,6 +638,14 @@ pub struct Tracer {
     /// scene. The same image bit for bit; [`RenderStats::adapter`] says `packets` when they
     /// ran. For measuring what they give (`render --cpu-packets`).
     pub cpu_packets: bool,
+    /// Whether the CPU path traces the scenes the packets do not take two paths at a time, a
+    /// segment of each in turn, each hit's records asked for after its walk and read after
+    /// the other path's segment (`raylume_kernels::cpu::stages::trace_paths_in_pairs`):
+    /// `Some(true)`, `Some(false)` (one path at a time), or `None` (the default: where those
+    /// records exceed `raylume_kernels::cpu::PAIRS_MIN_RECORD_BYTES`, a core's L2 cache).
+    /// The same image bit for bit; [`RenderStats::adapter`] says `paths in pairs` when they
+    /// ran. For measuring what they give (`render --cpu-pairs`).
+    pub cpu_pairs: Option<bool>,
     /// Render only these samples of every pixel (default `None`: all of them): a render
     /// **part**, whose image holds each pixel's *sum* over the range and whose
     /// [`Render::part`] says what it belongs to; parts that tile `0..spp` merge into the
@@ -1075,6 +1083,7 @@ impl Tracer {
             extra_features: raylume_scene::Features::NONE,
             cpu_isa: CpuIsa::X86_64V4,
             cpu_packets: true,
+            cpu_pairs: None,
             samples: None,
             bloom: true,
             tone: raylume_post::ToneMap::default(),
@@ -2369,9 +2378,13 @@ impl Tracer {
         tracer.set_specialisation(self.specialisation, self.extra_features);
         let isa = tracer.set_isa(self.cpu_isa);
         tracer.set_packets(self.cpu_packets);
+        tracer.set_pairs(self.cpu_pairs);
         stats.adapter = format!("{}, {}", stats.adapter, isa.name());
         if tracer.packets() {
             stats.adapter += ", packets";
+        }
+        if tracer.pairs() {
+            stats.adapter += ", paths in pairs";
         }
         if tracer.walks_flat() {
             stats.adapter += ", flat tree";

@@ -236,6 +236,39 @@ pub fn trace_paths<const F: u32>(
     )
 }
 
+/// [`stages::trace_paths_in_pairs`] at level `isa` ([`with_isa`]), the draws and walks in
+/// the level's forms as [`trace_paths`].
+#[inline(always)]
+pub fn trace_paths_in_pairs<const F: u32>(
+    isa: CpuIsa,
+    g: &Globals,
+    bvh: &GpuBvh,
+    r0: u32,
+    slots: &mut [[f32; 3]],
+) -> (u64, u64) {
+    #[cfg(target_arch = "x86_64")]
+    if avx512_forms(isa) {
+        return with_isa(
+            isa,
+            #[inline(always)]
+            || stages::trace_paths_in_pairs::<F, super::variant::Avx512Forms>(g, bvh, r0, slots),
+        );
+    }
+    #[cfg(target_arch = "x86_64")]
+    if avx2_forms(isa) {
+        return with_isa(
+            isa,
+            #[inline(always)]
+            || stages::trace_paths_in_pairs::<F, super::variant::Avx2Forms>(g, bvh, r0, slots),
+        );
+    }
+    with_isa(
+        isa,
+        #[inline(always)]
+        || stages::trace_paths_in_pairs::<F, super::variant::BuildForms>(g, bvh, r0, slots),
+    )
+}
+
 /// [`packet::trace_chunk`](super::packet::trace_chunk) at instruction-set level `isa`: sixteen
 /// paths at a time on AVX-512 lanes (the crate's `packet::Avx512`) at x86-64-v4, eight on AVX
 /// lanes (`packet::Avx`) at x86-64-v3, eight on SSE lanes at the build's level (unless the

@@ -31,6 +31,17 @@ pub const CPU_MAX_RAYS_PER_BATCH: u64 = 1 << 22;
 /// `packet::LANES_AVX512`) at a time.
 const PACKET_CHUNK: usize = 2048;
 
+/// Paths per rayon task of the other scenes' schedule, which traces them two at a time
+/// ([`stages::trace_paths_in_pairs`]): small enough that a small render still fills every
+/// core and the last tasks end together.
+const PAIRS_CHUNK: usize = 256;
+
+/// The size of the records a hit's surface reads (primitives, material indices, shading
+/// records) from which [`CpuTracer::pairs`] traces two paths at a time by default: a core's
+/// L2 cache (1-2 MiB on the dev VMs). Below it the records stay cached and the pairs'
+/// bookkeeping costs more than their prefetches save (Cornell plus, 400x400: +7 % in pairs).
+pub const PAIRS_MIN_RECORD_BYTES: usize = 1 << 20;
+
 /// Renders a scene on the CPU with rayon, through the same stage functions as the GPU.
 pub struct CpuTracer {
     /// Shared with whoever made the tracer (`CpuTracer::with_shared`): never copied.
@@ -45,6 +56,8 @@ pub struct CpuTracer {
     isa: CpuIsa,
     /// Whether the variant [`packet`] runs traces several paths at once ([`packet`]).
     packets: bool,
+    /// Whether the other variants trace two paths at a time ([`CpuTracer::set_pairs`]).
+    pairs: Option<bool>,
     prepare_seconds: f64,
 }
 
@@ -56,7 +69,8 @@ impl CpuTracer {
 
     /// Russian roulette from segment `start` on (`None`, the default: off): after each hit of a
     /// segment `>= start` the path goes on with probability `min(max throughput, 0.95)` and
-    /// its throughput is divided by it (Mitsuba's `path` starts at 5). Unbiased; fewer rays
+    /// its throughput is divided by it (Mitsuba's `path` at its default `rr_depth` 5 is a start of
+    /// 4 here: it counts hits from 1). Unbiased; fewer rays
     /// spent on paths that carry little.
     pub fn set_russian_roulette(&mut self, start: Option<u32>) {
         self.choices.russian_roulette = start;
@@ -113,6 +127,28 @@ impl CpuTracer {
         self.packets = on;
     }
 
+    /// Whether scenes the packets do not take are traced two paths at a time, a segment of
+    /// each in turn, each hit's records asked for after its walk and read after the other
+    /// path's segment ([`stages::trace_paths_in_pairs`]; `Some(true)`), or one path at a time
+    /// (`Some(false)`); `None` (the default): in pairs when those records exceed
+    /// [`PAIRS_MIN_RECORD_BYTES`]. The same image bit for bit either way.
+    pub fn set_pairs(&mut self, on: Option<bool>) {
+        self.pairs = on;
+    }
+
+    /// Whether the renders trace two paths at a time ([`CpuTracer::set_pairs`]): not where
+    /// the packets take the scene.
+    pub fn pairs(&self) -> bool {
+        !self.packets()
+            && self.pairs.unwrap_or_else(|| {
+                let d = &self.data;
+                let bytes = std::mem::size_of_val(self.bvh.primitives.as_slice())
+                    + std::mem::size_of_val(d.prim_materials.as_slice())
+                    + std::mem::size_of_val(d.triangle_shading.as_slice());
+                bytes > PAIRS_MIN_RECORD_BYTES
+            })
+    }
+
     /// Whether the renders trace several paths at once where they can ([`CpuTracer::set_packets`]).
     pub fn packets(&self) -> bool {
         self.packets && packet::runs(variant::variant(self.variant))
@@ -164,6 +200,7 @@ impl CpuTracer {
             variant: variant_of(data.features, Specialisation::default()),
             isa: CpuIsa::best(),
             packets: true,
+            pairs: None,
             data: Arc::new(data),
             prepare_seconds: t.elapsed().as_secs_f64(),
         })
@@ -187,6 +224,7 @@ impl CpuTracer {
             variant: variant_of(data.features, Specialisation::default()),
             isa: CpuIsa::best(),
             packets: true,
+            pairs: None,
             data,
             prepare_seconds: 0.0,
         })
@@ -318,6 +356,7 @@ impl CpuTracer {
                     schedule: settings.schedule,
                     isa: self.isa,
                     packets: self.packets,
+                    pairs: self.pairs(),
                     max_bounces: settings.max_bounces,
                     rays: b.rays(),
                     slots: &mut slots,
@@ -387,6 +426,7 @@ struct BatchRun<'a> {
     schedule: Schedule,
     isa: CpuIsa,
     packets: bool,
+    pairs: bool,
     max_bounces: u32,
     rays: u32,
     slots: &'a mut Vec<[f32; 3]>,
@@ -414,6 +454,7 @@ impl ForVariant for BatchRun<'_> {
             schedule,
             isa,
             packets,
+            pairs,
             max_bounces,
             rays,
             slots,
@@ -432,6 +473,19 @@ impl ForVariant for BatchRun<'_> {
                         .map(|(i, chunk)| {
                             let r0 = (i * PACKET_CHUNK) as u32;
                             isa::trace_chunk::<F>(isa, g, bvh, r0, chunk)
+                        })
+                        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+                    c.paths = t.elapsed().as_secs_f64();
+                    return c;
+                }
+                if pairs {
+                    // Large scenes: two paths at a time, a segment of each in turn.
+                    (c.rays, c.dropped) = slots
+                        .par_chunks_mut(PAIRS_CHUNK)
+                        .enumerate()
+                        .map(|(i, chunk)| {
+                            let r0 = (i * PAIRS_CHUNK) as u32;
+                            isa::trace_paths_in_pairs::<F>(isa, g, bvh, r0, chunk)
                         })
                         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
                     c.paths = t.elapsed().as_secs_f64();

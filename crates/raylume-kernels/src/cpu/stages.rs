@@ -2,7 +2,7 @@
 //! the body of one GPU thread. [`super::CpuTracer`] runs them with rayon.
 
 use glam::{Vec2, Vec3};
-use raylume_bvh::GpuBvh;
+use raylume_bvh::{GpuBvh, Hit};
 
 use super::variant::{BuildForms, Forms};
 use crate::camera::generate_camera_ray;
@@ -10,10 +10,12 @@ use crate::gpu_types::{
     DIM_CAMERA, PIXEL_TILE_HEIGHT, PIXEL_TILE_WIDTH, RayState, SAMPLER_SOBOL, SceneUniforms,
 };
 use crate::math::sample_is_valid;
-use crate::shade::{PathState, sampler_pixel, trace_ray, trace_ray_at};
+use crate::shade::{
+    PathState, SegmentRands, sampler_pixel, shade_segment, trace_ray, trace_ray_at, walk_segment,
+};
 use crate::shade::{path_rand4, path_rand4_at};
 use crate::sobol::SobolPixel;
-use crate::surface::Globals;
+use crate::surface::{Globals, prefetch_hit};
 
 /// (pixel, sample) of ray `r` of the batch; consecutive rays are consecutive pixels.
 #[inline]
@@ -182,6 +184,90 @@ pub fn trace_paths_by<const F: u32, K: Forms>(
     let (radiance, traced) = trace_path_by::<F, K>(g, bvh, pixel, sample);
     let (value, dropped) = write_sample(radiance);
     (value, dropped, traced)
+}
+
+/// The paths of slots `r0..r0 + slots.len()` of the batch, each slot's value written as
+/// [`trace_paths`] writes it; returns the segments traced and the samples dropped. The CPU's
+/// schedule of [`trace_paths`] for large scenes the packets do not take
+/// ([`CpuTracer::pairs`](super::CpuTracer::pairs)): two paths at a time, a segment of each in
+/// turn. After a path's walk ([`walk_segment`]) the
+/// records its hit's surface reads are asked for ([`prefetch_hit`]); the other path's
+/// segment runs; then the hit is shaded ([`shade_segment`]), its records in the cache by
+/// then instead of on the shading's chain of loads. Each path runs the functions of
+/// [`trace_path_by`] on its own numbers, in its own order: the same image bit for bit
+/// (`tests/cpu_isa.rs` against the wavefront schedule's one segment at a time). Bitterli's
+/// living room (textured, shading normals, a sky; the AMD EPYC dev VM, 10 spp alternating
+/// with one path at a time): 500x500 -5 % (geometric mean of twenty rounds), 1000x1000 -3.7 %
+/// by the min, -5.7 % by the median of four (`docs/RESULTS.md`, issue 15). Two in turn, not
+/// three or four: those measured no better.
+#[inline(always)]
+pub fn trace_paths_in_pairs<const F: u32, K: Forms>(
+    g: &Globals,
+    bvh: &GpuBvh,
+    r0: u32,
+    slots: &mut [[f32; 3]],
+) -> (u64, u64) {
+    /// One of the two paths in flight: its state, its pixel sample and segment, the slot it
+    /// writes, and the hit its last walk found, still to shade.
+    #[derive(Clone, Copy)]
+    struct InFlight {
+        path: PathState,
+        pixel: u32,
+        sample: u32,
+        sp: SobolPixel,
+        depth: u32,
+        slot: usize,
+        hit: Option<(Hit, SegmentRands)>,
+    }
+    let scene = g.scene;
+    let mut flights: [Option<InFlight>; 2] = [None; 2];
+    let (mut next, mut rays, mut dropped) = (0usize, 0u64, 0u64);
+    loop {
+        let mut busy = false;
+        for flight in flights.iter_mut() {
+            // The hit walked a turn ago: shade it, then end the path or go on (as
+            // `trace_path_by`'s loop: `depth <= max_bounces && alive`).
+            if let Some(f) = flight {
+                if let Some((hit, rnd)) = f.hit.take() {
+                    shade_segment::<F, K>(g, bvh, &mut f.path, hit, rnd, f.depth);
+                    f.depth += 1;
+                }
+                if !(f.depth <= scene.max_bounces && f.path.alive) {
+                    let (value, d) = write_sample(f.path.radiance);
+                    slots[f.slot] = value;
+                    dropped += u64::from(d);
+                    *flight = None;
+                }
+            }
+            // A free place takes the chunk's next path.
+            if flight.is_none() && next < slots.len() {
+                let (pixel, sample) = batch_ray(scene, r0 + next as u32);
+                let sp = sampler_pixel(scene, pixel);
+                *flight = Some(InFlight {
+                    path: camera_path_at(g, sp, pixel, sample),
+                    pixel,
+                    sample,
+                    sp,
+                    depth: 0,
+                    slot: next,
+                    hit: None,
+                });
+                next += 1;
+            }
+            let Some(f) = flight else { continue };
+            busy = true;
+            rays += 1;
+            f.hit = walk_segment::<F, K>(g, bvh, &mut f.path, f.pixel, f.sp, f.sample, f.depth);
+            match &f.hit {
+                Some((hit, _)) => prefetch_hit::<F>(g, hit.prim),
+                // Escaped: the environment taken, the path ended.
+                None => f.depth += 1,
+            }
+        }
+        if !busy {
+            return (rays, dropped);
+        }
+    }
 }
 
 /// `resolve` for pixel `i` of the batch: its running sum plus this batch's samples in sample
