@@ -10,17 +10,22 @@ use raylume_kernels::{CpuIsa, CpuTracer, Estimator, Sampler, Schedule, Specialis
 use raylume_scene::Features;
 use support::*;
 
-#[test]
-fn every_available_level_renders_the_builds_image_bit_for_bit() {
-    let levels: Vec<CpuIsa> = CpuIsa::ALL.into_iter().filter(|i| i.available()).collect();
-    eprintln!("levels this CPU executes: {levels:?}");
-    let scenes = [
+/// The fixture scenes that hold every feature group between them.
+fn every_group() -> [(&'static str, raylume_scene::Scene); 5] {
+    [
         ("cornell", cornell_box()),
         ("spheres", spheres()),
         ("materials", materials()),
         ("textured", textured()),
         ("environment", environment_lit()),
-    ];
+    ]
+}
+
+#[test]
+fn every_available_level_renders_the_builds_image_bit_for_bit() {
+    let levels: Vec<CpuIsa> = CpuIsa::ALL.into_iter().filter(|i| i.available()).collect();
+    eprintln!("levels this CPU executes: {levels:?}");
+    let scenes = every_group();
     let runs = [
         (
             Estimator::Nee,
@@ -97,13 +102,7 @@ fn paths_in_pairs_render_what_one_segment_at_a_time_renders() {
     // at the best level (the pairs' draws and walks) against the wavefront's build level (the
     // first test: every level the same). Odd sizes and sample counts: chunks end mid-pair.
     // Seen failing with a finished path's sample written to the other path's slot.
-    let scenes = [
-        ("cornell", cornell_box()),
-        ("spheres", spheres()),
-        ("materials", materials()),
-        ("textured", textured()),
-        ("environment", environment_lit()),
-    ];
+    let scenes = every_group();
     for (name, scene) in &scenes {
         let bvh = bvh(scene);
         let mut tracer = CpuTracer::new(scene, &bvh).unwrap();

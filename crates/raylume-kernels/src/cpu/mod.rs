@@ -433,6 +433,21 @@ struct BatchRun<'a> {
     states: &'a mut Vec<RayState>,
 }
 
+/// The batch's `slots` in rayon tasks of `size` paths, each traced by `trace(r0, chunk)` (its
+/// first ray's index in the batch and its slots): the segments traced and the samples
+/// dropped, summed over the tasks.
+fn trace_chunks(
+    slots: &mut [[f32; 3]],
+    size: usize,
+    trace: impl Fn(u32, &mut [[f32; 3]]) -> (u64, u64) + Sync,
+) -> (u64, u64) {
+    slots
+        .par_chunks_mut(size)
+        .enumerate()
+        .map(|(i, chunk)| trace((i * size) as u32, chunk))
+        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1))
+}
+
 /// What a [`BatchRun`] traced, dropped, and spent per stage (seconds).
 #[derive(Default)]
 struct BatchCounts {
@@ -467,27 +482,17 @@ impl ForVariant for BatchRun<'_> {
                 let t = Instant::now();
                 if packets && packet::runs(F) {
                     // Scenes of diffuse triangles: `packet::LANES` paths at a time.
-                    (c.rays, c.dropped) = slots
-                        .par_chunks_mut(PACKET_CHUNK)
-                        .enumerate()
-                        .map(|(i, chunk)| {
-                            let r0 = (i * PACKET_CHUNK) as u32;
-                            isa::trace_chunk::<F>(isa, g, bvh, r0, chunk)
-                        })
-                        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+                    (c.rays, c.dropped) = trace_chunks(slots, PACKET_CHUNK, |r0, chunk| {
+                        isa::trace_chunk::<F>(isa, g, bvh, r0, chunk)
+                    });
                     c.paths = t.elapsed().as_secs_f64();
                     return c;
                 }
                 if pairs {
                     // Large scenes: two paths at a time, a segment of each in turn.
-                    (c.rays, c.dropped) = slots
-                        .par_chunks_mut(PAIRS_CHUNK)
-                        .enumerate()
-                        .map(|(i, chunk)| {
-                            let r0 = (i * PAIRS_CHUNK) as u32;
-                            isa::trace_paths_in_pairs::<F>(isa, g, bvh, r0, chunk)
-                        })
-                        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+                    (c.rays, c.dropped) = trace_chunks(slots, PAIRS_CHUNK, |r0, chunk| {
+                        isa::trace_paths_in_pairs::<F>(isa, g, bvh, r0, chunk)
+                    });
                     c.paths = t.elapsed().as_secs_f64();
                     return c;
                 }
