@@ -197,9 +197,10 @@ pub fn trace_paths_by<const F: u32, K: Forms>(
 /// [`trace_path_by`] on its own numbers, in its own order: the same image bit for bit
 /// (`tests/cpu_isa.rs` against the wavefront schedule's one segment at a time). Bitterli's
 /// living room (textured, shading normals, a sky; the AMD EPYC dev VM, 10 spp alternating
-/// with one path at a time): 500x500 -5 % (geometric mean of twenty rounds), 1000x1000 -3.7 %
-/// by the min, -5.7 % by the median of four (`docs/RESULTS.md`, issue 15). Two in turn, not
-/// three or four: those measured no better.
+/// with one path at a time): 3-5 % faster (geometric means of the rounds' ratios 0.948-0.972
+/// over five series, 500x500 to 1000x1000; `docs/study/cpu-2fe0ab8-paths-in-pairs.md`); the
+/// interleave without the prefetches gains nothing. Two in turn, not three or four: those
+/// measured no better.
 #[inline(always)]
 pub fn trace_paths_in_pairs<const F: u32, K: Forms>(
     g: &Globals,
