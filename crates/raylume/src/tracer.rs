@@ -549,7 +549,8 @@ pub struct Tracer {
     pub sampler: Sampler,
     /// The segment from which Russian roulette may end a path (`Some(5)`, the default,
     /// [`Tracer::DEFAULT_RUSSIAN_ROULETTE`]; `Some(4)` is Mitsuba 3's `path` at its default
-    /// `rr_depth` 5, which counts hits from 1; `None`: off, every path runs to `max_bounces` or until it escapes).
+    /// `rr_depth` 5, which counts hits from 1; `None`: off, every path runs to `max_bounces`
+    /// or until it escapes).
     /// After each hit of a segment `>= start` the path goes on with probability
     /// `min(max throughput, 0.95)` and its throughput is divided by it: unbiased, fewer rays.
     pub russian_roulette: Option<u32>,

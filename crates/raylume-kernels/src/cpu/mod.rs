@@ -69,9 +69,9 @@ impl CpuTracer {
 
     /// Russian roulette from segment `start` on (`None`, the default: off): after each hit of a
     /// segment `>= start` the path goes on with probability `min(max throughput, 0.95)` and
-    /// its throughput is divided by it (Mitsuba's `path` at its default `rr_depth` 5 is a start of
-    /// 4 here: it counts hits from 1). Unbiased; fewer rays
-    /// spent on paths that carry little.
+    /// its throughput is divided by it (Mitsuba's `path` at its default `rr_depth` 5 is a
+    /// start of 4 here: it counts hits from 1). Unbiased; fewer rays spent on paths that carry
+    /// little.
     pub fn set_russian_roulette(&mut self, start: Option<u32>) {
         self.choices.russian_roulette = start;
     }
