@@ -149,6 +149,13 @@ struct Args {
     /// The same image; the stats line says `paths in pairs` when they ran.
     #[arg(long, default_value = "auto", value_parser = parse_on_off_auto, action = clap::ArgAction::Set)]
     cpu_pairs: OnOffAuto,
+    /// Whether the CPU path copies the records its shading reads at random (primitives, their
+    /// shading records, texels) into memory backed by 2 MiB pages before it traces (on), reads
+    /// them where they are (off), or copies them where they are large and the render long
+    /// (auto, the default). The same image; the stats line says `records in huge pages` when
+    /// it ran and `prepare` what the copy took.
+    #[arg(long, default_value = "auto", value_parser = parse_on_off_auto, action = clap::ArgAction::Set)]
+    cpu_huge_pages: OnOffAuto,
     /// Skip the scene's bloom pass.
     #[arg(long)]
     no_bloom: bool,
@@ -315,6 +322,7 @@ fn run(args: Args, timeline: raylume::Timeline) -> Result<(), String> {
     tracer.cpu_isa = args.cpu_isa;
     tracer.cpu_packets = args.cpu_packets;
     tracer.cpu_pairs = args.cpu_pairs.0;
+    tracer.cpu_huge_pages = args.cpu_huge_pages.0;
     tracer.target_error = args.target_error;
     tracer.schedule = args.schedule;
     if let Some(l) = args.bvh {

@@ -2,6 +2,7 @@
 
 use std::sync::OnceLock;
 
+use crate::huge_pages::HugePageArray;
 use crate::intersect::TriangleBlock;
 use crate::stats::BvhStats;
 use crate::wide_traverse::{WideBoxes, triangle_blocks, wide_boxes};
@@ -49,10 +50,11 @@ pub struct CpuArrays(OnceLock<CpuWalkArrays>);
 /// What [`CpuArrays`] holds once made.
 #[derive(Clone)]
 pub(crate) struct CpuWalkArrays {
-    /// A node's float boxes ([`WideBoxes`]), by node.
-    pub(crate) boxes: Vec<WideBoxes>,
+    /// A node's float boxes ([`WideBoxes`]), by node. (Both arrays in huge pages where they
+    /// are large: [`HugePageArray`].)
+    pub(crate) boxes: HugePageArray<WideBoxes>,
     /// The nodes' leaf triangles four a block ([`TriangleBlock`]).
-    pub(crate) blocks: Vec<TriangleBlock>,
+    pub(crate) blocks: HugePageArray<TriangleBlock>,
     /// A small tree's triangles, all of them, sixteen a block grouped by where they lie, each
     /// block with its box (the AVX-512 walks test them all instead of walking, a block only
     /// where the ray enters its box before the closest hit so far: `wide_avx2::flat_hit16`);
@@ -153,8 +155,8 @@ impl GpuBvh {
             #[cfg(target_arch = "x86_64")]
             let flat_between = crate::wide_avx2::flat_between_blocks(&self.primitives, &flat_avx2);
             CpuWalkArrays {
-                boxes,
-                blocks,
+                boxes: boxes.into(),
+                blocks: blocks.into(),
                 #[cfg(target_arch = "x86_64")]
                 flat,
                 #[cfg(target_arch = "x86_64")]

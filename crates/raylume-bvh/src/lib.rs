@@ -50,6 +50,7 @@ mod builder;
 mod error;
 mod flatten;
 mod gpu_bvh;
+pub mod huge_pages;
 pub mod lbvh;
 mod median;
 mod quality;
@@ -75,6 +76,7 @@ pub use gpu_types::{
     BvhLayout, BvhNode, INVALID_INDEX, MAX_STACK_DEPTH, PRIM_SPHERE, PRIM_TRIANGLE, Primitive,
     WIDE_STACK_SIZE, WideNode,
 };
+pub use huge_pages::HugePageArray;
 pub use intersect::{
     AABB_T_FAR_SCALE, Ray, ShearedRay, T_MISS, intersect_aabb, intersect_primitive,
     intersect_sphere, intersect_triangle, shear_ray,

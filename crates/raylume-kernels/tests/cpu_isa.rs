@@ -1,8 +1,9 @@
 //! The CPU path's instruction-set levels (`raylume_kernels::cpu::isa`): every level this CPU
 //! executes renders the same image as the build's own, bit for bit, over the fixture scenes
 //! that hold every feature group (spheres; metal, glass, plastic, rough ones; textures; an
-//! environment), with each estimator and sampler; and two paths traced in turn
-//! (`CpuTracer::set_pairs`) render what one segment at a time renders.
+//! environment), with each estimator and sampler; two paths traced in turn
+//! (`CpuTracer::set_pairs`) render what one segment at a time renders; and the records'
+//! copy in huge pages (`CpuTracer::set_huge_pages`) renders what the scene's data renders.
 
 mod support;
 
@@ -149,4 +150,62 @@ fn paths_in_pairs_render_what_one_segment_at_a_time_renders() {
     let mut tracer = CpuTracer::new(&scene, &bvh(&scene)).unwrap();
     tracer.set_pairs(Some(true));
     assert!(tracer.packets() && !tracer.pairs());
+}
+
+#[test]
+fn records_in_huge_pages_render_what_the_scene_data_renders() {
+    // `CpuTracer::set_huge_pages`: the primitives, material indices, shading records and
+    // texels copied into `HugePageArray`s and read from there: the same image bit for bit and
+    // the same rays as reading them where the scene's data holds them, on every fixture scene,
+    // through both schedules (the one-path loop and the wavefront's `propagate` read them
+    // through the same `Globals`). (The fixtures' arrays are below a huge page, so this tests
+    // the copy and its use; `raylume_bvh::huge_pages`' own tests the advice on large arrays.)
+    // Seen failing with the copy's material indices reversed.
+    for (name, scene) in &every_group() {
+        let bvh = bvh(scene);
+        let mut tracer = CpuTracer::new(scene, &bvh).unwrap();
+        tracer.set_estimator(Estimator::Nee);
+        tracer.set_russian_roulette(Some(2));
+        for schedule in [Schedule::Megakernel, Schedule::Wavefront] {
+            let s = settings(23, 15, 3, 6, schedule);
+            tracer.set_huge_pages(Some(false));
+            let plain = tracer.render(&s, &mut |_, _| {}).unwrap();
+            assert!(!tracer.records_in_huge_pages(), "{name}");
+            tracer.set_huge_pages(Some(true));
+            let huge = tracer.render(&s, &mut |_, _| {}).unwrap();
+            assert!(tracer.records_in_huge_pages(), "{name}");
+            let differ = huge
+                .radiance
+                .iter()
+                .zip(&plain.radiance)
+                .filter(|(a, b)| a.map(f32::to_bits) != b.map(f32::to_bits))
+                .count();
+            assert_eq!(differ, 0, "{name} {schedule:?}: {differ} pixels differ");
+            assert_eq!(huge.rays_traced, plain.rays_traced, "{name} {schedule:?}");
+        }
+    }
+    // By default a render copies the records only where they are large and it is long: not
+    // the fixtures' few kilobytes, whatever the render; a copy once made is kept until
+    // switched off.
+    let scene = textured();
+    let mut tracer = CpuTracer::new(&scene, &bvh(&scene)).unwrap();
+    assert!(!tracer.huge_pages(raylume_kernels::cpu::HUGE_RECORDS_MIN_PATHS * 4));
+    tracer
+        .render(
+            &settings(23, 15, 3, 6, Schedule::Megakernel),
+            &mut |_, _| {},
+        )
+        .unwrap();
+    assert!(!tracer.records_in_huge_pages());
+    tracer.set_huge_pages(Some(true));
+    tracer
+        .render(
+            &settings(23, 15, 3, 6, Schedule::Megakernel),
+            &mut |_, _| {},
+        )
+        .unwrap();
+    tracer.set_huge_pages(None);
+    assert!(tracer.records_in_huge_pages() && tracer.huge_pages(1));
+    tracer.set_huge_pages(Some(false));
+    assert!(!tracer.records_in_huge_pages());
 }

@@ -647,6 +647,17 @@ pub struct Tracer {
     /// The same image bit for bit; [`RenderStats::adapter`] says `paths in pairs` when they
     /// ran. For measuring what they give (`render --cpu-pairs`).
     pub cpu_pairs: Option<bool>,
+    /// Whether a CPU render first copies the records its shading reads at random (the
+    /// primitives, their material indices and shading records, the texels) into memory
+    /// backed by 2 MiB pages, where the page-table walks of its random reads are fewer
+    /// (`raylume_kernels::cpu::CpuTracer::set_huge_pages`): `Some(true)`, `Some(false)`, or
+    /// `None` (the default: where the records take at least
+    /// `raylume_kernels::cpu::HUGE_RECORDS_MIN_BYTES` and the render traces at least
+    /// `raylume_kernels::cpu::HUGE_RECORDS_MIN_PATHS` path samples). The copy takes the
+    /// records' size in memory again for the render, and its time is the stats' `prepare`.
+    /// The same image bit for bit; [`RenderStats::adapter`] says `records in huge pages` when
+    /// it was made. For measuring what it gives (`render --cpu-huge-pages`).
+    pub cpu_huge_pages: Option<bool>,
     /// Render only these samples of every pixel (default `None`: all of them): a render
     /// **part**, whose image holds each pixel's *sum* over the range and whose
     /// [`Render::part`] says what it belongs to; parts that tile `0..spp` merge into the
@@ -1085,6 +1096,7 @@ impl Tracer {
             cpu_isa: CpuIsa::X86_64V4,
             cpu_packets: true,
             cpu_pairs: None,
+            cpu_huge_pages: None,
             samples: None,
             bloom: true,
             tone: raylume_post::ToneMap::default(),
@@ -2386,6 +2398,11 @@ impl Tracer {
         }
         if tracer.pairs() {
             stats.adapter += ", paths in pairs";
+        }
+        tracer.set_huge_pages(self.cpu_huge_pages);
+        if tracer.huge_pages(u64::from(settings.width * settings.height) * u64::from(settings.spp))
+        {
+            stats.adapter += ", records in huge pages";
         }
         if tracer.walks_flat() {
             stats.adapter += ", flat tree";

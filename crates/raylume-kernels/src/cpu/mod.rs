@@ -12,7 +12,7 @@ pub mod variant;
 use std::sync::Arc;
 use std::time::Instant;
 
-use raylume_bvh::GpuBvh;
+use raylume_bvh::{GpuBvh, HugePageArray};
 use raylume_scene::Scene;
 use rayon::prelude::*;
 
@@ -42,6 +42,40 @@ const PAIRS_CHUNK: usize = 256;
 /// bookkeeping costs more than their prefetches save (Cornell plus, 400x400: +7 % in pairs).
 pub const PAIRS_MIN_RECORD_BYTES: usize = 1 << 20;
 
+/// The size of the records a hit's shading reads at random (primitives, material indices,
+/// shading records, texels) from which [`CpuTracer::huge_pages`] copies them into 2 MiB
+/// pages by default: beyond what a core's TLB covers in 4 KiB pages (1,536-3,072 entries, 6-12
+/// MiB, on the dev VMs' cores). The living room's are 36 MB.
+pub const HUGE_RECORDS_MIN_BYTES: usize = 8 << 20;
+
+/// The path samples (pixels x spp) a render traces from which [`CpuTracer::huge_pages`]
+/// copies the records by default: enough that the copy (13-145 ms for the living room's 36 MB
+/// on the AMD dev VM, most of it the kernel gathering free 2 MiB pages) is repaid by the
+/// trace's few per cent (the living room 1000x1000 at 4 spp: a ~2 s trace on two cores).
+pub const HUGE_RECORDS_MIN_PATHS: u64 = 1 << 22;
+
+/// The records the CPU's shading reads at random, copied into memory backed by 2 MiB pages
+/// ([`raylume_bvh::HugePageArray`]) for the renders that [`CpuTracer::huge_pages`] chooses:
+/// the same values, fewer page-table walks (the living room's trace 8 % faster single-threaded
+/// side by side, `docs/RESULTS.md`, issue 15, session 47).
+struct HugeRecords {
+    primitives: HugePageArray<raylume_bvh::Primitive>,
+    prim_materials: HugePageArray<u32>,
+    triangle_shading: HugePageArray<crate::gpu_types::TriangleShading>,
+    texels: HugePageArray<u32>,
+}
+
+impl HugeRecords {
+    fn copy(bvh: &GpuBvh, data: &SceneData) -> Self {
+        Self {
+            primitives: HugePageArray::from_slice(&bvh.primitives),
+            prim_materials: HugePageArray::from_slice(&data.prim_materials),
+            triangle_shading: HugePageArray::from_slice(&data.triangle_shading),
+            texels: HugePageArray::from_slice(&data.texels),
+        }
+    }
+}
+
 /// Renders a scene on the CPU with rayon, through the same stage functions as the GPU.
 pub struct CpuTracer {
     /// Shared with whoever made the tracer (`CpuTracer::with_shared`): never copied.
@@ -58,6 +92,10 @@ pub struct CpuTracer {
     packets: bool,
     /// Whether the other variants trace two paths at a time ([`CpuTracer::set_pairs`]).
     pairs: Option<bool>,
+    /// Whether renders copy the records into huge pages ([`CpuTracer::set_huge_pages`]).
+    huge_pages: Option<bool>,
+    /// The copy, once a render made it (kept for the next renders).
+    huge_records: Option<HugeRecords>,
     prepare_seconds: f64,
 }
 
@@ -149,6 +187,46 @@ impl CpuTracer {
             })
     }
 
+    /// Whether a render first copies the records its shading reads at random (the primitives,
+    /// their material indices and shading records, the texels) into memory backed by 2 MiB
+    /// pages (`Some(true)`; [`raylume_bvh::HugePageArray`], on Linux, where the kernel's
+    /// transparent huge pages are `always` or `madvise`), or reads them where the scene's data
+    /// holds them (`Some(false)`); `None` (the default): where they take at least
+    /// [`HUGE_RECORDS_MIN_BYTES`] and the render traces at least [`HUGE_RECORDS_MIN_PATHS`]
+    /// path samples. The copy is made once, kept for the tracer's next renders, and takes the
+    /// records' size in memory again. The same image bit for bit either way.
+    pub fn set_huge_pages(&mut self, on: Option<bool>) {
+        self.huge_pages = on;
+        if on == Some(false) {
+            self.huge_records = None;
+        }
+    }
+
+    /// Whether a render of `path_samples` (pixels x spp) reads the records from huge pages
+    /// ([`CpuTracer::set_huge_pages`]).
+    pub fn huge_pages(&self, path_samples: u64) -> bool {
+        self.huge_pages.unwrap_or_else(|| {
+            self.huge_records.is_some()
+                || (path_samples >= HUGE_RECORDS_MIN_PATHS
+                    && self.record_bytes() >= HUGE_RECORDS_MIN_BYTES)
+        })
+    }
+
+    /// The bytes of the records [`CpuTracer::set_huge_pages`] copies.
+    fn record_bytes(&self) -> usize {
+        let d = &self.data;
+        std::mem::size_of_val(self.bvh.primitives.as_slice())
+            + std::mem::size_of_val(d.prim_materials.as_slice())
+            + std::mem::size_of_val(d.triangle_shading.as_slice())
+            + std::mem::size_of_val(d.texels.as_slice())
+    }
+
+    /// Whether the tracer holds the records' copy in huge pages (made by a render that
+    /// [`CpuTracer::huge_pages`] chose).
+    pub fn records_in_huge_pages(&self) -> bool {
+        self.huge_records.is_some()
+    }
+
     /// Whether the renders trace several paths at once where they can ([`CpuTracer::set_packets`]).
     pub fn packets(&self) -> bool {
         self.packets && packet::runs(variant::variant(self.variant))
@@ -201,6 +279,8 @@ impl CpuTracer {
             isa: CpuIsa::best(),
             packets: true,
             pairs: None,
+            huge_pages: None,
+            huge_records: None,
             data: Arc::new(data),
             prepare_seconds: t.elapsed().as_secs_f64(),
         })
@@ -225,6 +305,8 @@ impl CpuTracer {
             isa: CpuIsa::best(),
             packets: true,
             pairs: None,
+            huge_pages: None,
+            huge_records: None,
             data,
             prepare_seconds: 0.0,
         })
@@ -235,14 +317,29 @@ impl CpuTracer {
         scene: &'a SceneUniforms,
         sobol_segments: &'a [crate::sobol::SegmentKeys],
     ) -> Globals<'a> {
+        let d = &self.data;
+        let (primitives, prim_materials, triangle_shading, texels) = match &self.huge_records {
+            Some(h) => (
+                &h.primitives[..],
+                &h.prim_materials[..],
+                &h.triangle_shading[..],
+                &h.texels[..],
+            ),
+            None => (
+                &self.bvh.primitives[..],
+                &d.prim_materials[..],
+                &d.triangle_shading[..],
+                &d.texels[..],
+            ),
+        };
         Globals {
             scene,
-            primitives: &self.bvh.primitives,
+            primitives,
             materials: &self.data.materials,
-            prim_materials: &self.data.prim_materials,
-            triangle_shading: &self.data.triangle_shading,
+            prim_materials,
+            triangle_shading,
             texture_headers: &self.data.texture_headers,
-            texels: &self.data.texels,
+            texels,
             lights: &self.data.lights,
             plastic_tables: &self.data.plastic_tables,
             sobol_segments,
@@ -281,8 +378,10 @@ impl CpuTracer {
     }
 
     /// Renders with `settings`, calling `progress(spp_done, spp_total)` after each batch.
-    /// Timings are wall-clock: "upload" (flattening the scene in [`CpuTracer::new`]), the
-    /// stages of the chosen schedule, and "trace", the whole batch loop.
+    /// Timings are wall-clock: "upload" (flattening the scene in [`CpuTracer::new`]),
+    /// "prepare" (the records' copy into huge pages where this render made it:
+    /// [`CpuTracer::set_huge_pages`]), the stages of the chosen schedule, and "trace", the
+    /// whole batch loop.
     pub fn render(
         &mut self,
         settings: &TraceSettings,
@@ -318,6 +417,15 @@ impl CpuTracer {
             self.bvh.wide_boxes();
         }
         let pixels = settings.width * settings.height;
+        let t_records = Instant::now();
+        if self.huge_pages(u64::from(pixels) * u64::from(settings.spp)) {
+            if self.huge_records.is_none() {
+                self.huge_records = Some(HugeRecords::copy(&self.bvh, &self.data));
+            }
+        } else {
+            self.huge_records = None;
+        }
+        let t_records = t_records.elapsed().as_secs_f64();
         let mut batches = crate::batches::plan_render(
             pixels,
             settings,
@@ -398,7 +506,8 @@ impl CpuTracer {
             image.par_iter_mut().for_each(mean);
         }
         let trace = start.elapsed().as_secs_f64();
-        let mut timings = vec![("upload", self.prepare_seconds)];
+        // "prepare": the records' copy into huge pages, where this render made it.
+        let mut timings = vec![("upload", self.prepare_seconds), ("prepare", t_records)];
         match settings.schedule {
             Schedule::Megakernel | Schedule::Persistent => timings.push(("trace_paths", t_paths)),
             Schedule::Wavefront => {
