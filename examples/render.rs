@@ -149,11 +149,11 @@ struct Args {
     /// The same image; the stats line says `paths in pairs` when they ran.
     #[arg(long, default_value = "auto", value_parser = parse_on_off_auto, action = clap::ArgAction::Set)]
     cpu_pairs: OnOffAuto,
-    /// Whether the CPU path copies the records its shading reads at random (primitives, their
-    /// shading records, texels) into memory backed by 2 MiB pages before it traces (on), reads
-    /// them where they are (off), or copies them where they are large and the render long
-    /// (auto, the default). The same image; the stats line says `records in huge pages` when
-    /// it ran and `prepare` what the copy took.
+    /// Whether the CPU path places the arrays it reads at random (its walks' arrays, a copy of
+    /// the primitives, shading records and texels) in memory backed by 2 MiB pages before it
+    /// traces (on), reads them in ordinary pages (off), or places them there where they are
+    /// large and the render long (auto, the default). The same image; the stats line says
+    /// `records in huge pages` when it ran; the copy's time is part of `upload`.
     #[arg(long, default_value = "auto", value_parser = parse_on_off_auto, action = clap::ArgAction::Set)]
     cpu_huge_pages: OnOffAuto,
     /// Skip the scene's bloom pass.

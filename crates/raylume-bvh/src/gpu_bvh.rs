@@ -50,8 +50,8 @@ pub struct CpuArrays(OnceLock<CpuWalkArrays>);
 /// What [`CpuArrays`] holds once made.
 #[derive(Clone)]
 pub(crate) struct CpuWalkArrays {
-    /// A node's float boxes ([`WideBoxes`]), by node. (Both arrays in huge pages where they
-    /// are large: [`HugePageArray`].)
+    /// A node's float boxes ([`WideBoxes`]), by node. (Both arrays in huge pages where
+    /// [`GpuBvh::prepare_cpu_walks`] asked for them: [`HugePageArray`].)
     pub(crate) boxes: HugePageArray<WideBoxes>,
     /// The nodes' leaf triangles four a block ([`TriangleBlock`]).
     pub(crate) blocks: HugePageArray<TriangleBlock>,
@@ -140,7 +140,29 @@ impl GpuBvh {
         self.layout == crate::BvhLayout::Wide && flat
     }
 
+    /// Makes the CPU walks' arrays ([`GpuBvh::wide_boxes`]) if no walk has yet, their node
+    /// boxes and triangle blocks in 2 MiB pages where `huge_pages` asks for them and they
+    /// are large enough ([`HugePageArray`]: fewer page-table walks for a large tree's random
+    /// reads, at the price of the kernel gathering free huge pages when they are first
+    /// written; the CPU tracer asks for them for long renders). The first call decides: a
+    /// walk makes them in ordinary pages. Returns whether they are in huge pages.
+    pub fn prepare_cpu_walks(&self, huge_pages: bool) -> bool {
+        let arrays = self.cpu_walk_arrays_in(huge_pages);
+        arrays.boxes.advised() || arrays.blocks.advised()
+    }
+
+    /// The bytes [`GpuBvh::prepare_cpu_walks`] would place in huge pages: the node boxes and
+    /// triangle blocks, as many as the tree's nodes and about a quarter of its primitives.
+    pub fn cpu_walk_bytes(&self) -> usize {
+        self.wide_nodes.len() * size_of::<WideBoxes>()
+            + self.primitives.len().div_ceil(4) * size_of::<TriangleBlock>()
+    }
+
     pub(crate) fn cpu_walk_arrays(&self) -> &CpuWalkArrays {
+        self.cpu_walk_arrays_in(false)
+    }
+
+    fn cpu_walk_arrays_in(&self, huge_pages: bool) -> &CpuWalkArrays {
         self.cpu_arrays.0.get_or_init(|| {
             let mut boxes: Vec<WideBoxes> = self.wide_nodes.iter().map(wide_boxes).collect();
             let blocks = triangle_blocks(&self.wide_nodes, &mut boxes, &self.primitives);
@@ -155,8 +177,8 @@ impl GpuBvh {
             #[cfg(target_arch = "x86_64")]
             let flat_between = crate::wide_avx2::flat_between_blocks(&self.primitives, &flat_avx2);
             CpuWalkArrays {
-                boxes: boxes.into(),
-                blocks: blocks.into(),
+                boxes: HugePageArray::from_vec(boxes, huge_pages),
+                blocks: HugePageArray::from_vec(blocks, huge_pages),
                 #[cfg(target_arch = "x86_64")]
                 flat,
                 #[cfg(target_arch = "x86_64")]

@@ -189,7 +189,7 @@ fn records_in_huge_pages_render_what_the_scene_data_renders() {
     // switched off.
     let scene = textured();
     let mut tracer = CpuTracer::new(&scene, &bvh(&scene)).unwrap();
-    assert!(!tracer.huge_pages(raylume_kernels::cpu::HUGE_RECORDS_MIN_PATHS * 4));
+    assert!(!tracer.huge_pages(u64::MAX));
     tracer
         .render(
             &settings(23, 15, 3, 6, Schedule::Megakernel),

@@ -647,14 +647,16 @@ pub struct Tracer {
     /// The same image bit for bit; [`RenderStats::adapter`] says `paths in pairs` when they
     /// ran. For measuring what they give (`render --cpu-pairs`).
     pub cpu_pairs: Option<bool>,
-    /// Whether a CPU render first copies the records its shading reads at random (the
-    /// primitives, their material indices and shading records, the texels) into memory
-    /// backed by 2 MiB pages, where the page-table walks of its random reads are fewer
+    /// Whether a CPU render places the arrays it reads at random in memory backed by 2 MiB
+    /// pages, where the page-table walks of those reads are fewer: a copy of the records its
+    /// shading reads (the primitives, their material indices and shading records, the
+    /// texels), and the tree's walk arrays where no CPU walk made them before
     /// (`raylume_kernels::cpu::CpuTracer::set_huge_pages`): `Some(true)`, `Some(false)`, or
-    /// `None` (the default: where the records take at least
-    /// `raylume_kernels::cpu::HUGE_RECORDS_MIN_BYTES` and the render traces at least
-    /// `raylume_kernels::cpu::HUGE_RECORDS_MIN_PATHS` path samples). The copy takes the
-    /// records' size in memory again for the render, and its time is the stats' `prepare`.
+    /// `None` (the default: where those arrays take at least
+    /// `raylume_kernels::cpu::HUGE_PAGES_MIN_BYTES` and the render traces at least a path
+    /// sample per `raylume_kernels::cpu::HUGE_PAGES_BYTES_PER_PATH` bytes of them). The copy
+    /// takes the records' size in memory again for the render; its time is part of the
+    /// stats' `upload`.
     /// The same image bit for bit; [`RenderStats::adapter`] says `records in huge pages` when
     /// it was made. For measuring what it gives (`render --cpu-huge-pages`).
     pub cpu_huge_pages: Option<bool>,
@@ -2392,6 +2394,11 @@ impl Tracer {
         let isa = tracer.set_isa(self.cpu_isa);
         tracer.set_packets(self.cpu_packets);
         tracer.set_pairs(self.cpu_pairs);
+        tracer.set_huge_pages(self.cpu_huge_pages);
+        // The walks' arrays (before `walks_flat` below asks for them) and, for a long render
+        // of a large scene, the records' copy in huge pages: part of the upload.
+        let path_samples = u64::from(settings.width * settings.height) * u64::from(settings.spp);
+        let huge = tracer.prepare(path_samples);
         stats.adapter = format!("{}, {}", stats.adapter, isa.name());
         if tracer.packets() {
             stats.adapter += ", packets";
@@ -2399,9 +2406,7 @@ impl Tracer {
         if tracer.pairs() {
             stats.adapter += ", paths in pairs";
         }
-        tracer.set_huge_pages(self.cpu_huge_pages);
-        if tracer.huge_pages(u64::from(settings.width * settings.height) * u64::from(settings.spp))
-        {
+        if huge {
             stats.adapter += ", records in huge pages";
         }
         if tracer.walks_flat() {

@@ -42,22 +42,27 @@ const PAIRS_CHUNK: usize = 256;
 /// bookkeeping costs more than their prefetches save (Cornell plus, 400x400: +7 % in pairs).
 pub const PAIRS_MIN_RECORD_BYTES: usize = 1 << 20;
 
-/// The size of the records a hit's shading reads at random (primitives, material indices,
-/// shading records, texels) from which [`CpuTracer::huge_pages`] copies them into 2 MiB
-/// pages by default: beyond what a core's TLB covers in 4 KiB pages (1,536-3,072 entries, 6-12
-/// MiB, on the dev VMs' cores). The living room's are 36 MB.
-pub const HUGE_RECORDS_MIN_BYTES: usize = 8 << 20;
+/// The size of the arrays a render reads at random (the records a hit's shading reads:
+/// primitives, material indices, shading records, texels; and the walks' node boxes and
+/// triangle blocks) from which [`CpuTracer::huge_pages`] places them in 2 MiB pages by
+/// default: beyond what a core's TLB covers in 4 KiB pages (1,536-3,072 entries, 6-12 MiB, on
+/// the dev VMs' cores). The living room's are 46 MB.
+pub const HUGE_PAGES_MIN_BYTES: usize = 8 << 20;
 
-/// The path samples (pixels x spp) a render traces from which [`CpuTracer::huge_pages`]
-/// copies the records by default: enough that the copy (13-145 ms for the living room's 36 MB
-/// on the AMD dev VM, most of it the kernel gathering free 2 MiB pages) is repaid by the
-/// trace's few per cent (the living room 1000x1000 at 4 spp: a ~2 s trace on two cores).
-pub const HUGE_RECORDS_MIN_PATHS: u64 = 1 << 22;
+/// How many bytes of those arrays one path sample (a pixel's sample) of a render repays in
+/// huge pages: by default a render places them there when it traces at least one path sample
+/// per this many bytes. Their first writes cost ~3-4 ms a MB on the AMD dev VM (the kernel
+/// gathering free 2 MiB pages: the 3M-triangle grid's ~300 MB took its CPU render's setup
+/// from 0.32 to 0.81 s), and a living-room path sample gains ~0.05 us (5-7 % of ~1 us on two
+/// cores): about even at one sample per 16 bytes (the living room from 2.9 M path samples,
+/// 1000x1000 at 3 spp; the 3M grid from ~20 M).
+pub const HUGE_PAGES_BYTES_PER_PATH: u64 = 16;
 
 /// The records the CPU's shading reads at random, copied into memory backed by 2 MiB pages
 /// ([`raylume_bvh::HugePageArray`]) for the renders that [`CpuTracer::huge_pages`] chooses:
-/// the same values, fewer page-table walks (the living room's trace 8 % faster single-threaded
-/// side by side, `docs/RESULTS.md`, issue 15, session 47).
+/// the same values, fewer page-table walks (with the walks' arrays in huge pages too, the
+/// living room's trace 7 % faster single-threaded side by side, `docs/RESULTS.md`, issue 15,
+/// session 47).
 struct HugeRecords {
     primitives: HugePageArray<raylume_bvh::Primitive>,
     prim_materials: HugePageArray<u32>,
@@ -187,14 +192,16 @@ impl CpuTracer {
             })
     }
 
-    /// Whether a render first copies the records its shading reads at random (the primitives,
-    /// their material indices and shading records, the texels) into memory backed by 2 MiB
-    /// pages (`Some(true)`; [`raylume_bvh::HugePageArray`], on Linux, where the kernel's
-    /// transparent huge pages are `always` or `madvise`), or reads them where the scene's data
-    /// holds them (`Some(false)`); `None` (the default): where they take at least
-    /// [`HUGE_RECORDS_MIN_BYTES`] and the render traces at least [`HUGE_RECORDS_MIN_PATHS`]
-    /// path samples. The copy is made once, kept for the tracer's next renders, and takes the
-    /// records' size in memory again. The same image bit for bit either way.
+    /// Whether a render places the arrays it reads at random in memory backed by 2 MiB pages
+    /// (`Some(true)`; [`raylume_bvh::HugePageArray`], on Linux, where the kernel's transparent
+    /// huge pages are `always` or `madvise`): it copies the records its shading reads (the
+    /// primitives, their material indices and shading records, the texels) there, and the
+    /// tree's walk arrays are made there if no walk made them before
+    /// ([`GpuBvh::prepare_cpu_walks`]); or reads them in ordinary pages (`Some(false)`);
+    /// `None` (the default): where those arrays take at least [`HUGE_PAGES_MIN_BYTES`] and
+    /// the render traces at least a path sample per [`HUGE_PAGES_BYTES_PER_PATH`] bytes of
+    /// them. The records' copy is made once, kept for the tracer's next renders, and takes
+    /// their size in memory again. The same image bit for bit either way.
     pub fn set_huge_pages(&mut self, on: Option<bool>) {
         self.huge_pages = on;
         if on == Some(false) {
@@ -206,10 +213,31 @@ impl CpuTracer {
     /// ([`CpuTracer::set_huge_pages`]).
     pub fn huge_pages(&self, path_samples: u64) -> bool {
         self.huge_pages.unwrap_or_else(|| {
+            let bytes = self.record_bytes() + self.bvh.cpu_walk_bytes();
             self.huge_records.is_some()
-                || (path_samples >= HUGE_RECORDS_MIN_PATHS
-                    && self.record_bytes() >= HUGE_RECORDS_MIN_BYTES)
+                || (bytes >= HUGE_PAGES_MIN_BYTES
+                    && path_samples.saturating_mul(HUGE_PAGES_BYTES_PER_PATH) >= bytes as u64)
         })
+    }
+
+    /// Makes what a render of `path_samples` (pixels x spp) reads before it traces: the
+    /// tree's walk arrays (if no walk made them yet) and, where [`CpuTracer::huge_pages`]
+    /// says so, the records' copy in huge pages (or drops a copy it says not to keep).
+    /// [`CpuTracer::render`] calls it; call it before to keep that work out of the render's
+    /// `prepare`. Returns whether the records are read from huge pages.
+    pub fn prepare(&mut self, path_samples: u64) -> bool {
+        let huge = self.huge_pages(path_samples);
+        if self.bvh.layout == raylume_bvh::BvhLayout::Wide {
+            // The CPU's float node boxes, made here rather than by the first ray of the
+            // parallel loop (see `GpuBvh::wide_boxes`).
+            self.bvh.prepare_cpu_walks(huge);
+        }
+        if !huge {
+            self.huge_records = None;
+        } else if self.huge_records.is_none() {
+            self.huge_records = Some(HugeRecords::copy(&self.bvh, &self.data));
+        }
+        huge
     }
 
     /// The bytes of the records [`CpuTracer::set_huge_pages`] copies.
@@ -379,8 +407,8 @@ impl CpuTracer {
 
     /// Renders with `settings`, calling `progress(spp_done, spp_total)` after each batch.
     /// Timings are wall-clock: "upload" (flattening the scene in [`CpuTracer::new`]),
-    /// "prepare" (the records' copy into huge pages where this render made it:
-    /// [`CpuTracer::set_huge_pages`]), the stages of the chosen schedule, and "trace", the
+    /// "prepare" (the walks' arrays and the records' copy into huge pages where this render
+    /// made them: [`CpuTracer::prepare`]), the stages of the chosen schedule, and "trace", the
     /// whole batch loop.
     pub fn render(
         &mut self,
@@ -411,20 +439,9 @@ impl CpuTracer {
         mut hook: Option<&mut RoundHook<'_>>,
     ) -> Result<TraceOutput, KernelError> {
         settings.validate()?;
-        if self.bvh.layout == raylume_bvh::BvhLayout::Wide {
-            // The CPU's float node boxes, made here rather than by the first ray of the
-            // parallel loop (see `GpuBvh::wide_boxes`).
-            self.bvh.wide_boxes();
-        }
         let pixels = settings.width * settings.height;
         let t_records = Instant::now();
-        if self.huge_pages(u64::from(pixels) * u64::from(settings.spp)) {
-            if self.huge_records.is_none() {
-                self.huge_records = Some(HugeRecords::copy(&self.bvh, &self.data));
-            }
-        } else {
-            self.huge_records = None;
-        }
+        self.prepare(u64::from(pixels) * u64::from(settings.spp));
         let t_records = t_records.elapsed().as_secs_f64();
         let mut batches = crate::batches::plan_render(
             pixels,
@@ -506,7 +523,8 @@ impl CpuTracer {
             image.par_iter_mut().for_each(mean);
         }
         let trace = start.elapsed().as_secs_f64();
-        // "prepare": the records' copy into huge pages, where this render made it.
+        // "prepare": the walk arrays and the records' copy into huge pages, where this render
+        // made them (`CpuTracer::prepare`).
         let mut timings = vec![("upload", self.prepare_seconds), ("prepare", t_records)];
         match settings.schedule {
             Schedule::Megakernel | Schedule::Persistent => timings.push(("trace_paths", t_paths)),
