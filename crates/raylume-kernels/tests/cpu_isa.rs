@@ -22,6 +22,14 @@ fn every_group() -> [(&'static str, raylume_scene::Scene); 5] {
     ]
 }
 
+/// How many pixels of two images differ in any bit.
+fn differing_pixels(a: &[[f32; 3]], b: &[[f32; 3]]) -> usize {
+    a.iter()
+        .zip(b)
+        .filter(|(a, b)| a.map(f32::to_bits) != b.map(f32::to_bits))
+        .count()
+}
+
 #[test]
 fn every_available_level_renders_the_builds_image_bit_for_bit() {
     let levels: Vec<CpuIsa> = CpuIsa::ALL.into_iter().filter(|i| i.available()).collect();
@@ -122,12 +130,7 @@ fn paths_in_pairs_render_what_one_segment_at_a_time_renders() {
                 assert_eq!(tracer.pairs(), pairs);
                 let s = settings(23, 15, 3, 6, Schedule::Megakernel);
                 let out = tracer.render(&s, &mut |_, _| {}).unwrap();
-                let differ = out
-                    .radiance
-                    .iter()
-                    .zip(&one.radiance)
-                    .filter(|(a, b)| a.map(f32::to_bits) != b.map(f32::to_bits))
-                    .count();
+                let differ = differing_pixels(&out.radiance, &one.radiance);
                 assert_eq!(
                     differ, 0,
                     "{name} {estimator:?}, pairs {pairs}: {differ} pixels differ from the \
@@ -174,12 +177,7 @@ fn records_in_huge_pages_render_what_the_scene_data_renders() {
             tracer.set_huge_pages(Some(true));
             let huge = tracer.render(&s, &mut |_, _| {}).unwrap();
             assert!(tracer.records_in_huge_pages(), "{name}");
-            let differ = huge
-                .radiance
-                .iter()
-                .zip(&plain.radiance)
-                .filter(|(a, b)| a.map(f32::to_bits) != b.map(f32::to_bits))
-                .count();
+            let differ = differing_pixels(&huge.radiance, &plain.radiance);
             assert_eq!(differ, 0, "{name} {schedule:?}: {differ} pixels differ");
             assert_eq!(huge.rays_traced, plain.rays_traced, "{name} {schedule:?}");
         }
