@@ -2367,6 +2367,19 @@ impl Tracer {
         report: &mut dyn FnMut(u32, u32),
     ) -> Result<Vec<[f32; 3]>, Error> {
         let t = Instant::now();
+        let path_samples = u64::from(settings.width * settings.height) * u64::from(settings.spp);
+        // The tree's walk arrays in huge pages where this render repays them, decided before
+        // the environment guide's learning walks below would make them in ordinary pages (the
+        // first CPU walk of a tree decides; `tracer.prepare` decides again with the records
+        // counted, and copies those).
+        let tree_bytes = bvh.cpu_walk_bytes() + std::mem::size_of_val(bvh.primitives.as_slice());
+        if bvh.layout == raylume_bvh::BvhLayout::Wide
+            && self
+                .cpu_huge_pages
+                .unwrap_or_else(|| raylume_kernels::cpu::huge_pages_repay(tree_bytes, path_samples))
+        {
+            bvh.prepare_cpu_walks(true);
+        }
         let options = self.scene_options(scene);
         let prepared = prepared.of(SceneKey::of(scene, options));
         let data = match (&prepared.cpu, prepared.ahead.take()) {
@@ -2397,7 +2410,6 @@ impl Tracer {
         tracer.set_huge_pages(self.cpu_huge_pages);
         // The walks' arrays (before `walks_flat` below asks for them) and, for a long render
         // of a large scene, the records' copy in huge pages: part of the upload.
-        let path_samples = u64::from(settings.width * settings.height) * u64::from(settings.spp);
         let huge = tracer.prepare(path_samples);
         stats.adapter = format!("{}, {}", stats.adapter, isa.name());
         if tracer.packets() {

@@ -58,6 +58,14 @@ pub const HUGE_PAGES_MIN_BYTES: usize = 8 << 20;
 /// 1000x1000 at 3 spp; the 3M grid from ~20 M).
 pub const HUGE_PAGES_BYTES_PER_PATH: u64 = 16;
 
+/// Whether a render of `path_samples` (pixels x spp) repays placing `bytes` of the arrays it
+/// reads at random in huge pages: [`CpuTracer::huge_pages`]' default rule (at least
+/// [`HUGE_PAGES_MIN_BYTES`], at least a path sample per [`HUGE_PAGES_BYTES_PER_PATH`] bytes).
+pub fn huge_pages_repay(bytes: usize, path_samples: u64) -> bool {
+    bytes >= HUGE_PAGES_MIN_BYTES
+        && path_samples.saturating_mul(HUGE_PAGES_BYTES_PER_PATH) >= bytes as u64
+}
+
 /// The records the CPU's shading reads at random, copied into memory backed by 2 MiB pages
 /// ([`raylume_bvh::HugePageArray`]) for the renders that [`CpuTracer::huge_pages`] chooses:
 /// the same values, fewer page-table walks (with the walks' arrays in huge pages too, the
@@ -213,10 +221,11 @@ impl CpuTracer {
     /// ([`CpuTracer::set_huge_pages`]).
     pub fn huge_pages(&self, path_samples: u64) -> bool {
         self.huge_pages.unwrap_or_else(|| {
-            let bytes = self.record_bytes() + self.bvh.cpu_walk_bytes();
             self.huge_records.is_some()
-                || (bytes >= HUGE_PAGES_MIN_BYTES
-                    && path_samples.saturating_mul(HUGE_PAGES_BYTES_PER_PATH) >= bytes as u64)
+                || huge_pages_repay(
+                    self.record_bytes() + self.bvh.cpu_walk_bytes(),
+                    path_samples,
+                )
         })
     }
 
