@@ -191,13 +191,9 @@ impl CpuTracer {
     /// the packets take the scene.
     pub fn pairs(&self) -> bool {
         !self.packets()
-            && self.pairs.unwrap_or_else(|| {
-                let d = &self.data;
-                let bytes = std::mem::size_of_val(self.bvh.primitives.as_slice())
-                    + std::mem::size_of_val(d.prim_materials.as_slice())
-                    + std::mem::size_of_val(d.triangle_shading.as_slice());
-                bytes > PAIRS_MIN_RECORD_BYTES
-            })
+            && self
+                .pairs
+                .unwrap_or_else(|| self.hit_record_bytes() > PAIRS_MIN_RECORD_BYTES)
     }
 
     /// Whether a render places the arrays it reads at random in memory backed by 2 MiB pages
@@ -249,17 +245,24 @@ impl CpuTracer {
         huge
     }
 
-    /// The bytes of the records [`CpuTracer::set_huge_pages`] copies.
-    fn record_bytes(&self) -> usize {
+    /// The bytes of the records a hit's surface reads (primitives, material indices, shading
+    /// records): what [`CpuTracer::pairs`] weighs.
+    fn hit_record_bytes(&self) -> usize {
         let d = &self.data;
         std::mem::size_of_val(self.bvh.primitives.as_slice())
             + std::mem::size_of_val(d.prim_materials.as_slice())
             + std::mem::size_of_val(d.triangle_shading.as_slice())
-            + std::mem::size_of_val(d.texels.as_slice())
     }
 
-    /// Whether the tracer holds the records' copy in huge pages (made by a render that
-    /// [`CpuTracer::huge_pages`] chose).
+    /// The bytes of the records [`CpuTracer::set_huge_pages`] copies: a hit's and the texels.
+    fn record_bytes(&self) -> usize {
+        self.hit_record_bytes() + std::mem::size_of_val(self.data.texels.as_slice())
+    }
+
+    /// Whether the tracer holds the records' copy (made by a render that
+    /// [`CpuTracer::huge_pages`] chose; each array in huge pages where it takes at least a
+    /// huge page, in ordinary memory below that, as `set_huge_pages(Some(true))` gives a
+    /// small scene).
     pub fn records_in_huge_pages(&self) -> bool {
         self.huge_records.is_some()
     }
