@@ -879,9 +879,10 @@ fn leaf_block4(
     if t_best < hit.t {
         let j = first_leading_bit(t.cmpeq(Vec4::splat(t_best)).bitmask()) as usize;
         *hit = Hit {
-            // The lane's own t (equal to `t_best`; the same bits, ±0 included, as the AVX2
-            // form's, which takes the lane's).
-            t: t.to_array()[j],
+            // The smallest t itself (lane j's value), as the AVX2 form takes it: for a
+            // `t_min` below zero, where two lanes could hold +0 and -0, the two forms'
+            // reductions may keep a different zero's sign; no other t differs.
+            t: t_best,
             prim: first + j as u32,
             u: u.to_array()[j],
             v: v.to_array()[j],
