@@ -207,9 +207,14 @@ pub(crate) unsafe fn leaf_blocks8(
     let lo_a = (31 - prims.leading_zeros()) & !3;
     let lanes_a = (*prims >> lo_a) & 0xf;
     let rest = *prims & !(0xf << lo_a);
-    // Without a bit left, the second block is the node's first with no lane live (a read
-    // of a block the node has, no branch).
-    let lo_b = (31 - (rest | 1).leading_zeros()) & !3;
+    // Without a bit left, the second block is the first one again with no lane live (no
+    // branch): the lanes wait on both blocks' loads, and the node's first block, read
+    // here before, was a second cache miss to wait on where it was not the first.
+    let lo_b = if rest == 0 {
+        lo_a
+    } else {
+        (31 - rest.leading_zeros()) & !3
+    };
     let lanes_b = (rest >> lo_b) & 0xf;
     *prims = rest & !(0xf << lo_b);
     let a = &blocks[(block_base + lo_a / 4) as usize];
