@@ -1,0 +1,64 @@
+#!/usr/bin/env bash
+# Where issue 15's living-room gap lies: raylume's CPU path and Mitsuba 3 `llvm_ad_rgb` back to
+# back, by depth and with the materials taken out (docs/study/cpu-3fe4505-where-the-gap-lies.md).
+#
+#   tools/cpu/gap_by_depth.sh [OUT]      (from the project's root; OUT: /tmp/gap-by-depth)
+#
+# Renders, each round: the living room at 10 bounces, then an all-diffuse copy of it (every
+# BSDF a `lambert` of its own constant albedo, 0.5 where that was a texture; the same meshes
+# and sky, written to OUT/lr-diffuse) at each of BOUNCES (default "0 3 10"; Mitsuba's
+# max_depth is one more). raylume best of 3 (`--rr-depth 4 --environment-guide off`, the
+# criterion's estimator), Mitsuba best of 3 after a warm-up (`mitsuba_table1.py`). SIZE
+# (1000x1000), SPP (10), ROUNDS (2); MITSUBA, PYTHON, DRJIT_LIBLLVM_PATH as cpu_vs_mitsuba.sh.
+set -euo pipefail
+OUT=${1:-/tmp/gap-by-depth}
+SIZE=${SIZE:-1000x1000}
+SPP=${SPP:-10}
+ROUNDS=${ROUNDS:-2}
+BOUNCES=${BOUNCES:-0 3 10}
+MITSUBA=${MITSUBA:-/tmp/mitsuba}
+PY=${PYTHON:-/usr/bin/python3}
+export DRJIT_LIBLLVM_PATH=${DRJIT_LIBLLVM_PATH:-/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1}
+LR=scenes/living-room
+[ -d "$MITSUBA/mitsuba" ] || { echo "gap_by_depth: no Mitsuba at $MITSUBA (see cpu_vs_mitsuba.sh)" >&2; exit 2; }
+mkdir -p "$OUT/lr-diffuse"
+ln -sfn "$PWD/$LR/models" "$OUT/lr-diffuse/models"
+ln -sfn "$PWD/$LR/textures" "$OUT/lr-diffuse/textures"
+"$PY" - "$LR/scene.json" "$OUT/lr-diffuse/scene.json" <<'PYEOF'
+import json, sys
+scene = json.load(open(sys.argv[1]))
+for i, b in enumerate(scene['bsdfs']):
+    albedo = b.get('albedo', 0.5)
+    if not isinstance(albedo, (int, float, list)):
+        albedo = 0.5
+    scene['bsdfs'][i] = {'name': b['name'], 'albedo': albedo, 'type': 'lambert'}
+json.dump(scene, open(sys.argv[2], 'w'), indent=1)
+PYEOF
+cargo build --release --example render -q
+R=target/release/examples/render
+# raylume's best trace seconds and segment rate: NAME SCENE_DIR BOUNCES
+raylume() {
+  for _ in 1 2 3; do
+    "$R" --backend cpu --size "$SIZE" --spp "$SPP" --bounces "$3" --rr-depth 4 \
+      --environment-guide off -q -o "$OUT/$1.png" "$2/scene.json" 2>&1 |
+      sed -n 's/^raylume: trace \([0-9.]*\) s, \([0-9.]*\) Mrays.*/\1 \2/p'
+  done | sort -n | head -1
+}
+# Mitsuba's best seconds: SCENE_DIR MAX_DEPTH
+mitsuba() {
+  PYTHONPATH=$MITSUBA "$PY" tools/table1/mitsuba_table1.py "$1" "$OUT" \
+    --tungsten ../shared/peers/mitsuba/tungsten.py --variant llvm_ad_rgb --size "$SIZE" \
+    --spp "$SPP" --depth "$2" 2>/dev/null | sed -n "s/^mitsuba .* spp $SPP: \([0-9.]*\) s/\1/p"
+}
+row() { # LABEL "SECONDS RATE" MITSUBA_SECONDS
+  awk -v l="$1" -v r="$2" -v m="$3" 'BEGIN { split(r, a, " ");
+    printf "%s: raylume %.3f s (%.1f M segments), Mitsuba %.3f s: %.2fx its time\n", l, a[1], a[1] * a[2], m, a[1] / m }'
+}
+echo "# $(date -u +%FT%TZ) commit $(git rev-parse --short HEAD)$(git diff --quiet || echo '+dirty'), $(nproc) CPUs; $SIZE, $SPP spp" | tee "$OUT/summary.md"
+for r in $(seq "$ROUNDS"); do
+  row "round $r living room, 10 bounces" "$(raylume lr "$LR" 10)" "$(mitsuba "$LR" 11)" | tee -a "$OUT/summary.md"
+  for b in $BOUNCES; do
+    row "round $r all-diffuse copy, $b bounces" "$(raylume "lrd$b" "$OUT/lr-diffuse" "$b")" \
+      "$(mitsuba "$OUT/lr-diffuse" $((b + 1)))" | tee -a "$OUT/summary.md"
+  done
+done
