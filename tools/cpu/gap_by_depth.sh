@@ -10,6 +10,8 @@
 # max_depth is one more). raylume best of 3 (`--rr-depth 4 --environment-guide off`, the
 # criterion's estimator), Mitsuba best of 3 after a warm-up (`mitsuba_table1.py`). SIZE
 # (1000x1000), SPP (10), ROUNDS (2); MITSUBA, PYTHON, DRJIT_LIBLLVM_PATH as cpu_vs_mitsuba.sh.
+# Between two depths it also prints what the segments between them cost each renderer (the
+# difference of two noisy renders each: read it over rounds).
 set -euo pipefail
 OUT=${1:-/tmp/gap-by-depth}
 SIZE=${SIZE:-1000x1000}
@@ -54,11 +56,24 @@ row() { # LABEL "SECONDS RATE" MITSUBA_SECONDS
   awk -v l="$1" -v r="$2" -v m="$3" 'BEGIN { split(r, a, " ");
     printf "%s: raylume %.3f s (%.1f M segments), Mitsuba %.3f s: %.2fx its time\n", l, a[1], a[1] * a[2], m, a[1] / m }'
 }
+# What the segments between two depths cost each renderer: LABEL "SECONDS RATE" MITSUBA
+# (the deeper row) "SECONDS RATE" MITSUBA (the shallower one).
+step() {
+  awk -v l="$1" -v r="$2" -v m="$3" -v r0="$4" -v m0="$5" 'BEGIN { split(r, a, " "); split(r0, b, " ");
+    printf "%s: raylume +%.3f s (+%.1f M segments), Mitsuba +%.3f s: %.2fx\n", l, a[1] - b[1], a[1] * a[2] - b[1] * b[2], m - m0, (a[1] - b[1]) / (m - m0) }'
+}
 echo "# $(date -u +%FT%TZ) commit $(git rev-parse --short HEAD)$(git diff --quiet || echo '+dirty'), $(nproc) CPUs; $SIZE, $SPP spp" | tee "$OUT/summary.md"
 for r in $(seq "$ROUNDS"); do
   row "round $r living room, 10 bounces" "$(raylume lr "$LR" 10)" "$(mitsuba "$LR" 11)" | tee -a "$OUT/summary.md"
+  prev=
   for b in $BOUNCES; do
-    row "round $r all-diffuse copy, $b bounces" "$(raylume "lrd$b" "$OUT/lr-diffuse" "$b")" \
-      "$(mitsuba "$OUT/lr-diffuse" $((b + 1)))" | tee -a "$OUT/summary.md"
+    ry=$(raylume "lrd$b" "$OUT/lr-diffuse" "$b")
+    mi=$(mitsuba "$OUT/lr-diffuse" $((b + 1)))
+    row "round $r all-diffuse copy, $b bounces" "$ry" "$mi" | tee -a "$OUT/summary.md"
+    if [ -n "$prev" ]; then
+      step "round $r all-diffuse copy, segments $((prev + 1))-$b" "$ry" "$mi" "$prev_ry" "$prev_mi" |
+        tee -a "$OUT/summary.md"
+    fi
+    prev=$b prev_ry=$ry prev_mi=$mi
   done
 done
