@@ -60,7 +60,8 @@ row() { # LABEL "SECONDS RATE" MITSUBA_SECONDS
 # (the deeper row) "SECONDS RATE" MITSUBA (the shallower one).
 step() {
   awk -v l="$1" -v r="$2" -v m="$3" -v r0="$4" -v m0="$5" 'BEGIN { split(r, a, " "); split(r0, b, " ");
-    printf "%s: raylume +%.3f s (+%.1f M segments), Mitsuba +%.3f s: %.2fx\n", l, a[1] - b[1], a[1] * a[2] - b[1] * b[2], m - m0, (a[1] - b[1]) / (m - m0) }'
+    d = m - m0; ratio = d > 0 ? sprintf("%.2fx", (a[1] - b[1]) / d) : "no ratio (Mitsuba not slower deeper: noise)";
+    printf "%s: raylume +%.3f s (+%.1f M segments), Mitsuba +%.3f s: %s\n", l, a[1] - b[1], a[1] * a[2] - b[1] * b[2], d, ratio }'
 }
 echo "# $(date -u +%FT%TZ) commit $(git rev-parse --short HEAD)$(git diff --quiet || echo '+dirty'), $(nproc) CPUs; $SIZE, $SPP spp" | tee "$OUT/summary.md"
 for r in $(seq "$ROUNDS"); do
