@@ -57,13 +57,10 @@ EQ_SPP_DEFAULT=${EQ_SPP_DEFAULT:-40}
 BEST=${BEST:-3}
 RR=${RR:-4}
 CORNELL_ONLY=${CORNELL_ONLY:-0}
-MITSUBA=${MITSUBA:-/tmp/mitsuba}
-export DRJIT_LIBLLVM_PATH=${DRJIT_LIBLLVM_PATH:-/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1}
 CB=../shared/scenes-external/bitterli-cornell-box
 LR=scenes/living-room
-PY=${PYTHON:-/usr/bin/python3}
 mkdir -p "$OUT"
-[ -d "$MITSUBA/mitsuba" ] || { echo "cpu_vs_mitsuba: no Mitsuba at $MITSUBA (see the header)" >&2; exit 2; }
+. tools/cpu/common.sh
 if [ -n "${TARGET_CPU:-}" ]; then
   # raylume built for TARGET_CPU (e.g. native: Mitsuba's LLVM JIT compiles for the host's),
   # in a target directory of its own; the release build's flags are the crate's dependents'.
@@ -83,15 +80,9 @@ raylume() {
   "$R" --backend cpu --size "$2" --spp "$3" --bounces 10 -q -o "$OUT/$1.png" "${@:4}" 2>&1 |
     sed -n 's/^raylume: trace \([0-9.]*\) s.*/\1/p'
 }
-# The best of N such renders: N NAME SIZE SPP ARGS...
-best_of() {
-  local n=$1
-  shift
-  for _ in $(seq "$n"); do raylume "$@"; done | sort -n | head -1
-}
 # The equal-spp criterion's rows: the best of BEST (Mitsuba's side: best of 3 after a warm-up).
 raylume_best() {
-  best_of "$BEST" "$@"
+  best_of "$BEST" raylume "$@"
 }
 mitsuba_cb() {
   PYTHONPATH=$MITSUBA "$PY" ../shared/peers/mitsuba/tungsten.py "$CB" "$OUT" llvm_ad_rgb \
@@ -116,9 +107,7 @@ for r in $(seq "$ROUNDS"); do
     cb_ind=$(raylume cornell-independent "$SIZE" "$SPP" --rr-depth "$RR" --sampler independent "$CB/scene.json")
     lr_ind=$(raylume living-room-independent "$SIZE" "$SPP" --rr-depth "$RR" --environment-guide off --sampler independent "$LR/scene.json")
     mcb=$(mitsuba_cb "$SIZE" "$SPP")
-    mlr=$(PYTHONPATH=$MITSUBA "$PY" tools/table1/mitsuba_table1.py "$LR" "$OUT" \
-      --tungsten ../shared/peers/mitsuba/tungsten.py --variant llvm_ad_rgb --size "$SIZE" \
-      --spp "$SPP" --depth 11 2>/dev/null | sed -n "s/^mitsuba .* spp $SPP: \([0-9.]*\) s/\1/p")
+    mlr=$(mitsuba_scene "$LR" "$SIZE" "$SPP" 11)
     awk -v r="$r" -v cb="$cb" -v mcb="$mcb" -v off="$lr_off" -v on="$lr_on" -v mlr="$mlr" \
       -v cbi="$cb_ind" -v lri="$lr_ind" 'BEGIN {
       printf "round %d: Cornell box raylume %.2f s, Mitsuba %.2f s (%.2fx its time); ", r, cb, mcb, cb / mcb
@@ -127,8 +116,8 @@ for r in $(seq "$ROUNDS"); do
       printf "round %d: with the independent sampler (Mitsuba'"'"'s): Cornell box %.2f s (%.2fx its time), living room guide off %.2f s (%.2fx)\n",
         r, cbi, cbi / mcb, lri, lri / mlr }' | tee -a "$OUT/summary.md"
   fi
-  eq=$(best_of 3 cornell-128 128x128 "$EQ_SPP" "$CB/scene.json")
-  eqd=$(best_of 3 cornell-128-default 128x128 "$EQ_SPP_DEFAULT" "$CB/scene.json")
+  eq=$(best_of 3 raylume cornell-128 128x128 "$EQ_SPP" "$CB/scene.json")
+  eqd=$(best_of 3 raylume cornell-128-default 128x128 "$EQ_SPP_DEFAULT" "$CB/scene.json")
   rm -rf "$OUT/mi"
   PYTHONPATH=$MITSUBA "$PY" tools/study/mitsuba_series.py "$CB" "$OUT/mi" --size 128x128 --spp 64 \
     --samplers multijitter,independent --depth 11 --variant llvm_ad_rgb \

@@ -9,7 +9,7 @@
 # and sky, written to OUT/lr-diffuse) at each of BOUNCES (default "0 3 10"; Mitsuba's
 # max_depth is one more). raylume best of 3 (`--rr-depth 4 --environment-guide off`, the
 # criterion's estimator), Mitsuba best of 3 after a warm-up (`mitsuba_table1.py`). SIZE
-# (1000x1000), SPP (10), ROUNDS (2); MITSUBA, PYTHON, DRJIT_LIBLLVM_PATH as cpu_vs_mitsuba.sh.
+# (1000x1000), SPP (10), ROUNDS (2); MITSUBA, PYTHON, DRJIT_LIBLLVM_PATH: tools/cpu/common.sh.
 # Between two depths it also prints what the segments between them cost each renderer (the
 # difference of two noisy renders each: read it over rounds).
 set -euo pipefail
@@ -18,11 +18,8 @@ SIZE=${SIZE:-1000x1000}
 SPP=${SPP:-10}
 ROUNDS=${ROUNDS:-2}
 BOUNCES=${BOUNCES:-0 3 10}
-MITSUBA=${MITSUBA:-/tmp/mitsuba}
-PY=${PYTHON:-/usr/bin/python3}
-export DRJIT_LIBLLVM_PATH=${DRJIT_LIBLLVM_PATH:-/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1}
 LR=scenes/living-room
-[ -d "$MITSUBA/mitsuba" ] || { echo "gap_by_depth: no Mitsuba at $MITSUBA (see cpu_vs_mitsuba.sh)" >&2; exit 2; }
+. tools/cpu/common.sh
 mkdir -p "$OUT/lr-diffuse"
 ln -sfn "$PWD/$LR/models" "$OUT/lr-diffuse/models"
 ln -sfn "$PWD/$LR/textures" "$OUT/lr-diffuse/textures"
@@ -39,19 +36,14 @@ PYEOF
 cargo build --release --example render -q
 R=target/release/examples/render
 # raylume's best trace seconds and segment rate: NAME SCENE_DIR BOUNCES
-raylume() {
-  for _ in 1 2 3; do
-    "$R" --backend cpu --size "$SIZE" --spp "$SPP" --bounces "$3" --rr-depth 4 \
-      --environment-guide off -q -o "$OUT/$1.png" "$2/scene.json" 2>&1 |
-      sed -n 's/^raylume: trace \([0-9.]*\) s, \([0-9.]*\) Mrays.*/\1 \2/p'
-  done | sort -n | head -1
+raylume_once() {
+  "$R" --backend cpu --size "$SIZE" --spp "$SPP" --bounces "$3" --rr-depth 4 \
+    --environment-guide off -q -o "$OUT/$1.png" "$2/scene.json" 2>&1 |
+    sed -n 's/^raylume: trace \([0-9.]*\) s, \([0-9.]*\) Mrays.*/\1 \2/p'
 }
+raylume() { best_of 3 raylume_once "$@"; }
 # Mitsuba's best seconds: SCENE_DIR MAX_DEPTH
-mitsuba() {
-  PYTHONPATH=$MITSUBA "$PY" tools/table1/mitsuba_table1.py "$1" "$OUT" \
-    --tungsten ../shared/peers/mitsuba/tungsten.py --variant llvm_ad_rgb --size "$SIZE" \
-    --spp "$SPP" --depth "$2" 2>/dev/null | sed -n "s/^mitsuba .* spp $SPP: \([0-9.]*\) s/\1/p"
-}
+mitsuba() { mitsuba_scene "$1" "$SIZE" "$SPP" "$2"; }
 row() { # LABEL "SECONDS RATE" MITSUBA_SECONDS
   awk -v l="$1" -v r="$2" -v m="$3" 'BEGIN { split(r, a, " ");
     printf "%s: raylume %.3f s (%.1f M segments), Mitsuba %.3f s: %.2fx its time\n", l, a[1], a[1] * a[2], m, a[1] / m }'
