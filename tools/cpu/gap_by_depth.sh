@@ -35,12 +35,13 @@ json.dump(scene, open(sys.argv[2], 'w'), indent=1)
 PYEOF
 cargo build --release --example render -q
 R=target/release/examples/render
-# raylume's best trace seconds and segment rate: NAME SCENE_DIR BOUNCES
+# raylume's trace seconds and segment rate: NAME SCENE_DIR BOUNCES
 raylume_once() {
   "$R" --backend cpu --size "$SIZE" --spp "$SPP" --bounces "$3" --rr-depth 4 \
     --environment-guide off -q -o "$OUT/$1.png" "$2/scene.json" 2>&1 |
     sed -n 's/^raylume: trace \([0-9.]*\) s, \([0-9.]*\) Mrays.*/\1 \2/p'
 }
+# The best of three such renders (the least seconds): NAME SCENE_DIR BOUNCES
 raylume() { best_of 3 raylume_once "$@"; }
 # Mitsuba's best seconds: SCENE_DIR MAX_DEPTH
 mitsuba() { mitsuba_scene "$1" "$SIZE" "$SPP" "$2"; }
