@@ -60,12 +60,21 @@ pub(crate) unsafe fn wide_boxes_hits(
     unsafe {
         let (t_near, hit) = slab_hits(&boxes.planes, r, t_min, t_max);
         let bits = _mm256_movemask_ps(hit) as u32;
-        let words = _mm256_loadu_si256(boxes.leaf_prims.as_ptr().cast());
-        let v = _mm256_and_si256(_mm256_castps_si256(hit), words);
-        let v = _mm_or_si128(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
-        let v = _mm_or_si128(v, _mm_shuffle_epi32::<0b01_00_11_10>(v));
-        let v = _mm_or_si128(v, _mm_shuffle_epi32::<0b10_11_00_01>(v));
-        let prims = _mm_cvtsi128_si32(v) as u32;
+        // The leaf words ORed only where a hit slot is not an inner one (an inner slot's word
+        // is 0, so the primitives are the same): most nodes the walk visits have no hit
+        // leaf, and the walk's branch on whether to test leaves then waits on the mask alone,
+        // not on the eight-step reduction (the living room's diffuse closest hits 3 %
+        // faster in `trace_rate`, its render ~1 %: `docs/RESULTS.md`, issue 15, session 51).
+        let prims = if bits & !boxes.imask & 0xff == 0 {
+            0
+        } else {
+            let words = _mm256_loadu_si256(boxes.leaf_prims.as_ptr().cast());
+            let v = _mm256_and_si256(_mm256_castps_si256(hit), words);
+            let v = _mm_or_si128(_mm256_castsi256_si128(v), _mm256_extracti128_si256::<1>(v));
+            let v = _mm_or_si128(v, _mm_shuffle_epi32::<0b01_00_11_10>(v));
+            let v = _mm_or_si128(v, _mm_shuffle_epi32::<0b10_11_00_01>(v));
+            _mm_cvtsi128_si32(v) as u32
+        };
         let near = [
             Vec4::from(_mm256_castps256_ps128(t_near)),
             Vec4::from(_mm256_extractf128_ps::<1>(t_near)),
